@@ -1,0 +1,429 @@
+//! Command-line entry points: `render`, `bench`, `scenes`. With no command the embedded
+//! default scene is rendered to `raysplat.exr` and `raysplat.png`.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use raysplat::film::Film;
+use raysplat::photon::BandwidthParams;
+use raysplat::render::{DirectMode, RenderSettings, Renderer, peak_rss_mb};
+use raysplat::scene::{BuiltinScene, Scene};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+#[derive(Parser)]
+#[command(
+    name = "raysplat",
+    version,
+    about = "Global illumination previews by photon ray splatting"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene headless to EXR (and PNG).
+    Render(RenderArgs),
+    /// Reproduce Table 2's CORNELL BOX I row and report timings and memory.
+    Bench(BenchArgs),
+    /// Write the project's generated scenes (.glb) into a folder.
+    Scenes {
+        #[arg(long, default_value = "assets")]
+        out: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Method {
+    /// Photon ray splatting.
+    Rs,
+}
+
+#[derive(Args, Clone)]
+struct RenderArgs {
+    /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic.
+    /// Without it, the embedded CORNELL BOX I.
+    scene: Option<String>,
+    #[arg(long, default_value_t = 500)]
+    width: u32,
+    #[arg(long, default_value_t = 500)]
+    height: u32,
+    /// Eye samples per pixel.
+    #[arg(long, default_value_t = 4)]
+    spp: u32,
+    /// M: stored photon rays per batch.
+    #[arg(long, default_value_t = 200_000)]
+    photons: u64,
+    /// Fractions of M for direct, indirect-diffuse and caustic photons (Table 2).
+    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.3, 0.6, 0.1])]
+    fractions: Vec<f32>,
+    /// C: smoothness (eq. 8).
+    #[arg(long, default_value_t = 1.0)]
+    c: f32,
+    /// S: bandwidth sensitivity in (0, 1] (eq. 8).
+    #[arg(long, default_value_t = 0.4)]
+    s: f32,
+    /// R: maximum bandwidth as a fraction of the scene diagonal.
+    #[arg(long, default_value_t = 0.2)]
+    r: f32,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    #[arg(long, value_enum, default_value_t = DirectMode::Nee)]
+    direct: DirectMode,
+    /// Light samples per eye sample for --direct nee.
+    #[arg(long, default_value_t = 1)]
+    nee_samples: u32,
+    #[arg(long, default_value = "out.exr")]
+    out: PathBuf,
+    /// Also write a tone-mapped sRGB PNG.
+    #[arg(long)]
+    png: Option<PathBuf>,
+    /// Exposure for the PNG, in stops.
+    #[arg(long, default_value_t = 0.0)]
+    exposure: f32,
+    /// Write timings and counters as JSON.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    /// Render progressively in batches of --photons until this many seconds are spent.
+    #[arg(long)]
+    time_budget: Option<f64>,
+    /// Camera by name (default: the scene's first).
+    #[arg(long)]
+    camera: Option<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    #[arg(long, value_enum, default_value_t = Method::Rs)]
+    method: Method,
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Write (or update) the rows as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Repetitions; the fastest run is reported.
+    #[arg(long, default_value_t = 3)]
+    runs: u32,
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        None => {
+            let args = RenderArgs::parse_defaults();
+            let out = PathBuf::from("raysplat.exr");
+            let png = PathBuf::from("raysplat.png");
+            render(RenderArgs {
+                out: out.clone(),
+                png: Some(png.clone()),
+                ..args
+            })
+            .map(|_| {
+                eprintln!(
+                    "rendered the embedded CORNELL BOX I to {} and {}",
+                    out.display(),
+                    png.display()
+                )
+            })
+        }
+        Some(Command::Render(args)) => render(args),
+        Some(Command::Bench(args)) => bench(args),
+        Some(Command::Scenes { out }) => write_scenes(&out),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e}");
+            1
+        }
+    }
+}
+
+impl RenderArgs {
+    fn parse_defaults() -> Self {
+        #[derive(Parser)]
+        struct Wrap {
+            #[command(flatten)]
+            args: RenderArgs,
+        }
+        Wrap::parse_from(["raysplat"]).args
+    }
+
+    fn settings(&self) -> Result<RenderSettings, String> {
+        if !(self.s > 0.0 && self.s <= 1.0) {
+            return Err(format!("--s must be in (0, 1], got {}", self.s));
+        }
+        if !(self.c > 0.0 && self.c.is_finite()) || !(self.r > 0.0 && self.r.is_finite()) {
+            return Err("--c and --r must be positive".into());
+        }
+        let f = [self.fractions[0], self.fractions[1], self.fractions[2]];
+        if f.iter().any(|x| !(*x >= 0.0)) || f.iter().sum::<f32>() <= 0.0 {
+            return Err("--fractions must be three non-negative numbers, not all zero".into());
+        }
+        Ok(RenderSettings {
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            photons: self.photons,
+            fractions: f,
+            bandwidth: BandwidthParams {
+                smoothness_c: self.c,
+                sensitivity_s: self.s,
+                max_bandwidth_r: self.r,
+            },
+            seed: self.seed,
+            direct: self.direct,
+            nee_samples: self.nee_samples,
+            camera: self.camera.clone(),
+            ..RenderSettings::default()
+        })
+    }
+}
+
+fn load_scene(arg: Option<&str>) -> Result<Scene, String> {
+    match arg {
+        None => Ok(Scene::default_scene()),
+        Some(name) if name.starts_with("builtin:") => {
+            let which = match &name["builtin:".len()..] {
+                "cornell1" => BuiltinScene::CornellBox1,
+                "cornell2" => BuiltinScene::CornellBox2,
+                "classic" => BuiltinScene::CornellClassic,
+                other => {
+                    return Err(format!(
+                        "unknown built-in scene '{other}' (cornell1, cornell2, classic)"
+                    ));
+                }
+            };
+            Ok(Scene::builtin(which))
+        }
+        Some(path) => Scene::load(Path::new(path)).map_err(|e| e.to_string()),
+    }
+}
+
+fn set_threads(threads: Option<usize>) -> Result<(), String> {
+    if let Some(n) = threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build_global()
+            .map_err(|e| format!("cannot set up {n} threads: {e}"))?;
+    }
+    Ok(())
+}
+
+fn render(args: RenderArgs) -> Result<(), String> {
+    set_threads(args.threads)?;
+    let settings = args.settings()?;
+    let t_load = Instant::now();
+    let scene = Arc::new(load_scene(args.scene.as_deref())?);
+    let t_load = t_load.elapsed().as_secs_f64();
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let progress = ProgressBar::new(match args.time_budget {
+        Some(b) => (b * 1000.0) as u64,
+        None => 3,
+    });
+    progress.set_style(
+        ProgressStyle::with_template("{spinner} {msg:24} [{bar:30}] {elapsed_precise}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    progress.enable_steady_tick(Duration::from_millis(100));
+    progress.set_message("eye pass");
+    let start = Instant::now();
+    let mut r = Renderer::new(scene.clone(), settings)?;
+    progress.set_message("tracing and splatting");
+    loop {
+        r.run_batch();
+        match args.time_budget {
+            Some(b) => {
+                let spent = start.elapsed().as_secs_f64();
+                progress.set_position((spent * 1000.0).min(b * 1000.0) as u64);
+                progress.set_message(format!("batch {}", r.batch_count()));
+                if spent >= b {
+                    break;
+                }
+            }
+            None => break,
+        }
+    }
+    progress.set_message("resolving");
+    let film = r.film();
+    progress.finish_and_clear();
+    print_table(&r);
+    let invalid = film.invalid_pixels();
+    if invalid > 0 {
+        eprintln!("warning: {invalid} pixels are NaN or infinite");
+    }
+    film.write_exr(&args.out)?;
+    eprintln!("wrote {}", args.out.display());
+    if let Some(png) = &args.png {
+        film.write_png(png, args.exposure)?;
+        eprintln!("wrote {}", png.display());
+    }
+    if let Some(path) = &args.stats {
+        let j = stats_json(&r, &film, t_load);
+        let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
+        raysplat::film::write_atomic(path, &bytes)?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn print_table(r: &Renderer) {
+    let t = r.timings;
+    println!(
+        "{:<18} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "scene", "T_E", "T_D", "T_L", "T_S", "ΣT"
+    );
+    println!(
+        "{:<18} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3}",
+        truncate(&r.scene.name, 18),
+        t.t_eye,
+        t.t_direct,
+        t.t_light,
+        t.t_splat + t.t_resolve,
+        t.total()
+    );
+    let c = r.counters;
+    println!(
+        "photons traced {}, photon rays {}, eye samples {}, batches {}, accepted/tested pairs {}/{} ({:.2})",
+        r.photons_traced,
+        r.photon_rays(),
+        r.eye_samples().len(),
+        r.batch_count(),
+        c.accepted,
+        c.tested,
+        c.accepted as f64 / c.tested.max(1) as f64
+    );
+}
+
+fn truncate(s: &str, n: usize) -> String {
+    s.chars().take(n).collect()
+}
+
+fn stats_json(r: &Renderer, film: &Film, t_load: f64) -> serde_json::Value {
+    let t = r.timings;
+    let per_class = r.photon_rays_per_class();
+    json!({
+        "scene": r.scene.name,
+        "camera": r.camera.name,
+        "settings": r.settings,
+        "t_load": t_load,
+        "t_eye": t.t_eye,
+        "t_direct": t.t_direct,
+        "t_light": t.t_light,
+        "t_splat": t.t_splat,
+        "t_resolve": t.t_resolve,
+        "t_total": t.total(),
+        "photons": r.photons_traced,
+        "photon_rays": r.photon_rays(),
+        "photon_rays_direct": per_class[0],
+        "photon_rays_indirect": per_class[1],
+        "photon_rays_caustic": per_class[2],
+        "photon_ray_bytes": r.photon_memory_bytes(),
+        "eye_samples": r.eye_samples().len(),
+        "splat_tree_nodes": r.tree().nodes.len(),
+        "batches": r.batch_count(),
+        "tested_pairs": r.counters.tested,
+        "accepted_pairs": r.counters.accepted,
+        "peak_rss_mb": peak_rss_mb(),
+        "invalid_pixels": film.invalid_pixels(),
+        "threads": rayon::current_num_threads(),
+        "version": env!("CARGO_PKG_VERSION"),
+    })
+}
+
+/// Table 2's CORNELL BOX I settings: 500×500×4, M = 200,000, (0.3, 0.6, 0.1), C = 1, S = 0.4, R = 0.2.
+fn cornell1_settings(direct: DirectMode) -> RenderSettings {
+    RenderSettings {
+        direct,
+        ..RenderSettings::default()
+    }
+}
+
+fn bench(args: BenchArgs) -> Result<(), String> {
+    set_threads(args.threads)?;
+    let scene = Arc::new(Scene::default_scene());
+    let mut rows = serde_json::Map::new();
+    for (name, direct) in [
+        ("cornell1_rs", DirectMode::Photons),
+        ("cornell1_rs_nee", DirectMode::Nee),
+    ] {
+        let mut best: Option<(raysplat::render::Timings, u64, u64)> = None;
+        for _ in 0..args.runs.max(1) {
+            let mut r = Renderer::new(scene.clone(), cornell1_settings(direct))?;
+            r.run_batch();
+            let film = r.film();
+            if film.invalid_pixels() > 0 {
+                return Err(format!("{name}: the image has NaN or infinite pixels"));
+            }
+            let t = r.timings;
+            if best.is_none_or(|b| t.total() < b.0.total()) {
+                best = Some((t, r.counters.tested, r.counters.accepted));
+            }
+        }
+        let (t, tested, accepted) = best.expect("at least one run");
+        let ratio = accepted as f64 / tested.max(1) as f64;
+        println!(
+            "{name:<16} T_E {:.3}  T_D {:.3}  T_L {:.3}  T_S {:.3}  ΣT {:.3} s  peak {:.0} MB  accepted/tested {:.2}",
+            t.t_eye,
+            t.t_direct,
+            t.t_light,
+            t.t_splat + t.t_resolve,
+            t.total(),
+            peak_rss_mb(),
+            ratio
+        );
+        rows.insert(
+            name.to_string(),
+            json!({
+                "t_eye": t.t_eye,
+                "t_direct": t.t_direct,
+                "t_light": t.t_light,
+                "t_splat": t.t_splat + t.t_resolve,
+                "t_total": t.total(),
+                "peak_rss_mb": peak_rss_mb(),
+                "tested_pairs": tested,
+                "accepted_pairs": accepted,
+                "accepted_ratio": ratio,
+            }),
+        );
+    }
+    if let Some(path) = &args.json {
+        // Keep rows other benchmarks wrote into the same file.
+        let mut doc: serde_json::Value = std::fs::read(path)
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .filter(|v: &serde_json::Value| v.is_object())
+            .unwrap_or_else(|| json!({}));
+        if !doc["rows"].is_object() {
+            doc["rows"] = json!({});
+        }
+        for (k, v) in rows {
+            doc["rows"][k] = v;
+        }
+        doc["threads"] = json!(rayon::current_num_threads());
+        doc["version"] = json!(env!("CARGO_PKG_VERSION"));
+        let bytes = serde_json::to_vec_pretty(&doc).map_err(|e| e.to_string())?;
+        raysplat::film::write_atomic(path, &bytes)?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn write_scenes(out: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    for s in BuiltinScene::ALL {
+        let path = out.join(s.file_name());
+        raysplat::film::write_atomic(&path, &s.to_glb())?;
+        println!("wrote {} ({})", path.display(), s.title());
+    }
+    Ok(())
+}

@@ -1,0 +1,43 @@
+//! Explicit direct light at eye samples (next-event estimation, `--direct nee`): one or more
+//! light samples per eye sample with a shadow ray each. With `--direct photons` this is not
+//! used and direct photons are splatted instead (the paper's way).
+
+use crate::eye::EyeSamples;
+use crate::sampling::Rng;
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::f32::consts::FRAC_1_PI;
+
+/// Reflected direct radiance towards the eye at every sample (BSDF applied, eye weight not).
+pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) -> Vec<Vec3> {
+    let samples = samples.max(1);
+    let eps = scene.ray_epsilon();
+    (0..eye.len())
+        .into_par_iter()
+        .map(|i| {
+            let mut rng = Rng::new(seed, 0x2000_0000_0000 + i as u64);
+            let p = eye.position[i];
+            let n = eye.normal[i];
+            let f = eye.albedo[i] * FRAC_1_PI;
+            let mut sum = Vec3::ZERO;
+            for _ in 0..samples {
+                let u = rng.next_f32();
+                let Some(ls) = scene.lights.sample_direct(p, u, rng.next_2d()) else {
+                    continue;
+                };
+                let cos = n.dot(ls.wi);
+                if cos <= 0.0 || !ls.value.is_finite() {
+                    continue;
+                }
+                let origin = p + n * eps + ls.wi * eps;
+                let tmax = ls.distance * (1.0 - 1e-4) - 2.0 * eps;
+                if tmax > 0.0 && scene.occluded(origin, ls.wi, tmax) {
+                    continue;
+                }
+                sum += f * ls.value * cos;
+            }
+            sum / samples as f32
+        })
+        .collect()
+}

@@ -1,0 +1,186 @@
+//! Images: the film (linear RGB plus AOVs), tone mapping, false colour, and EXR/PNG writing.
+//! Every file is written to a temporary name in the same folder and renamed into place, so a
+//! failed or interrupted write never leaves a partial file under the final name.
+
+use glam::Vec3;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// A rendered image with the buffers the view modes show.
+#[derive(Clone, Debug)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    /// Final linear RGB radiance.
+    pub rgb: Vec<Vec3>,
+    /// Direct light (NEE or splatted direct photons) plus emission.
+    pub direct: Vec<Vec3>,
+    /// Splatted indirect light (indirect-diffuse and caustic photons).
+    pub indirect: Vec<Vec3>,
+    /// Kernel-weighted mean splat bandwidth (m), 0 where nothing splatted.
+    pub bandwidth: Vec<f32>,
+    /// Kernel-weight sum per pixel.
+    pub kernel_weight: Vec<f32>,
+    /// Harmonic mean distance of incident photon rays (m).
+    pub harmonic_distance: Vec<f32>,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = (width * height) as usize;
+        Self {
+            width,
+            height,
+            rgb: vec![Vec3::ZERO; n],
+            direct: vec![Vec3::ZERO; n],
+            indirect: vec![Vec3::ZERO; n],
+            bandwidth: vec![0.0; n],
+            kernel_weight: vec![0.0; n],
+            harmonic_distance: vec![0.0; n],
+        }
+    }
+
+    /// Pixels whose value is NaN or infinite.
+    pub fn invalid_pixels(&self) -> usize {
+        self.rgb.iter().filter(|c| !c.is_finite()).count()
+    }
+
+    /// Mean of the RGB image.
+    pub fn mean(&self) -> Vec3 {
+        self.rgb.iter().copied().sum::<Vec3>() / self.rgb.len().max(1) as f32
+    }
+
+    pub fn write_exr(&self, path: &Path) -> Result<(), String> {
+        write_exr(path, self.width, self.height, &self.rgb)
+    }
+
+    pub fn write_png(&self, path: &Path, exposure: f32) -> Result<(), String> {
+        write_png(path, self.width, self.height, &tonemap(&self.rgb, exposure))
+    }
+}
+
+/// sRGB transfer function of a linear value in [0, 1].
+#[inline]
+pub fn linear_to_srgb(x: f32) -> f32 {
+    let x = x.clamp(0.0, 1.0);
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Exposure in stops, then clamp and the sRGB curve: 8-bit RGB.
+pub fn tonemap(rgb: &[Vec3], exposure_stops: f32) -> Vec<u8> {
+    let k = 2f32.powf(exposure_stops);
+    rgb.iter()
+        .flat_map(|c| {
+            let c = if c.is_finite() { *c * k } else { Vec3::ZERO };
+            [c.x, c.y, c.z].map(|v| (linear_to_srgb(v) * 255.0 + 0.5) as u8)
+        })
+        .collect()
+}
+
+/// Fig. 5's colour scale: red (t = 0, smallest) through yellow, green, cyan to blue (t = 1).
+pub fn false_colour(t: f32) -> [u8; 3] {
+    let t = t.clamp(0.0, 1.0);
+    let h = (1.0 - t) * 0.0 + t * (2.0 / 3.0); // hue from 0 (red) to 2/3 (blue)
+    let (r, g, b) = hsv_to_rgb(h, 1.0, 1.0);
+    [
+        (r * 255.0 + 0.5) as u8,
+        (g * 255.0 + 0.5) as u8,
+        (b * 255.0 + 0.5) as u8,
+    ]
+}
+
+fn hsv_to_rgb(h: f32, s: f32, v: f32) -> (f32, f32, f32) {
+    let h6 = (h * 6.0).rem_euclid(6.0);
+    let c = v * s;
+    let x = c * (1.0 - ((h6 % 2.0) - 1.0).abs());
+    let (r, g, b) = match h6 as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    (r + m, g + m, b + m)
+}
+
+/// A temporary path next to `path` (same folder, so the final rename is atomic).
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    path.with_file_name(format!(".{name}.tmp{}", std::process::id()))
+}
+
+/// Write `bytes` to `path` atomically (temporary file, sync, rename).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    let tmp = temp_path(path);
+    let result = (|| -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(format!("cannot write {}: {e}", path.display()));
+    }
+    Ok(())
+}
+
+/// Linear RGB (32-bit float) OpenEXR.
+pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<(), String> {
+    use exr::prelude::*;
+    let (w, h) = (width as usize, height as usize);
+    let image = Image::from_channels(
+        (w, h),
+        SpecificChannels::rgb(|p: Vec2<usize>| {
+            let c = rgb[p.y() * w + p.x()];
+            (c.x, c.y, c.z)
+        }),
+    );
+    let mut buf = std::io::Cursor::new(Vec::new());
+    image
+        .write()
+        .to_buffered(&mut buf)
+        .map_err(|e| format!("cannot encode EXR for {}: {e}", path.display()))?;
+    write_atomic(path, buf.get_ref())
+}
+
+/// 8-bit sRGB PNG from interleaved RGB bytes.
+pub fn write_png(path: &Path, width: u32, height: u32, rgb8: &[u8]) -> Result<(), String> {
+    let mut buf = std::io::Cursor::new(Vec::new());
+    image::write_buffer_with_format(
+        &mut buf,
+        rgb8,
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| format!("cannot encode PNG for {}: {e}", path.display()))?;
+    write_atomic(path, buf.get_ref())
+}
+
+/// Read a linear RGB EXR (first layer's R, G, B channels).
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>), String> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res: Vec2<usize>, _| (res, vec![Vec3::ZERO; res.width() * res.height()]),
+        |(res, px): &mut (Vec2<usize>, Vec<Vec3>),
+         pos: Vec2<usize>,
+         (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * res.width() + pos.x()] = Vec3::new(r, g, b);
+        },
+    )
+    .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let (res, px) = image.layer_data.channel_data.pixels;
+    Ok((res.width() as u32, res.height() as u32, px))
+}

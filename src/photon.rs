@@ -1,0 +1,447 @@
+//! Light pass (§3, §6): photons leave the lights in proportion to power, scatter by BSDF
+//! importance sampling with Russian roulette, and every segment x_i → x_{i+1} is stored as a
+//! [`PhotonRay`] with the clamped path pdf p̃ of eq. 7 at both ends. A pilot phase estimates
+//! ⟨D⟩ and ⟨r⟩ for the bandwidth normalisation w of eq. 8.
+//!
+//! Bandwidth (eq. 8) is a pure function of the stored ray, the parameters and the pilot
+//! statistics, so moving C/S/R re-splats stored rays without re-tracing.
+
+use crate::bsdf::Bsdf;
+use crate::sampling::Rng;
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// The paper's a in μC = a·⟨D⟩ (§6).
+pub const MU_C_FACTOR: f32 = 0.2;
+/// m0 = ⁶√(10⁵) = 10^(5/6) ≈ 6.8 (§6; DESIGN.md on the garbled root).
+pub const M0: f32 = 6.812_921;
+/// The clamp distance D̃ of eq. 7 as a fraction of the scene diagonal (the paper leaves it
+/// scene-dependent without a value; see docs/deviations.md).
+pub const D_TILDE_FRACTION: f32 = 0.05;
+/// Stand-in solid-angle density of a specular bounce for eq. 7 (a delta has none): about
+/// that of a lobe 6° wide, so caustic paths get the small bandwidths §6 describes.
+pub const SPECULAR_PDF: f32 = 100.0;
+/// The lower bandwidth bound as a fraction of the mean bandwidth at the current M.
+pub const H_MIN_FRACTION: f32 = 0.1;
+/// Photon paths end after this many segments whatever Russian roulette says.
+pub const MAX_PATH_SEGMENTS: u32 = 32;
+/// Photons traced per pilot phase (§6).
+pub const PILOT_PHOTONS: u32 = 8192;
+
+/// Table 2's photon classes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[repr(u8)]
+pub enum PhotonClass {
+    /// Light → first hit.
+    Direct = 0,
+    /// At least one non-specular bounce before the segment.
+    Indirect = 1,
+    /// Light, then only specular bounces, then the segment (caustic paths L S+ …).
+    Caustic = 2,
+}
+
+impl PhotonClass {
+    pub const ALL: [PhotonClass; 3] = [
+        PhotonClass::Direct,
+        PhotonClass::Indirect,
+        PhotonClass::Caustic,
+    ];
+}
+
+/// One stored photon ray (segment x_i → x_{i+1}).
+#[derive(Clone, Copy, Debug)]
+pub struct PhotonRay {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub length: f32,
+    /// Power carried, already divided by the number of photons emitted for its class.
+    pub power: Vec3,
+    /// Normal of the surface at the origin on the side the ray leaves (zero for point lights).
+    pub origin_normal: Vec3,
+    /// p̃(x_i | x_{i−1}) (unused for bounce 0, where h(x_0) = 0).
+    pub pdf_start: f32,
+    /// p̃(x_{i+1} | x_i), eq. 7.
+    pub pdf_end: f32,
+    /// i: 0 for the segment leaving the light.
+    pub bounce: u8,
+    pub class: PhotonClass,
+}
+
+/// User bandwidth parameters (§6, eq. 8).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BandwidthParams {
+    /// C, smoothness.
+    pub smoothness_c: f32,
+    /// S ∈ (0, 1], sensitivity.
+    pub sensitivity_s: f32,
+    /// R, maximum bandwidth as a fraction of the scene diagonal.
+    pub max_bandwidth_r: f32,
+}
+
+impl Default for BandwidthParams {
+    fn default() -> Self {
+        Self {
+            smoothness_c: 1.0,
+            sensitivity_s: 0.4,
+            max_bandwidth_r: 0.2,
+        }
+    }
+}
+
+/// Statistics of the pilot phase (§6).
+#[derive(Clone, Debug)]
+pub struct Pilot {
+    /// ⟨D⟩: mean photon-segment length (a length, so that μC = a·⟨D⟩ is one; DESIGN.md).
+    pub mean_length: f32,
+    /// p̃ at every pilot vertex that gets a bandwidth (i > 0), kept so ⟨r⟩ can follow S.
+    pub vertex_pdfs: Vec<f32>,
+    pub scene_diagonal: f32,
+}
+
+impl Pilot {
+    /// μC = a·⟨D⟩ (§6).
+    pub fn mu_c(&self) -> f32 {
+        MU_C_FACTOR * self.mean_length
+    }
+
+    /// ⟨r⟩, r = 1/√(p̃^S) (§6).
+    pub fn mean_r(&self, s: f32) -> f32 {
+        if self.vertex_pdfs.is_empty() {
+            return 1.0;
+        }
+        let sum: f64 = self
+            .vertex_pdfs
+            .iter()
+            .map(|&p| (p as f64).powf(-0.5 * s as f64))
+            .sum();
+        (sum / self.vertex_pdfs.len() as f64) as f32
+    }
+}
+
+/// Eq. 8 evaluated for one parameter set and class size; cheap per-vertex evaluation.
+#[derive(Clone, Copy, Debug)]
+pub struct Bandwidth {
+    /// C·M^(−1/6)·w (eq. 8 without the per-vertex factor).
+    scale: f32,
+    half_s: f32,
+    pub h_min: f32,
+    pub h_max: f32,
+}
+
+impl Bandwidth {
+    pub fn new(params: &BandwidthParams, pilot: &Pilot, m: u64, mean_r: f32) -> Self {
+        let m = m.max(1) as f32;
+        let mu_c = pilot.mu_c();
+        let w = M0 * mu_c / mean_r; // w = m0·μC/⟨r⟩ (§6)
+        let scale = params.smoothness_c * m.powf(-1.0 / 6.0) * w; // eq. 8: C/⁶√M · w
+        // Mean bandwidth at this M is C·(M/10⁵)^(−1/6)·μC; bounds from μC and R (§6).
+        let mean_h = params.smoothness_c * (m / 1e5).powf(-1.0 / 6.0) * mu_c;
+        let h_max = (params.max_bandwidth_r * pilot.scene_diagonal).max(1e-9);
+        Self {
+            scale,
+            half_s: 0.5 * params.sensitivity_s,
+            h_min: (H_MIN_FRACTION * mean_h).min(h_max),
+            h_max,
+        }
+    }
+
+    /// h(x_i) for i > 0 (eq. 8): C·M^(−1/6)·w / √(p̃^S), clamped.
+    #[inline]
+    pub fn h(&self, pdf: f32) -> f32 {
+        (self.scale * pdf.max(f32::MIN_POSITIVE).powf(-self.half_s)).clamp(self.h_min, self.h_max)
+    }
+
+    /// (h0, dh) of a ray (§6): h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i))/|x_{i+1} − x_i|.
+    #[inline]
+    pub fn cone(&self, ray: &PhotonRay) -> (f32, f32) {
+        let hi = if ray.bounce == 0 {
+            0.0 // h(x_0) = 0 (eq. 8)
+        } else {
+            self.h(ray.pdf_start)
+        };
+        let hj = self.h(ray.pdf_end);
+        let dh = (hj - hi).max(0.0) / ray.length.max(1e-12);
+        (hi.min(hj), dh)
+    }
+}
+
+/// Photons per class for one light pass (Table 2's M split by its fractions).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClassBudgets(pub [u64; 3]);
+
+impl ClassBudgets {
+    pub fn from_fractions(m: u64, fractions: [f32; 3], splat_direct: bool) -> Self {
+        let mut b = [0u64; 3];
+        for (i, f) in fractions.iter().enumerate() {
+            b[i] = (m as f64 * f.max(0.0) as f64).round() as u64;
+        }
+        if !splat_direct {
+            b[PhotonClass::Direct as usize] = 0;
+        }
+        Self(b)
+    }
+
+    pub fn total(&self) -> u64 {
+        self.0.iter().sum()
+    }
+}
+
+/// Result of one light pass.
+#[derive(Clone, Debug, Default)]
+pub struct PhotonBatch {
+    pub rays: Vec<PhotonRay>,
+    /// Photons emitted while filling each class (the power normalisation of that class).
+    pub emitted: [u64; 3],
+    /// Photons traced in total.
+    pub traced: u64,
+    /// Rays stored per class.
+    pub stored: [u64; 3],
+}
+
+/// Settings of the light pass.
+#[derive(Clone, Copy, Debug)]
+pub struct LightPassSettings {
+    pub budgets: ClassBudgets,
+    /// Stop after this many photons per stored-photon budget even if a class never fills
+    /// (a scene without specular objects has no caustic photons).
+    pub max_emitted_factor: u64,
+    pub seed: u64,
+    /// Offset of this batch's photon indices (so batches use disjoint random streams).
+    pub first_photon: u64,
+}
+
+/// Segment under construction, with the index of the photon that made it.
+#[derive(Clone, Copy)]
+struct TaggedRay {
+    photon: u64,
+    ray: PhotonRay,
+}
+
+/// D(x, y) = max(D̃², ‖x − y‖²) (eq. 7).
+#[inline]
+fn clamped_sq_distance(length: f32, d_tilde: f32) -> f32 {
+    (length * length).max(d_tilde * d_tilde)
+}
+
+/// Trace one photon path, pushing its segments (of classes wanted by `keep`).
+fn trace_photon(
+    scene: &Scene,
+    photon: u64,
+    seed: u64,
+    keep: [bool; 3],
+    out: &mut Vec<TaggedRay>,
+) -> bool {
+    let mut rng = Rng::new(seed, photon);
+    let Some(e) = scene.lights.sample_emission(&mut rng) else {
+        return false;
+    };
+    let d_tilde = D_TILDE_FRACTION * scene.diagonal();
+    let mut origin = e.origin;
+    let mut dir = e.direction;
+    let mut normal = e.normal;
+    let mut power = e.power;
+    // p̃ of the current vertex and the density factor of the next segment's direction.
+    let mut pdf_here = 0.0f32;
+    let mut dir_density = e.pdf;
+    let mut any_diffuse = false;
+    for bounce in 0..MAX_PATH_SEGMENTS {
+        if !power.is_finite() || power.max_element() <= 0.0 {
+            break;
+        }
+        let hit = scene.intersect(origin, dir, f32::INFINITY);
+        let length = match &hit {
+            Some(h) => h.t,
+            // Escaping photons still pass eye samples on their way out: keep the segment up
+            // to where it leaves the scene bounds.
+            None => exit_distance(scene, origin, dir),
+        };
+        if !(length > 0.0) {
+            break;
+        }
+        // eq. 7: p̃(x1|x0) = p_e/D(x0,x1); p̃(x_{i+1}|x_i) = p̃(x_i|x_{i−1})·p_s⊥/D(x_i,x_{i+1})
+        let prev = if bounce == 0 { 1.0 } else { pdf_here };
+        let pdf_next = prev * dir_density / clamped_sq_distance(length, d_tilde);
+        let class = if bounce == 0 {
+            PhotonClass::Direct
+        } else if any_diffuse {
+            PhotonClass::Indirect
+        } else {
+            PhotonClass::Caustic
+        };
+        if keep[class as usize] {
+            out.push(TaggedRay {
+                photon,
+                ray: PhotonRay {
+                    origin,
+                    dir,
+                    length,
+                    power,
+                    origin_normal: normal,
+                    pdf_start: pdf_here,
+                    pdf_end: pdf_next,
+                    bounce: bounce.min(255) as u8,
+                    class,
+                },
+            });
+        }
+        let Some(hit) = hit else { break };
+        let wo = -dir;
+        let bsdf = scene.bsdf(&hit);
+        let Some(s) = bsdf.sample(wo, hit.normal, rng.next_2d(), rng.next_f32()) else {
+            break;
+        };
+        // Discard samples that leave through the geometric surface the wrong way.
+        let cos_g_out = s.wi.dot(hit.geo_normal);
+        let cos_g_in = wo.dot(hit.geo_normal);
+        let transmitted = matches!(bsdf, Bsdf::Dielectric { .. }) && cos_g_out * cos_g_in < 0.0;
+        if !transmitted && cos_g_out * cos_g_in <= 0.0 {
+            break;
+        }
+        let mut new_power = power * s.weight;
+        // Russian roulette keeping the photon power roughly constant.
+        let q = (new_power.max_element() / power.max_element()).min(1.0);
+        if rng.next_f32() >= q {
+            break;
+        }
+        new_power /= q;
+        power = new_power;
+        any_diffuse |= !s.specular;
+        dir_density = if s.specular { SPECULAR_PDF } else { s.pdf };
+        pdf_here = pdf_next;
+        normal = if cos_g_out >= 0.0 {
+            hit.geo_normal
+        } else {
+            -hit.geo_normal
+        };
+        origin = scene.offset(&hit, s.wi);
+        dir = s.wi;
+    }
+    true
+}
+
+fn exit_distance(scene: &Scene, o: Vec3, d: Vec3) -> f32 {
+    let pad = Vec3::splat(1e-3 * scene.diagonal());
+    crate::splat_tree::clip(
+        o.into(),
+        d.into(),
+        (scene.bounds_min - pad).into(),
+        (scene.bounds_max + pad).into(),
+        0.0,
+        f32::INFINITY,
+    )
+    .map(|(_, t1)| t1)
+    .unwrap_or(0.0)
+}
+
+/// The pilot shooting phase (§6): trace a few thousand photons, record segment lengths and
+/// vertex pdfs.
+pub fn pilot(scene: &Scene, seed: u64) -> Pilot {
+    let chunks: Vec<Vec<TaggedRay>> = (0..PILOT_PHOTONS as u64 / 512)
+        .into_par_iter()
+        .map(|c| {
+            let mut out = Vec::new();
+            for id in c * 512..(c + 1) * 512 {
+                trace_photon(scene, id, seed ^ 0x5eed_0f_9110, [true; 3], &mut out);
+            }
+            out
+        })
+        .collect();
+    let mut len_sum = 0.0f64;
+    let mut n = 0usize;
+    let mut vertex_pdfs = Vec::new();
+    for r in chunks.iter().flatten() {
+        len_sum += r.ray.length as f64;
+        n += 1;
+        if r.ray.pdf_end.is_finite() && r.ray.pdf_end > 0.0 {
+            vertex_pdfs.push(r.ray.pdf_end);
+        }
+    }
+    let mean_length = if n > 0 {
+        (len_sum / n as f64) as f32
+    } else {
+        0.1 * scene.diagonal()
+    };
+    Pilot {
+        mean_length,
+        vertex_pdfs,
+        scene_diagonal: scene.diagonal(),
+    }
+}
+
+/// Trace photons until every class has its budget of stored rays (Table 2's fractions), or
+/// until `max_emitted_factor × total budget` photons were emitted.
+pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
+    let budgets = s.budgets.0;
+    let keep = [budgets[0] > 0, budgets[1] > 0, budgets[2] > 0];
+    let total_budget = s.budgets.total();
+    let mut batch = PhotonBatch::default();
+    if total_budget == 0 {
+        return batch;
+    }
+    let cap = total_budget.saturating_mul(s.max_emitted_factor.max(1));
+    let chunk = 2048u64;
+    let wave = chunk * 4 * rayon::current_num_threads().max(1) as u64;
+    let mut counts = [0u64; 3];
+    let mut full_at: [Option<u64>; 3] = [None; 3];
+    let mut emitted = 0u64;
+    let mut parts: Vec<Vec<TaggedRay>> = Vec::new();
+    while emitted < cap && (0..3).any(|c| keep[c] && full_at[c].is_none()) {
+        let start = emitted;
+        let end = (start + wave).min(cap);
+        // Only classes that still need rays are stored in this wave.
+        let want = [
+            keep[0] && full_at[0].is_none(),
+            keep[1] && full_at[1].is_none(),
+            keep[2] && full_at[2].is_none(),
+        ];
+        let wave_parts: Vec<Vec<TaggedRay>> = (start..end)
+            .step_by(chunk as usize)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|c0| {
+                let mut out = Vec::with_capacity(chunk as usize * 2);
+                for id in c0..(c0 + chunk).min(end) {
+                    trace_photon(scene, s.first_photon + id, s.seed, want, &mut out);
+                }
+                out
+            })
+            .collect();
+        // Find, in photon order, where each class reaches its budget.
+        for part in &wave_parts {
+            for r in part {
+                let c = r.ray.class as usize;
+                if full_at[c].is_none() {
+                    counts[c] += 1;
+                    if counts[c] >= budgets[c] {
+                        full_at[c] = Some(r.photon - s.first_photon + 1);
+                    }
+                }
+            }
+        }
+        parts.extend(wave_parts);
+        emitted = end;
+    }
+    for c in 0..3 {
+        batch.emitted[c] = if keep[c] {
+            full_at[c].unwrap_or(emitted)
+        } else {
+            0
+        };
+    }
+    batch.traced = emitted;
+    let total: usize = parts.iter().map(Vec::len).sum();
+    batch.rays.reserve_exact(total);
+    for r in parts.into_iter().flatten() {
+        let c = r.ray.class as usize;
+        let local = r.photon - s.first_photon;
+        if keep[c] && local < batch.emitted[c] {
+            let mut ray = r.ray;
+            ray.power /= batch.emitted[c] as f32;
+            batch.stored[c] += 1;
+            batch.rays.push(ray);
+        }
+    }
+    batch
+}

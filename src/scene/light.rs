@@ -1,0 +1,339 @@
+//! Light sources and their two samplers: photon emission (light pass) and point sampling for
+//! explicit direct light (next-event estimation at eye samples).
+//!
+//! Lights are chosen in proportion to their power (§3: "photons emitted in proportion to power"),
+//! so every emitted photon carries about the same luminous power.
+
+use super::{Material, TriShading};
+use crate::sampling::{
+    Distribution1D, Rng, cosine_hemisphere, luminance, to_world, uniform_cone, uniform_sphere,
+    uniform_triangle,
+};
+use glam::{Vec2, Vec3};
+use obvhs::triangle::Triangle;
+use std::f32::consts::PI;
+
+#[derive(Clone, Debug)]
+pub enum Light {
+    /// An emissive triangle; `normal` follows the winding.
+    Area {
+        v0: Vec3,
+        e1: Vec3,
+        e2: Vec3,
+        normal: Vec3,
+        area: f32,
+        radiance: Vec3,
+        two_sided: bool,
+    },
+    /// KHR_lights_punctual point light; `intensity` in W/sr (glTF candela taken as radiometric).
+    Point { position: Vec3, intensity: Vec3 },
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        cos_inner: f32,
+        cos_outer: f32,
+    },
+    /// Parallel light travelling along `direction` with `irradiance` (W/m²) on a facing surface.
+    Directional { direction: Vec3, irradiance: Vec3 },
+}
+
+/// A photon leaving a light (before division by the number of emitted photons).
+#[derive(Clone, Copy, Debug)]
+pub struct EmittedPhoton {
+    pub origin: Vec3,
+    pub direction: Vec3,
+    /// Normal of the emitting surface on the side the photon leaves (zero for point lights).
+    pub normal: Vec3,
+    pub power: Vec3,
+    /// Emission pdf p_e(x0, x1) without the distance term: area pdf × solid-angle pdf (eq. 7).
+    pub pdf: f32,
+}
+
+/// A point on a light for explicit direct lighting.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point to the light.
+    pub wi: Vec3,
+    pub distance: f32,
+    /// Incident radiance × geometry / pdf: multiply by f_r·cos θ at the receiver.
+    pub value: Vec3,
+}
+
+#[derive(Clone, Debug)]
+pub struct Lights {
+    pub lights: Vec<Light>,
+    dist: Option<Distribution1D>,
+    /// Total emitted power (RGB, W).
+    pub total_power: Vec3,
+    scene_center: Vec3,
+    scene_radius: f32,
+}
+
+impl Lights {
+    pub(crate) fn build(
+        triangles: &[Triangle],
+        shading: &[TriShading],
+        materials: &[Material],
+        punctual: Vec<Light>,
+        bmin: Vec3,
+        bmax: Vec3,
+    ) -> Self {
+        let scene_center = 0.5 * (bmin + bmax);
+        let scene_radius = 0.5 * (bmax - bmin).length() * 1.01;
+        let mut lights = Vec::new();
+        for (t, sh) in triangles.iter().zip(shading) {
+            let m = &materials[sh.material as usize];
+            if m.emission.max_element() <= 0.0 || !m.emission.is_finite() {
+                continue;
+            }
+            let v0: Vec3 = t.v0.into();
+            let e1 = Vec3::from(t.v1) - v0;
+            let e2 = Vec3::from(t.v2) - v0;
+            let c = e1.cross(e2);
+            let area = 0.5 * c.length();
+            if !(area > 0.0) || !area.is_finite() {
+                continue;
+            }
+            lights.push(Light::Area {
+                v0,
+                e1,
+                e2,
+                normal: c.normalize(),
+                area,
+                radiance: m.emission,
+                two_sided: m.double_sided,
+            });
+        }
+        lights.extend(punctual.into_iter().filter(|l| {
+            let p = Self::power_of(l, scene_radius);
+            p.is_finite() && p.max_element() > 0.0
+        }));
+        let powers: Vec<f64> = lights
+            .iter()
+            .map(|l| luminance(Self::power_of(l, scene_radius)).max(0.0) as f64)
+            .collect();
+        let total_power = lights
+            .iter()
+            .map(|l| Self::power_of(l, scene_radius))
+            .sum::<Vec3>();
+        let dist = Distribution1D::new(&powers);
+        if dist.is_none() {
+            lights.clear();
+        }
+        Self {
+            lights,
+            dist,
+            total_power,
+            scene_center,
+            scene_radius,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    pub fn len(&self) -> usize {
+        self.lights.len()
+    }
+
+    /// Emitted power of one light (RGB watts).
+    pub fn power_of(light: &Light, scene_radius: f32) -> Vec3 {
+        match *light {
+            Light::Area {
+                area,
+                radiance,
+                two_sided,
+                ..
+            } => radiance * PI * area * if two_sided { 2.0 } else { 1.0 },
+            Light::Point { intensity, .. } => intensity * 4.0 * PI,
+            Light::Spot {
+                intensity,
+                cos_inner,
+                cos_outer,
+                ..
+            } => intensity * 2.0 * PI * (1.0 - 0.5 * (cos_inner + cos_outer)),
+            Light::Directional { irradiance, .. } => irradiance * PI * scene_radius * scene_radius,
+        }
+    }
+
+    pub fn power(&self, light: &Light) -> Vec3 {
+        Self::power_of(light, self.scene_radius)
+    }
+
+    /// Sample a photon leaving a light, chosen by power.
+    pub fn sample_emission(&self, rng: &mut Rng) -> Option<EmittedPhoton> {
+        let dist = self.dist.as_ref()?;
+        let (i, p_sel) = dist.sample(rng.next_f32());
+        let u_pos = rng.next_2d();
+        let u_dir = rng.next_2d();
+        let u_side = rng.next_f32();
+        let photon = match self.lights[i] {
+            Light::Area {
+                v0,
+                e1,
+                e2,
+                normal,
+                area,
+                radiance,
+                two_sided,
+            } => {
+                let (b1, b2) = uniform_triangle(u_pos);
+                let (n, p_side) = if two_sided {
+                    (if u_side < 0.5 { normal } else { -normal }, 0.5)
+                } else {
+                    (normal, 1.0)
+                };
+                let local = cosine_hemisphere(u_dir);
+                let dir = to_world(local, n);
+                let cos = local.z.max(1e-6);
+                let pdf = p_sel * p_side / area * cos / PI;
+                EmittedPhoton {
+                    origin: v0 + b1 * e1 + b2 * e2,
+                    direction: dir,
+                    normal: n,
+                    // Le · cos / (p_sel · p_side · (1/A) · cos/π)
+                    power: radiance * (PI * area / (p_sel * p_side)),
+                    pdf,
+                }
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => EmittedPhoton {
+                origin: position,
+                direction: uniform_sphere(u_dir),
+                normal: Vec3::ZERO,
+                power: intensity * (4.0 * PI / p_sel),
+                pdf: p_sel / (4.0 * PI),
+            },
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                let local = uniform_cone(u_dir, cos_outer);
+                let pdf_dir = 1.0 / (2.0 * PI * (1.0 - cos_outer));
+                EmittedPhoton {
+                    origin: position,
+                    direction: to_world(local, direction),
+                    normal: Vec3::ZERO,
+                    power: intensity
+                        * (spot_falloff(local.z, cos_inner, cos_outer) / (p_sel * pdf_dir)),
+                    pdf: p_sel * pdf_dir,
+                }
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                let r = self.scene_radius;
+                let d = crate::sampling::concentric_disk(u_pos) * r;
+                let (t, b) = crate::sampling::onb(direction);
+                let area = PI * r * r;
+                EmittedPhoton {
+                    origin: self.scene_center - direction * r + t * d.x + b * d.y,
+                    direction,
+                    normal: direction,
+                    power: irradiance * (area / p_sel),
+                    pdf: p_sel / area,
+                }
+            }
+        };
+        Some(photon)
+    }
+
+    /// Sample a point on a light as seen from `p` for next-event estimation.
+    pub fn sample_direct(&self, p: Vec3, u_light: f32, u: Vec2) -> Option<LightSample> {
+        let dist = self.dist.as_ref()?;
+        let (i, p_sel) = dist.sample(u_light);
+        match self.lights[i] {
+            Light::Area {
+                v0,
+                e1,
+                e2,
+                normal,
+                area,
+                radiance,
+                two_sided,
+            } => {
+                let (b1, b2) = uniform_triangle(u);
+                let q = v0 + b1 * e1 + b2 * e2;
+                let d = q - p;
+                let dist2 = d.length_squared();
+                if dist2 <= 0.0 {
+                    return None;
+                }
+                let distance = dist2.sqrt();
+                let wi = d / distance;
+                let mut cos_l = -wi.dot(normal);
+                if two_sided {
+                    cos_l = cos_l.abs();
+                }
+                if cos_l <= 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    wi,
+                    distance,
+                    value: radiance * (cos_l * area / (dist2 * p_sel)),
+                })
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let d = position - p;
+                let dist2 = d.length_squared();
+                let distance = dist2.sqrt();
+                Some(LightSample {
+                    wi: d / distance,
+                    distance,
+                    value: intensity / (dist2 * p_sel),
+                })
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                let d = position - p;
+                let dist2 = d.length_squared();
+                let distance = dist2.sqrt();
+                let wi = d / distance;
+                let fall = spot_falloff(-wi.dot(direction), cos_inner, cos_outer);
+                if fall <= 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    wi,
+                    distance,
+                    value: intensity * (fall / (dist2 * p_sel)),
+                })
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => Some(LightSample {
+                wi: -direction,
+                distance: 4.0 * self.scene_radius,
+                value: irradiance / p_sel,
+            }),
+        }
+    }
+}
+
+/// glTF spot attenuation: smooth between the outer and inner cone (KHR_lights_punctual notes).
+#[inline]
+pub fn spot_falloff(cos: f32, cos_inner: f32, cos_outer: f32) -> f32 {
+    if cos <= cos_outer {
+        return 0.0;
+    }
+    let t = ((cos - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
+    t * t
+}

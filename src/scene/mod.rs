@@ -1,0 +1,436 @@
+//! The scene: triangles with materials, lights, cameras and the BVH (obvhs) over them.
+//!
+//! Loading lives in `load` (glTF 2.0 / GLB), the project's own scenes in `builtin`, light
+//! sampling in `light`. Everything here is read-only once built and shared between threads.
+
+mod builtin;
+mod light;
+mod load;
+
+pub use builtin::{BuiltinScene, DEFAULT_SCENE_GLB};
+pub use light::{EmittedPhoton, Light, LightSample, Lights};
+
+use crate::bsdf::Bsdf;
+use glam::{Affine2, Vec2, Vec3, Vec3A};
+use obvhs::{
+    BvhBuildParams,
+    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+    ray::{Ray, RayHit},
+    triangle::Triangle,
+};
+use std::{fmt, path::Path, time::Duration};
+
+/// A scene that could not be loaded: which file, and what is wrong with it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneError {
+    pub source: String,
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.source, self.message)
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// How a material scatters; glTF's metallic/roughness model mapped onto the models we render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MaterialKind {
+    Diffuse,
+    /// Moderately glossy (0.05 ≤ roughness < 0.9 or metallic but rough). Shaded as Lambertian
+    /// with its base colour until the glossy BSDF and directional radiance map land (§8.1).
+    Glossy {
+        roughness: f32,
+        metallic: f32,
+    },
+    Mirror,
+    Dielectric {
+        ior: f32,
+    },
+}
+
+#[derive(Clone, Debug)]
+pub struct TextureRef {
+    pub image: usize,
+    pub transform: Affine2,
+}
+
+#[derive(Clone, Debug)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGB base colour (glTF baseColorFactor).
+    pub base_color: Vec3,
+    pub base_texture: Option<TextureRef>,
+    pub kind: MaterialKind,
+    /// Emitted radiance, emissiveFactor × KHR_materials_emissive_strength.
+    pub emission: Vec3,
+    pub double_sided: bool,
+}
+
+impl Material {
+    pub fn diffuse(name: &str, color: Vec3) -> Self {
+        Self {
+            name: name.to_string(),
+            base_color: color,
+            base_texture: None,
+            kind: MaterialKind::Diffuse,
+            emission: Vec3::ZERO,
+            double_sided: false,
+        }
+    }
+
+    pub fn is_specular(&self) -> bool {
+        matches!(
+            self.kind,
+            MaterialKind::Mirror | MaterialKind::Dielectric { .. }
+        )
+    }
+}
+
+/// A decoded base-colour texture, stored as linear RGB.
+#[derive(Clone, Debug)]
+pub struct Texture {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<Vec3>,
+}
+
+impl Texture {
+    /// Nearest-texel lookup with repeat wrapping.
+    pub fn sample(&self, uv: Vec2) -> Vec3 {
+        let u = uv.x - uv.x.floor();
+        let v = uv.y - uv.y.floor();
+        let x = ((u * self.width as f32) as u32).min(self.width - 1);
+        let y = ((v * self.height as f32) as u32).min(self.height - 1);
+        self.texels[(y * self.width + x) as usize]
+    }
+}
+
+/// A pinhole camera (glTF perspective camera: looks down its local −Z, +Y up).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub name: String,
+    pub position: Vec3,
+    pub forward: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+}
+
+impl Camera {
+    pub fn look_at(name: &str, position: Vec3, target: Vec3, yfov: f32) -> Self {
+        let forward = (target - position).normalize();
+        let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
+        Self {
+            name: name.to_string(),
+            position,
+            forward,
+            up: right.cross(forward),
+            yfov,
+        }
+    }
+
+    pub fn right(&self) -> Vec3 {
+        self.forward.cross(self.up).normalize()
+    }
+
+    /// Direction through film point (`sx`, `sy`) ∈ [0,1]², y down, for an image of `aspect` = w/h.
+    #[inline]
+    pub fn direction(&self, sx: f32, sy: f32, aspect: f32) -> Vec3 {
+        let th = (0.5 * self.yfov).tan();
+        let x = (2.0 * sx - 1.0) * th * aspect;
+        let y = (1.0 - 2.0 * sy) * th;
+        (self.forward + x * self.right() + y * self.up).normalize()
+    }
+}
+
+/// Per-triangle shading data (vertex normals and texture coordinates).
+#[derive(Clone, Copy, Debug)]
+pub struct TriShading {
+    pub normals: [Vec3; 3],
+    pub uvs: [Vec2; 3],
+    pub material: u32,
+}
+
+/// A ray–surface intersection.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f32,
+    pub position: Vec3,
+    /// Geometric normal from the winding (unit, not flipped towards the ray).
+    pub geo_normal: Vec3,
+    /// Interpolated shading normal, on the same side as `geo_normal`.
+    pub normal: Vec3,
+    pub uv: Vec2,
+    pub triangle: u32,
+    pub material: u32,
+}
+
+pub struct Scene {
+    pub name: String,
+    pub triangles: Vec<Triangle>,
+    pub shading: Vec<TriShading>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Lights,
+    pub cameras: Vec<Camera>,
+    pub bounds_min: Vec3,
+    pub bounds_max: Vec3,
+    /// Things the loader skipped or repaired, for the user to read.
+    pub warnings: Vec<String>,
+    bvh: CwBvh,
+    /// Offset for spawned rays, relative to the scene size.
+    ray_epsilon: f32,
+}
+
+/// What the loaders hand to [`Scene::build`].
+pub(crate) struct SceneParts {
+    pub name: String,
+    pub triangles: Vec<Triangle>,
+    pub shading: Vec<TriShading>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub punctual: Vec<Light>,
+    pub cameras: Vec<Camera>,
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// The embedded default scene (CORNELL BOX I).
+    pub fn default_scene() -> Self {
+        Self::from_glb_bytes(DEFAULT_SCENE_GLB, "CORNELL BOX I (embedded)")
+            .expect("the embedded default scene is generated by this crate and always loads")
+    }
+
+    /// A project scene, generated in memory by `scene::builtin`.
+    pub fn builtin(which: BuiltinScene) -> Self {
+        Self::from_glb_bytes(&which.to_glb(), which.title()).expect("built-in scenes always load")
+    }
+
+    /// Load a .gltf or .glb file.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        load::load_path(path).and_then(|parts| Self::build(parts, &path.display().to_string()))
+    }
+
+    /// Load glTF (binary or JSON with embedded buffers) from memory.
+    pub fn from_glb_bytes(bytes: &[u8], name: &str) -> Result<Self, SceneError> {
+        load::load_slice(bytes, name).and_then(|parts| Self::build(parts, name))
+    }
+
+    pub(crate) fn build(parts: SceneParts, source: &str) -> Result<Self, SceneError> {
+        let err = |message: String| SceneError {
+            source: source.to_string(),
+            message,
+        };
+        if parts.triangles.is_empty() {
+            return Err(err("the scene has no triangles to render".into()));
+        }
+        let mut bounds_min = Vec3::splat(f32::INFINITY);
+        let mut bounds_max = Vec3::splat(f32::NEG_INFINITY);
+        for t in &parts.triangles {
+            for v in [t.v0, t.v1, t.v2] {
+                bounds_min = bounds_min.min(v.into());
+                bounds_max = bounds_max.max(v.into());
+            }
+        }
+        let diag = (bounds_max - bounds_min).length();
+        if !diag.is_finite() || diag <= 0.0 {
+            return Err(err(
+                "the scene's geometry is degenerate (zero or infinite extent)".into(),
+            ));
+        }
+        let lights = Lights::build(
+            &parts.triangles,
+            &parts.shading,
+            &parts.materials,
+            parts.punctual,
+            bounds_min,
+            bounds_max,
+        );
+        if lights.is_empty() {
+            return Err(err(
+                "the scene has no light: add an emissive material (emissiveFactor > 0) or a KHR_lights_punctual light".into(),
+            ));
+        }
+        let bvh = build_cwbvh_from_tris(
+            &parts.triangles,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let mut cameras = parts.cameras;
+        if cameras.is_empty() {
+            cameras.push(framing_camera(bounds_min, bounds_max));
+        }
+        Ok(Self {
+            name: parts.name,
+            triangles: parts.triangles,
+            shading: parts.shading,
+            materials: parts.materials,
+            textures: parts.textures,
+            lights,
+            cameras,
+            bounds_min,
+            bounds_max,
+            warnings: parts.warnings,
+            bvh,
+            ray_epsilon: 2e-5 * diag,
+        })
+    }
+
+    pub fn diagonal(&self) -> f32 {
+        (self.bounds_max - self.bounds_min).length()
+    }
+
+    pub fn center(&self) -> Vec3 {
+        0.5 * (self.bounds_min + self.bounds_max)
+    }
+
+    pub fn ray_epsilon(&self) -> f32 {
+        self.ray_epsilon
+    }
+
+    pub fn camera(&self, name: Option<&str>) -> Option<&Camera> {
+        match name {
+            None => self.cameras.first(),
+            Some(n) => self.cameras.iter().find(|c| c.name == n),
+        }
+    }
+
+    /// Closest hit along `origin + t·dir`, t ∈ (0, tmax).
+    #[inline]
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
+        let mut hit = RayHit::none();
+        let tris = &self.triangles;
+        let idx = &self.bvh.primitive_indices;
+        if !self
+            .bvh
+            .ray_traverse(ray, &mut hit, |r, id| tris[idx[id] as usize].intersect(r))
+        {
+            return None;
+        }
+        let tri_id = idx[hit.primitive_id as usize];
+        Some(self.hit_record(tri_id, origin + hit.t * dir, hit.t))
+    }
+
+    /// True when something blocks the open segment `origin + t·dir`, t ∈ (0, tmax).
+    #[inline]
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
+        let tris = &self.triangles;
+        let idx = &self.bvh.primitive_indices;
+        !self
+            .bvh
+            .ray_traverse_miss(ray, |r, id| tris[idx[id] as usize].intersect(r))
+    }
+
+    fn hit_record(&self, tri_id: u32, p: Vec3, t: f32) -> Hit {
+        let tri = &self.triangles[tri_id as usize];
+        let (v0, v1, v2): (Vec3, Vec3, Vec3) = (tri.v0.into(), tri.v1.into(), tri.v2.into());
+        let e1 = v1 - v0;
+        let e2 = v2 - v0;
+        let cross = e1.cross(e2);
+        let geo_normal = cross.normalize_or(Vec3::Y);
+        // Barycentrics from sub-triangle areas.
+        let vp = p - v0;
+        let inv = 1.0 / cross.length_squared().max(f32::MIN_POSITIVE);
+        let b1 = (vp.cross(e2)).dot(cross) * inv;
+        let b2 = (e1.cross(vp)).dot(cross) * inv;
+        let b0 = 1.0 - b1 - b2;
+        let sh = &self.shading[tri_id as usize];
+        let mut normal =
+            (sh.normals[0] * b0 + sh.normals[1] * b1 + sh.normals[2] * b2).normalize_or(geo_normal);
+        if normal.dot(geo_normal) < 0.0 {
+            normal = -normal;
+        }
+        let uv = sh.uvs[0] * b0 + sh.uvs[1] * b1 + sh.uvs[2] * b2;
+        Hit {
+            t,
+            position: p,
+            geo_normal,
+            normal,
+            uv,
+            triangle: tri_id,
+            material: sh.material,
+        }
+    }
+
+    /// Diffuse albedo at a hit (base colour × texture).
+    #[inline]
+    pub fn albedo(&self, hit: &Hit) -> Vec3 {
+        let m = &self.materials[hit.material as usize];
+        match &m.base_texture {
+            Some(t) => {
+                let uv = t.transform.transform_point2(hit.uv);
+                m.base_color * self.textures[t.image].sample(uv)
+            }
+            None => m.base_color,
+        }
+    }
+
+    /// The scattering model at a hit.
+    #[inline]
+    pub fn bsdf(&self, hit: &Hit) -> Bsdf {
+        let m = &self.materials[hit.material as usize];
+        match m.kind {
+            MaterialKind::Diffuse | MaterialKind::Glossy { .. } => Bsdf::Lambert {
+                albedo: self.albedo(hit),
+            },
+            MaterialKind::Mirror => Bsdf::Mirror {
+                color: self.albedo(hit),
+            },
+            MaterialKind::Dielectric { ior } => Bsdf::Dielectric {
+                ior,
+                tint: self.albedo(hit),
+            },
+        }
+    }
+
+    /// Radiance emitted from a hit towards `wo` (one-sided along the winding unless double-sided).
+    #[inline]
+    pub fn emitted(&self, hit: &Hit, wo: Vec3) -> Vec3 {
+        let m = &self.materials[hit.material as usize];
+        if m.emission == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        if m.double_sided || hit.geo_normal.dot(wo) > 0.0 {
+            m.emission
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// A spawn point just off the surface on the side of `dir`.
+    #[inline]
+    pub fn offset(&self, hit: &Hit, dir: Vec3) -> Vec3 {
+        let s = if hit.geo_normal.dot(dir) >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        hit.position + hit.geo_normal * (s * self.ray_epsilon)
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+}
+
+/// A camera looking at the bounding box from +Z, for scenes without one.
+fn framing_camera(min: Vec3, max: Vec3) -> Camera {
+    let center = 0.5 * (min + max);
+    let radius = 0.5 * (max - min).length();
+    let yfov = 45f32.to_radians();
+    let dist = radius / (0.5 * yfov).sin();
+    Camera::look_at("framing", center + Vec3::new(0.0, 0.0, dist), center, yfov)
+}
+
+pub(crate) fn tri(v0: Vec3, v1: Vec3, v2: Vec3) -> Triangle {
+    Triangle {
+        v0: Vec3A::from(v0),
+        v1: Vec3A::from(v1),
+        v2: Vec3A::from(v2),
+    }
+}
