@@ -98,6 +98,10 @@ struct RenderArgs {
     threads: Option<usize>,
     #[arg(long, value_enum, default_value_t = Method::Rs)]
     method: Method,
+    /// Splat onto every eye sample instead of sharing one splat target among the samples of
+    /// a pixel that lie on the same surface.
+    #[arg(long)]
+    no_merge: bool,
 }
 
 #[derive(Args)]
@@ -181,6 +185,7 @@ impl RenderArgs {
             direct: self.direct,
             nee_samples: self.nee_samples,
             camera: self.camera.clone(),
+            merge_targets: !self.no_merge,
             ..RenderSettings::default()
         })
     }
@@ -329,6 +334,7 @@ fn stats_json(r: &Renderer, film: &Film, t_load: f64) -> serde_json::Value {
         "photon_rays_caustic": per_class[2],
         "photon_ray_bytes": r.photon_memory_bytes(),
         "eye_samples": r.eye_samples().len(),
+        "splat_targets": r.tree().samples,
         "splat_tree_nodes": r.tree().nodes.len(),
         "batches": r.batch_count(),
         "tested_pairs": r.counters.tested,

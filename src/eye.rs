@@ -11,6 +11,10 @@ use crate::scene::{Camera, Scene};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
+/// Samples of one pixel share a splat target when their normals are this close ...
+const MERGE_COS: f32 = 0.966; // cos 15°
+/// ... and they lie within this many pixel footprints of each other.
+const MERGE_FOOTPRINTS: f32 = 4.0;
 /// Branches whose weight falls below this are dropped (they cannot change a pixel visibly).
 const MIN_BRANCH_WEIGHT: f32 = 1e-3;
 /// Pending specular branches per camera ray.
@@ -23,10 +27,12 @@ pub struct EyeSettings {
     pub spp: u32,
     pub max_specular_depth: u32,
     pub seed: u64,
+    /// Let eye samples of one pixel on the same surface share one splat target.
+    pub merge_targets: bool,
 }
 
-/// Eye samples, structure of arrays. Index order is the splat kd-tree's leaf order once
-/// [`crate::splat_tree::SplatTree::build`] has permuted them.
+/// Eye samples, structure of arrays, in pixel order (the splat tree keeps its own copy of
+/// positions and normals in leaf order, mapped back by `slot_sample`).
 #[derive(Clone, Debug, Default)]
 pub struct EyeSamples {
     pub position: Vec<Vec3>,
@@ -40,6 +46,27 @@ pub struct EyeSamples {
     pub weight: Vec<Vec3>,
     /// Diffuse albedo at the sample (texture applied).
     pub albedo: Vec<Vec3>,
+    /// The splat target whose splatted irradiance this sample uses.
+    pub target: Vec<u32>,
+}
+
+/// The points photon rays splat onto: one per eye sample, or one per group of eye samples of
+/// a pixel that lie on the same surface within a few pixel footprints (see docs/deviations.md).
+/// Each target stands at its first sample's position with that sample's normal.
+#[derive(Clone, Debug, Default)]
+pub struct SplatTargets {
+    pub position: Vec<Vec3>,
+    pub normal: Vec<Vec3>,
+}
+
+impl SplatTargets {
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
 }
 
 impl EyeSamples {
@@ -51,26 +78,13 @@ impl EyeSamples {
         self.position.is_empty()
     }
 
-    /// Reorder every array by `order` (new index i takes old index order[i]).
-    pub fn permute(&mut self, order: &[u32]) {
-        fn apply<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
-            *v = order.iter().map(|&i| v[i as usize]).collect();
-        }
-        apply(&mut self.position, order);
-        apply(&mut self.normal, order);
-        apply(&mut self.wo, order);
-        apply(&mut self.material, order);
-        apply(&mut self.pixel, order);
-        apply(&mut self.weight, order);
-        apply(&mut self.albedo, order);
-    }
-
     /// Bytes held by the sample arrays.
     pub fn memory_bytes(&self) -> usize {
-        self.len() * (4 * 12 + 2 * 4 + 12)
+        self.len() * (5 * 12 + 3 * 4)
     }
 
-    fn push(&mut self, s: &RawSample) {
+    fn push(&mut self, s: &RawSample, target: u32) {
+        self.target.push(target);
         self.position.push(s.position);
         self.normal.push(s.normal);
         self.wo.push(s.wo);
@@ -90,11 +104,16 @@ struct RawSample {
     pixel: u32,
     weight: Vec3,
     albedo: Vec3,
+    /// Length of the eye path to the sample (for the pixel footprint).
+    path_length: f32,
+    /// Target index within the row during the pass.
+    target: u32,
 }
 
 /// What the eye pass produced.
 pub struct EyePass {
     pub samples: EyeSamples,
+    pub targets: SplatTargets,
     /// Emitted radiance reaching each pixel directly or through specular chains.
     pub emitted: Vec<Vec3>,
 }
@@ -114,13 +133,17 @@ fn jitter(s: u32, spp: u32, rng: &mut Rng) -> Vec2 {
 /// Run the eye pass for `camera` over the whole image.
 pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     let aspect = s.width as f32 / s.height as f32;
-    let rows: Vec<(Vec<RawSample>, Vec<Vec3>)> = (0..s.height)
+    // Angle subtended by one pixel (vertically), for the footprint of merged targets.
+    let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / s.height as f32;
+    let rows: Vec<(Vec<RawSample>, Vec<Vec3>, SplatTargets)> = (0..s.height)
         .into_par_iter()
         .map(|y| {
             let mut out = Vec::with_capacity((s.width * s.spp) as usize);
             let mut emitted = vec![Vec3::ZERO; s.width as usize];
+            let mut targets = SplatTargets::default();
             for x in 0..s.width {
                 let pixel = y * s.width + x;
+                let first = out.len();
                 let mut rng = Rng::new(s.seed, 0x1000_0000_0000 + pixel as u64);
                 for k in 0..s.spp {
                     let j = jitter(k, s.spp, &mut rng);
@@ -140,8 +163,14 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                         &mut out,
                     );
                 }
+                assign_targets(
+                    &mut out[first..],
+                    &mut targets,
+                    s.merge_targets,
+                    pixel_angle,
+                );
             }
-            (out, emitted)
+            (out, emitted, targets)
         })
         .collect();
     let total: usize = rows.iter().map(|r| r.0.len()).sum();
@@ -157,14 +186,53 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     }
     samples.material.reserve_exact(total);
     samples.pixel.reserve_exact(total);
+    samples.target.reserve_exact(total);
     let mut emitted = Vec::with_capacity((s.width * s.height) as usize);
-    for (row, em) in rows {
+    let mut targets = SplatTargets::default();
+    for (row, em, row_targets) in rows {
+        let offset = targets.len() as u32;
         for r in &row {
-            samples.push(r);
+            samples.push(r, offset + r.target);
         }
         emitted.extend(em);
+        targets.position.extend(row_targets.position);
+        targets.normal.extend(row_targets.normal);
     }
-    EyePass { samples, emitted }
+    EyePass {
+        samples,
+        targets,
+        emitted,
+    }
+}
+
+/// Give the samples of one pixel their splat targets: a new target per sample, or, when
+/// merging, the first earlier target of the pixel on the same material with a normal within
+/// 15° and a position within a few pixel footprints.
+fn assign_targets(px: &mut [RawSample], targets: &mut SplatTargets, merge: bool, pixel_angle: f32) {
+    let base = targets.len();
+    for i in 0..px.len() {
+        let s = px[i];
+        let reach = MERGE_FOOTPRINTS * pixel_angle * s.path_length;
+        let found = if merge {
+            px[..i].iter().find(|o| {
+                let t = o.target as usize;
+                t >= base
+                    && o.material == s.material
+                    && targets.normal[t].dot(s.normal) >= MERGE_COS
+                    && targets.position[t].distance_squared(s.position) <= reach * reach
+            })
+        } else {
+            None
+        };
+        px[i].target = match found {
+            Some(o) => o.target,
+            None => {
+                targets.position.push(s.position);
+                targets.normal.push(s.normal);
+                (targets.len() - 1) as u32
+            }
+        };
+    }
 }
 
 /// Follow one camera ray through specular chains; push eye samples, return emitted radiance.
@@ -177,22 +245,23 @@ fn trace_chain(
     max_depth: u32,
     out: &mut Vec<RawSample>,
 ) -> Vec3 {
-    let mut stack = [(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0u32); BRANCH_STACK];
-    stack[0] = (origin, dir, weight, 0);
+    let mut stack = [(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0u32, 0f32); BRANCH_STACK];
+    stack[0] = (origin, dir, weight, 0, 0.0);
     let mut top = 1;
     let mut emitted = Vec3::ZERO;
     while top > 0 {
         top -= 1;
-        let (o, d, w, depth) = stack[top];
+        let (o, d, w, depth, travelled) = stack[top];
         let Some(hit) = scene.intersect(o, d, f32::INFINITY) else {
             continue;
         };
+        let path_length = travelled + hit.t;
         let wo = -d;
         emitted += w * scene.emitted(&hit, wo);
         let bsdf = scene.bsdf(&hit);
         let mut push = |o: Vec3, d: Vec3, w: Vec3, top: &mut usize| {
             if w.max_element() >= MIN_BRANCH_WEIGHT && *top < BRANCH_STACK {
-                stack[*top] = (o, d, w, depth + 1);
+                stack[*top] = (o, d, w, depth + 1, path_length);
                 *top += 1;
             }
         };
@@ -212,6 +281,8 @@ fn trace_chain(
                     pixel,
                     weight: w,
                     albedo,
+                    path_length,
+                    target: 0,
                 });
             }
             _ if depth >= max_depth => {}

@@ -184,3 +184,17 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>), String> {
     let (res, px) = image.layer_data.channel_data.pixels;
     Ok((res.width() as u32, res.height() as u32, px))
 }
+
+/// Relative mean squared error, mean((x − ref)² / (ref² + 0.01)) over pixels and channels
+/// (the definition `compare` reports).
+pub fn rel_mse(image: &[Vec3], reference: &[Vec3]) -> f64 {
+    assert_eq!(image.len(), reference.len());
+    let mut sum = 0.0f64;
+    for (x, r) in image.iter().zip(reference) {
+        for c in 0..3 {
+            let (x, r) = (x[c] as f64, r[c] as f64);
+            sum += (x - r) * (x - r) / (r * r + 0.01);
+        }
+    }
+    sum / (3 * image.len().max(1)) as f64
+}

@@ -13,7 +13,7 @@ use crate::photon::{
     Bandwidth, BandwidthParams, ClassBudgets, LightPassSettings, PhotonBatch, PhotonClass,
     PhotonRay, Pilot, light_pass, pilot,
 };
-use crate::radiance_map::{RadianceMap, SplatAccum};
+use crate::radiance_map::{Accumulators, RadianceMap};
 use crate::scene::{Camera, Scene};
 use crate::splat::{SplatCounters, prepare, splat};
 use crate::splat_tree::SplatTree;
@@ -50,6 +50,8 @@ pub struct RenderSettings {
     /// Give up filling a photon class after this many emitted photons per stored-photon budget.
     pub max_emitted_factor: u64,
     pub camera: Option<String>,
+    /// Eye samples of a pixel on the same surface share one splat target (docs/deviations.md).
+    pub merge_targets: bool,
 }
 
 impl Default for RenderSettings {
@@ -67,6 +69,7 @@ impl Default for RenderSettings {
             nee_samples: 1,
             max_emitted_factor: 4,
             camera: None,
+            merge_targets: true,
         }
     }
 }
@@ -110,8 +113,8 @@ pub struct Renderer {
     direct: Vec<Vec3>,
     pilot: Pilot,
     /// Accumulators for indirect and caustic photons, and for direct photons when splatted.
-    acc_indirect: Vec<SplatAccum>,
-    acc_direct: Vec<SplatAccum>,
+    acc_indirect: Accumulators,
+    acc_direct: Accumulators,
     batches: Vec<StoredBatch>,
     /// Stored rays per class so far (each batch's M, eq. 8).
     m_total: [u64; 3],
@@ -150,11 +153,15 @@ impl Renderer {
             spp: settings.spp,
             max_specular_depth: settings.max_specular_depth,
             seed: settings.seed,
+            merge_targets: settings.merge_targets,
         };
         let pass = eye_pass(&scene, &camera, &eye_settings);
-        let mut eye = pass.samples;
-        let (tree, order) = SplatTree::build(&eye.position, &eye.normal, scene.diagonal());
-        eye.permute(&order);
+        let eye = pass.samples;
+        let tree = SplatTree::build(
+            &pass.targets.position,
+            &pass.targets.normal,
+            scene.diagonal(),
+        );
         timings.t_eye = t.elapsed().as_secs_f64();
 
         let t = Instant::now();
@@ -171,11 +178,11 @@ impl Renderer {
         let pilot = pilot(&scene, settings.seed);
         timings.t_light = t.elapsed().as_secs_f64();
 
-        let n = eye.len();
+        let slots = tree.slots();
         let acc_direct = if settings.direct == DirectMode::Photons {
-            vec![SplatAccum::default(); n]
+            Accumulators::new(slots)
         } else {
-            Vec::new()
+            Accumulators::default()
         };
         Ok(Self {
             scene,
@@ -185,7 +192,7 @@ impl Renderer {
             emitted: pass.emitted,
             direct,
             pilot,
-            acc_indirect: vec![SplatAccum::default(); n],
+            acc_indirect: Accumulators::new(slots),
             acc_direct,
             batches: Vec::new(),
             m_total: [0; 3],
@@ -236,6 +243,14 @@ impl Renderer {
             .map(|c| Bandwidth::new(&self.settings.bandwidth, &self.pilot, m[c as usize], mean_r))
     }
 
+    /// Bytes held by eye samples, splat tree and accumulators.
+    pub fn splat_memory_bytes(&self) -> usize {
+        self.eye.memory_bytes()
+            + self.tree.memory_bytes()
+            + self.acc_indirect.memory_bytes()
+            + self.acc_direct.memory_bytes()
+    }
+
     /// Trace one light pass of M photons, splat it with the bandwidth for the total M so far.
     pub fn run_batch(&mut self) {
         let t = Instant::now();
@@ -283,8 +298,8 @@ impl Renderer {
     pub fn resplat(&mut self, params: BandwidthParams) {
         let t = Instant::now();
         self.settings.bandwidth = params;
-        self.acc_indirect.fill(SplatAccum::default());
-        self.acc_direct.fill(SplatAccum::default());
+        self.acc_indirect.clear();
+        self.acc_direct.clear();
         let batches = std::mem::take(&mut self.batches);
         for b in &batches {
             self.splat_rays(&b.rays, b.m);
@@ -299,12 +314,12 @@ impl Renderer {
         let (w, h) = (self.settings.width, self.settings.height);
         let b = self.batches.len() as u32;
         let mut map = RadianceMap::new(w, h);
-        map.resolve_from(&self.eye, &self.acc_indirect, b);
+        map.resolve_from(&self.eye, &self.tree.target_slot, &self.acc_indirect, b);
         let mut film = Film::new(w, h);
         let mut direct = self.direct.clone();
         if self.splat_direct() {
             let mut dmap = RadianceMap::new(w, h);
-            dmap.resolve_from(&self.eye, &self.acc_direct, b);
+            dmap.resolve_from(&self.eye, &self.tree.target_slot, &self.acc_direct, b);
             for (d, s) in direct.iter_mut().zip(&dmap.diffuse) {
                 *d += *s;
             }

@@ -8,11 +8,18 @@
 //! ray into it, so no two threads ever write the same accumulator — no locks, no atomics, no
 //! per-thread copies of the radiance map — and the sum for each sample runs in ray order,
 //! which makes the result independent of the thread count.
+//!
+//! Storage for speed: sample positions and normals are structure-of-arrays in tree order, each
+//! leaf padded to a multiple of [`LANES`] so a leaf is tested in whole 8-wide chunks (the
+//! padding has a zero normal and is never feasible). A leaf node refers to a [`Leaf`] record
+//! holding its first slot and a bounding sphere, tested against the cone before its samples.
 
 use glam::{Vec3, Vec3A};
 
 /// A node is a leaf below this many samples (§7.1).
-pub const LEAF_SIZE: usize = 16;
+pub const LEAF_SIZE: usize = 64;
+/// Leaves are padded to a multiple of this many slots (one AVX2 register of f32).
+pub const LANES: usize = 8;
 /// ... or when its cell's diagonal is below this fraction of the scene diagonal (§7.1).
 pub const MIN_CELL_FRACTION: f32 = 1e-3;
 /// Recursion bound for pathological inputs (sliding midpoint can degenerate on clustered data).
@@ -31,7 +38,7 @@ const KIND_CULL: u32 = 3;
 
 /// 8-byte node. `word` holds the kind in bits 0–1 and:
 /// interior: axis in bits 2–3, right-child index in bits 4–31; `data` = split plane (f32 bits).
-/// leaf: sample count in bits 2–31; `data` = first sample index.
+/// leaf: sample count in bits 2–31; `data` = index of its [`Leaf`] record.
 /// cull: C_max (quantised, rounded up) in bits 2–31; `data` = octahedral reference normal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(C)]
@@ -53,11 +60,11 @@ impl Node {
         assert!(right < (1 << 28), "splat tree too large");
         self.word |= (right as u32) << 4;
     }
-    fn leaf(first: usize, count: usize) -> Self {
+    fn leaf(leaf: usize, count: usize) -> Self {
         assert!(count < (1 << 30));
         Self {
             word: KIND_LEAF | ((count as u32) << 2),
-            data: first as u32,
+            data: leaf as u32,
         }
     }
     fn empty() -> Self {
@@ -95,7 +102,7 @@ impl Node {
         (self.word >> 2) as usize
     }
     #[inline(always)]
-    fn first(&self) -> usize {
+    fn leaf_index(&self) -> usize {
         self.data as usize
     }
     #[inline(always)]
@@ -132,22 +139,66 @@ fn oct_decode(c: u32) -> Vec3A {
     Vec3A::new(x, y, z).normalize()
 }
 
-/// Position and normal of an eye sample, in tree order (one cache stream in the hot loop).
-#[derive(Clone, Copy, Debug)]
-#[repr(C)]
-pub struct SplatPoint {
-    pub position: Vec3A,
-    pub normal: Vec3A,
+/// Eye-sample positions and normals in slot order (structure of arrays, leaves padded).
+#[derive(Clone, Debug, Default)]
+pub struct Points {
+    pub px: Vec<f32>,
+    pub py: Vec<f32>,
+    pub pz: Vec<f32>,
+    pub nx: Vec<f32>,
+    pub ny: Vec<f32>,
+    pub nz: Vec<f32>,
 }
 
-/// A subtree owning the samples `first .. first + count`; `min`/`max` bound them tightly.
+impl Points {
+    pub fn len(&self) -> usize {
+        self.px.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.px.is_empty()
+    }
+
+    #[inline]
+    pub fn position(&self, i: usize) -> Vec3A {
+        Vec3A::new(self.px[i], self.py[i], self.pz[i])
+    }
+
+    #[inline]
+    pub fn normal(&self, i: usize) -> Vec3A {
+        Vec3A::new(self.nx[i], self.ny[i], self.nz[i])
+    }
+
+    fn push(&mut self, p: Vec3, n: Vec3) {
+        self.px.push(p.x);
+        self.py.push(p.y);
+        self.pz.push(p.z);
+        self.nx.push(n.x);
+        self.ny.push(n.y);
+        self.nz.push(n.z);
+    }
+}
+
+/// A leaf: its samples occupy slots `first .. first + count` (then padding up to a multiple
+/// of [`LANES`]); every sample lies within `radius` of `center`.
+#[derive(Clone, Copy, Debug)]
+pub struct Leaf {
+    pub first: u32,
+    pub count: u32,
+    pub center: Vec3A,
+    pub radius: f32,
+}
+
+/// A subtree owning the slots `first .. first + len`; `min`/`max` bound its samples tightly.
 #[derive(Clone, Copy, Debug)]
 pub struct Subtree {
     pub root: u32,
     pub first: u32,
-    pub count: u32,
+    pub len: u32,
     pub min: Vec3A,
     pub max: Vec3A,
+    leaf_begin: u32,
+    leaf_end: u32,
 }
 
 /// A photon ray's splat volume: the conical frustum from `origin` to `origin + length·dir`
@@ -184,16 +235,25 @@ impl Cone {
 
 pub struct SplatTree {
     pub nodes: Vec<Node>,
-    pub points: Vec<SplatPoint>,
+    pub leaves: Vec<Leaf>,
+    pub points: Points,
+    /// Splat target held by each slot (`u32::MAX` for padding).
+    pub slot_target: Vec<u32>,
+    /// Slot of each splat target.
+    pub target_slot: Vec<u32>,
     pub subtrees: Vec<Subtree>,
     pub min: Vec3A,
     pub max: Vec3A,
+    /// Number of real (unpadded) splat targets.
+    pub samples: usize,
 }
 
+/// Marks a padding slot in [`SplatTree::slot_target`].
+pub const PADDING: u32 = u32::MAX;
+
 impl SplatTree {
-    /// Build over `positions`/`normals`; returns the tree and the permutation applied
-    /// (tree index i holds input sample `order[i]`).
-    pub fn build(positions: &[Vec3], normals: &[Vec3], scene_diagonal: f32) -> (Self, Vec<u32>) {
+    /// Build over splat-target `positions` and `normals`.
+    pub fn build(positions: &[Vec3], normals: &[Vec3], scene_diagonal: f32) -> Self {
         let n = positions.len();
         let mut min = Vec3A::splat(f32::INFINITY);
         let mut max = Vec3A::splat(f32::NEG_INFINITY);
@@ -212,39 +272,87 @@ impl SplatTree {
             nrm: normals,
             order: (0..n as u32).collect(),
             nodes: Vec::with_capacity(2 * n / LEAF_SIZE + 16),
+            leaves: Vec::with_capacity(n / 8 + 1),
             subtrees: Vec::new(),
             min_diag: MIN_CELL_FRACTION * scene_diagonal,
             subtree_max,
         };
         b.build(0, n, min, max, false, false, 0);
-        let points = b
-            .order
-            .iter()
-            .map(|&i| SplatPoint {
-                position: positions[i as usize].into(),
-                normal: normals[i as usize].into(),
-            })
-            .collect();
-        (
-            Self {
-                nodes: b.nodes,
-                points,
-                subtrees: b.subtrees,
-                min,
-                max,
-            },
-            b.order,
-        )
+        // Lay the leaves out in slots, each padded to a multiple of LANES.
+        let mut points = Points::default();
+        let mut slot_target = Vec::with_capacity(n + n / 2);
+        for leaf in &mut b.leaves {
+            let lo = leaf.first as usize;
+            let cnt = leaf.count as usize;
+            leaf.first = slot_target.len() as u32;
+            let mut c = Vec3A::ZERO;
+            for &i in &b.order[lo..lo + cnt] {
+                let p = positions[i as usize];
+                points.push(p, normals[i as usize]);
+                slot_target.push(i);
+                c += Vec3A::from(p);
+            }
+            c /= cnt.max(1) as f32;
+            let radius = b.order[lo..lo + cnt]
+                .iter()
+                .map(|&i| Vec3A::from(positions[i as usize]).distance(c))
+                .fold(0.0f32, f32::max);
+            leaf.center = c;
+            // Grow by a relative epsilon so rounding never rejects a sample on the sphere.
+            leaf.radius = radius * (1.0 + 1e-5) + 1e-7 * (1.0 + c.abs().max_element());
+            let pad_pos = positions[b.order[lo] as usize];
+            while slot_target.len() % LANES != 0 {
+                points.push(pad_pos, Vec3::ZERO);
+                slot_target.push(PADDING);
+            }
+        }
+        let mut target_slot = vec![0u32; n];
+        for (slot, &t) in slot_target.iter().enumerate() {
+            if t != PADDING {
+                target_slot[t as usize] = slot as u32;
+            }
+        }
+        let mut subtrees = b.subtrees;
+        for st in &mut subtrees {
+            let first = b.leaves[st.leaf_begin as usize].first;
+            let end = b
+                .leaves
+                .get(st.leaf_end as usize)
+                .map(|l| l.first)
+                .unwrap_or(slot_target.len() as u32);
+            st.first = first;
+            st.len = end - first;
+        }
+        Self {
+            nodes: b.nodes,
+            leaves: b.leaves,
+            points,
+            slot_target,
+            target_slot,
+            subtrees,
+            min,
+            max,
+            samples: n,
+        }
+    }
+
+    /// Slots (samples plus padding).
+    pub fn slots(&self) -> usize {
+        self.slot_target.len()
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * 8 + self.points.len() * std::mem::size_of::<SplatPoint>()
+        self.nodes.len() * 8
+            + self.leaves.len() * std::mem::size_of::<Leaf>()
+            + self.slots() * (6 * 4 + 4)
+            + self.target_slot.len() * 4
     }
 
-    /// Visit every leaf of `subtree` that the cone may reach (Alg. 1, iterative).
-    /// `leaf(first, count)` gets sample ranges in tree order.
-    #[inline]
-    pub fn traverse<F: FnMut(usize, usize)>(&self, subtree: &Subtree, cone: &Cone, mut leaf: F) {
+    /// Collect every leaf of `subtree` the cone may reach into `out` as (first slot, count)
+    /// (Alg. 1, iterative, near child first). `out` is cleared first; reuse it across rays.
+    #[inline(always)]
+    pub fn traverse(&self, subtree: &Subtree, cone: &Cone, out: &mut Vec<(u32, u32)>) {
+        out.clear();
         // Clip the ray against the subtree's bounds grown by the largest splat radius (§7.2).
         let grow = Vec3A::splat(cone.h_end);
         let Some((t0, t1)) = clip(
@@ -257,37 +365,28 @@ impl SplatTree {
         ) else {
             return;
         };
+        let inv_dir = Vec3A::ONE / cone.dir;
         let mut stack = [(0u32, 0f32, 0f32); STACK];
         let mut sp = 0;
-        let mut cur = (subtree.root as usize, t0, t1);
+        let (mut idx, mut t0, mut t1) = (subtree.root as usize, t0, t1);
         loop {
-            let (idx, t0, t1) = cur;
             let node = self.nodes[idx];
-            let mut next = None;
+            #[cfg(feature = "diag")]
+            DIAG_VISITS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let mut descend = false;
             match node.kind() {
                 KIND_INTERIOR => {
                     let a = node.axis();
-                    let r1 = cone.radius(t1); // splat radius at t1 (the largest on [t0, t1])
-                    let (o, d) = (cone.origin[a], cone.dir[a]);
+                    // Splat radius at t1, the largest on [t0, t1] (Alg. 1: R1).
+                    let r1 = (cone.h0 + cone.dh * t1).min(cone.h_end);
+                    let (o, inv) = (cone.origin[a], inv_dir[a]);
                     let split = node.split();
                     let (left, right) = (idx + 1, node.right());
-                    if d.abs() < 1e-9 {
-                        let go_left = o - r1 <= split;
-                        let go_right = o + r1 >= split;
-                        if go_left && go_right {
-                            stack[sp] = (right as u32, t0, t1);
-                            sp += 1;
-                            next = Some((left, t0, t1));
-                        } else if go_left {
-                            next = Some((left, t0, t1));
-                        } else if go_right {
-                            next = Some((right, t0, t1));
-                        }
-                    } else {
+                    if inv.is_finite() && inv.abs() < 1e9 {
                         // Distances to the virtual planes split ± r1 (Alg. 1: tα, tβ).
-                        let t = (split - o) / d;
-                        let dt = r1 / d.abs();
-                        let (near, far) = if d > 0.0 {
+                        let t = (split - o) * inv;
+                        let dt = r1 * inv.abs();
+                        let (near, far) = if inv > 0.0 {
                             (left, right)
                         } else {
                             (right, left)
@@ -299,29 +398,54 @@ impl SplatTree {
                             sp += 1;
                         }
                         if t0 <= near_end {
-                            next = Some((near, t0, near_end));
+                            idx = near;
+                            t1 = near_end;
+                            descend = true;
+                        }
+                    } else {
+                        // The ray runs parallel to the plane.
+                        let go_left = o - r1 <= split;
+                        let go_right = o + r1 >= split;
+                        if go_left && go_right {
+                            stack[sp] = (right as u32, t0, t1);
+                            sp += 1;
+                        }
+                        if go_left || go_right {
+                            idx = if go_left { left } else { right };
+                            descend = true;
                         }
                     }
                 }
-                KIND_LEAF => leaf(node.first(), node.count()),
+                KIND_LEAF => {
+                    let lf = &self.leaves[node.leaf_index()];
+                    // Bounding-sphere test: skip leaves the cone cannot reach.
+                    let v = lf.center - cone.origin;
+                    let t = v.dot(cone.dir);
+                    let dist2 = (v.length_squared() - t * t).max(0.0);
+                    let reach = (cone.h0 + cone.dh * (t + lf.radius)).min(cone.h_end) + lf.radius;
+                    if t + lf.radius >= 0.0
+                        && t - lf.radius <= cone.length + cone.h_end
+                        && dist2 < reach * reach
+                    {
+                        out.push((lf.first, node.count() as u32));
+                    }
+                }
                 KIND_CULL => {
                     // Every sample below faces away from the ray (§7.1 backface-culling node).
                     if cone.dir.dot(node.normal()) <= node.cmax() {
-                        next = Some((idx + 1, t0, t1));
+                        idx += 1;
+                        descend = true;
                     }
                 }
                 _ => {}
             }
-            match next {
-                Some(n) => cur = n,
-                None => {
-                    if sp == 0 {
-                        return;
-                    }
-                    sp -= 1;
-                    let (i, a, b) = stack[sp];
-                    cur = (i as usize, a, b);
+            if !descend {
+                if sp == 0 {
+                    return;
                 }
+                sp -= 1;
+                let (i, a, b) = stack[sp];
+                (idx, t0, t1) = (i as usize, a, b);
             }
         }
     }
@@ -364,6 +488,8 @@ struct Builder<'a> {
     nrm: &'a [Vec3],
     order: Vec<u32>,
     nodes: Vec<Node>,
+    /// During the build `first` is an index into `order`; slots are assigned afterwards.
+    leaves: Vec<Leaf>,
     subtrees: Vec<Subtree>,
     min_diag: f32,
     subtree_max: usize,
@@ -381,8 +507,8 @@ impl Builder<'_> {
         hi: usize,
         cell_min: Vec3A,
         cell_max: Vec3A,
-        mut in_cull: bool,
-        mut in_subtree: bool,
+        in_cull: bool,
+        in_subtree: bool,
         depth: u32,
     ) {
         let n = hi - lo;
@@ -402,17 +528,43 @@ impl Builder<'_> {
             || depth >= MAX_DEPTH
             || (tmax - tmin).max_element() <= 0.0;
         if !in_subtree && (n <= self.subtree_max || is_leaf) {
+            let at = self.subtrees.len();
             self.subtrees.push(Subtree {
                 root: self.nodes.len() as u32,
-                first: lo as u32,
-                count: n as u32,
+                first: 0,
+                len: 0,
                 min: tmin,
                 max: tmax,
+                leaf_begin: self.leaves.len() as u32,
+                leaf_end: 0,
             });
-            in_subtree = true;
             // A subtree is entered directly, so it needs its own cull node.
-            in_cull = false;
+            self.build_node(
+                lo, hi, cell_min, cell_max, false, true, depth, is_leaf, tmin, tmax,
+            );
+            self.subtrees[at].leaf_end = self.leaves.len() as u32;
+            return;
         }
+        self.build_node(
+            lo, hi, cell_min, cell_max, in_cull, in_subtree, depth, is_leaf, tmin, tmax,
+        );
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build_node(
+        &mut self,
+        lo: usize,
+        hi: usize,
+        cell_min: Vec3A,
+        cell_max: Vec3A,
+        mut in_cull: bool,
+        in_subtree: bool,
+        depth: u32,
+        is_leaf: bool,
+        tmin: Vec3A,
+        tmax: Vec3A,
+    ) {
+        let n = hi - lo;
         if !in_cull && n >= LEAF_SIZE {
             if let Some((normal, cmax)) = self.normal_cone(lo, hi) {
                 self.nodes.push(Node::cull(normal, cmax));
@@ -420,7 +572,13 @@ impl Builder<'_> {
             }
         }
         if is_leaf {
-            self.nodes.push(Node::leaf(lo, n));
+            self.nodes.push(Node::leaf(self.leaves.len(), n));
+            self.leaves.push(Leaf {
+                first: lo as u32,
+                count: n as u32,
+                center: Vec3A::ZERO,
+                radius: 0.0,
+            });
             return;
         }
         // Cut off large empty space first: an empty child ends traversal early (§7.1).
@@ -562,3 +720,5 @@ mod tests {
         }
     }
 }
+#[cfg(feature = "diag")]
+pub static DIAG_VISITS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
