@@ -6,6 +6,7 @@
 //! directional storage (SH, histogram, §8.1) is a later extension of this module.
 
 use crate::eye::EyeSamples;
+use crate::splat_tree::LANES;
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
@@ -30,69 +31,66 @@ impl Channel {
     pub const COUNT: usize = 7;
 }
 
-/// Per-slot sums over all splats of all batches.
+/// The sums of one chunk of [`LANES`] slots, channel-major inside the chunk.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct AccumChunk {
+    pub ch: [[f32; LANES]; Channel::COUNT],
+}
+
+/// Per-slot sums over all splats of all batches, one block per chunk of slots.
 #[derive(Clone, Debug, Default)]
 pub struct Accumulators {
-    channels: [Vec<f32>; Channel::COUNT],
+    chunks: Vec<AccumChunk>,
 }
 
 impl Accumulators {
     pub fn new(slots: usize) -> Self {
         Self {
-            channels: std::array::from_fn(|_| vec![0.0; slots]),
+            chunks: vec![AccumChunk::default(); slots.div_ceil(LANES)],
         }
     }
 
+    /// Slots held (a multiple of [`LANES`]).
     pub fn len(&self) -> usize {
-        self.channels[0].len()
+        self.chunks.len() * LANES
     }
 
     pub fn is_empty(&self) -> bool {
-        self.len() == 0
+        self.chunks.is_empty()
     }
 
     pub fn clear(&mut self) {
-        for c in &mut self.channels {
-            c.fill(0.0);
-        }
+        self.chunks.fill(AccumChunk::default());
     }
 
+    #[inline]
     pub fn get(&self, c: Channel, slot: usize) -> f32 {
-        self.channels[c as usize][slot]
+        self.chunks[slot / LANES].ch[c as usize][slot % LANES]
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.len() * 4 * Channel::COUNT
+        self.chunks.len() * std::mem::size_of::<AccumChunk>()
     }
 
-    /// Disjoint mutable views of increasing, non-overlapping slot ranges (start, len).
+    /// Disjoint mutable views of increasing, non-overlapping slot ranges (start, len), both
+    /// multiples of [`LANES`].
     pub fn split(
         &mut self,
-        ranges: impl Iterator<Item = (usize, usize)> + Clone,
-    ) -> Vec<[&mut [f32]; Channel::COUNT]> {
-        let mut per_channel: Vec<Vec<&mut [f32]>> = self
-            .channels
-            .iter_mut()
-            .map(|ch| {
-                let mut out = Vec::new();
-                let mut rest: &mut [f32] = ch;
-                let mut at = 0;
-                for (start, len) in ranges.clone() {
-                    let (_, tail) = rest.split_at_mut(start - at);
-                    let (mine, tail) = tail.split_at_mut(len);
-                    out.push(mine);
-                    rest = tail;
-                    at = start + len;
-                }
-                out
-            })
-            .collect();
-        let n = per_channel[0].len();
-        let mut views = Vec::with_capacity(n);
-        for _ in 0..n {
-            views.push(std::array::from_fn(|c| per_channel[c].remove(0)));
+        ranges: impl Iterator<Item = (usize, usize)>,
+    ) -> Vec<&mut [AccumChunk]> {
+        let mut out = Vec::new();
+        let mut rest: &mut [AccumChunk] = &mut self.chunks;
+        let mut at = 0;
+        for (start, len) in ranges {
+            debug_assert!(start % LANES == 0 && len % LANES == 0);
+            let (_, tail) = rest.split_at_mut(start / LANES - at);
+            let (mine, tail) = tail.split_at_mut(len / LANES);
+            out.push(mine);
+            rest = tail;
+            at = (start + len) / LANES;
         }
-        views
+        out
     }
 }
 
@@ -148,27 +146,23 @@ impl RadianceMap {
         }
         let inv_b = 1.0 / batches as f32;
         let mut weight_norm = vec![0.0f32; self.diffuse.len()];
-        let ch = |c: Channel| &acc.channels[c as usize];
-        let (r, g, b) = (ch(Channel::R), ch(Channel::G), ch(Channel::B));
-        let (wsum, wh, wd, cnt) = (
-            ch(Channel::Weight),
-            ch(Channel::WeightedH),
-            ch(Channel::WeightedInvDist),
-            ch(Channel::Count),
-        );
         for i in 0..eye.len() {
             let slot = target_slot[eye.target[i] as usize] as usize;
+            let a = &acc.chunks[slot / LANES].ch;
+            let l = slot % LANES;
+            let get = |c: Channel| a[c as usize][l];
             let px = eye.pixel[i] as usize;
             let w = eye.weight[i];
-            let flux = Vec3::new(r[slot], g[slot], b[slot]);
+            let flux = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B));
             self.diffuse[px] += w * eye.albedo[i] * FRAC_1_PI * flux * inv_b;
             let info = &mut self.info[px];
             let share = w.max_element();
-            info.kernel_weight += share * wsum[slot] * inv_b;
-            info.splats += share * cnt[slot] * inv_b;
-            info.mean_bandwidth += share * wh[slot];
-            info.harmonic_mean_distance += share * wd[slot];
-            weight_norm[px] += share * wsum[slot];
+            let wsum = get(Channel::Weight);
+            info.kernel_weight += share * wsum * inv_b;
+            info.splats += share * get(Channel::Count) * inv_b;
+            info.mean_bandwidth += share * get(Channel::WeightedH);
+            info.harmonic_mean_distance += share * get(Channel::WeightedInvDist);
+            weight_norm[px] += share * wsum;
         }
         for (info, &norm) in self.info.iter_mut().zip(&weight_norm) {
             if norm > 0.0 {

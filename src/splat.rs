@@ -8,8 +8,8 @@
 //! operations, so they give identical results.
 
 use crate::photon::{Bandwidth, PhotonRay};
-use crate::radiance_map::{Accumulators, Channel};
-use crate::splat_tree::{Cone, LANES, Points, SplatTree, Subtree};
+use crate::radiance_map::{AccumChunk, Accumulators, Channel};
+use crate::splat_tree::{Cone, LANES, PointChunk, SplatTree, Subtree, sphere_in_cone};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use std::f32::consts::{FRAC_2_PI, PI};
@@ -94,7 +94,7 @@ pub struct LaneResult {
     pub weight: f32,
     /// Splat radius at the sample's projection onto the ray.
     pub radius: f32,
-    /// 1 / distance to the ray origin.
+    /// 1 / distance to the ray origin, measured along the ray.
     pub inv_dist: f32,
 }
 
@@ -117,14 +117,18 @@ pub fn test_sample(ray: &SplatRay, p: Vec3, n: Vec3) -> LaneResult {
     let front = vx * ray.origin_normal.x + vy * ray.origin_normal.y + vz * ray.origin_normal.z;
     let feasible =
         (t >= 0.0) & (d2 < r2) & ((t <= c.length) | (e2 < r2)) & (cos > 0.0) & (front >= 0.0);
+    // One division gives both 1/r² and 1/t: q = 1/(r²·t). The distance to the ray origin is
+    // taken along the ray (t), within the splat radius of the true distance.
+    let t_safe = t.max(1e-6);
+    let q = 1.0 / (r2 * t_safe).max(f32::MIN_POSITIVE);
+    let inv_r2 = q * t_safe;
     // §5/§6: 2D Epanechnikov kernel perpendicular to the ray, times cos θ (eq. 5).
-    let inv_r2 = 1.0 / r2.max(f32::MIN_POSITIVE);
     let kernel = FRAC_2_PI * inv_r2 * (1.0 - d2 * inv_r2);
     LaneResult {
         feasible,
         weight: if feasible { kernel * cos } else { 0.0 },
         radius,
-        inv_dist: 1.0 / vv.max(1e-12).sqrt(),
+        inv_dist: q * r2,
     }
 }
 
@@ -140,7 +144,7 @@ pub fn splat(tree: &SplatTree, rays: &[SplatRay], acc: &mut Accumulators) -> Spl
     tree.subtrees
         .par_iter()
         .zip(views)
-        .map(|(st, mut view)| splat_subtree(tree, st, rays, &mut view))
+        .map(|(st, view)| splat_subtree(tree, st, rays, view))
         .reduce(SplatCounters::default, |mut a, b| {
             a += b;
             a
@@ -151,7 +155,7 @@ fn splat_subtree(
     tree: &SplatTree,
     st: &Subtree,
     rays: &[SplatRay],
-    acc: &mut [&mut [f32]; Channel::COUNT],
+    acc: &mut [AccumChunk],
 ) -> SplatCounters {
     #[cfg(target_arch = "x86_64")]
     {
@@ -169,7 +173,7 @@ fn splat_subtree_avx2(
     tree: &SplatTree,
     st: &Subtree,
     rays: &[SplatRay],
-    acc: &mut [&mut [f32]; Channel::COUNT],
+    acc: &mut [AccumChunk],
 ) -> SplatCounters {
     splat_subtree_impl(tree, st, rays, acc)
 }
@@ -179,10 +183,10 @@ fn splat_subtree_impl(
     tree: &SplatTree,
     st: &Subtree,
     rays: &[SplatRay],
-    acc: &mut [&mut [f32]; Channel::COUNT],
+    acc: &mut [AccumChunk],
 ) -> SplatCounters {
     let mut c = SplatCounters::default();
-    let base = st.first as usize;
+    let base = st.first as usize / LANES;
     // Reused for every ray of this subtree: no allocation per photon.
     let mut leaves = Vec::with_capacity(4096);
     for ray in rays {
@@ -191,11 +195,17 @@ fn splat_subtree_impl(
         }
         tree.traverse(st, &ray.cone, &mut leaves);
         for &(first, count) in &leaves {
-            c.tested += count as u64;
-            let (first, count) = (first as usize, count as usize);
+            let (first, end) = (first as usize, (first + count) as usize);
             let mut slot = first;
-            while slot < first + count {
-                c.accepted += splat_lanes(ray, &tree.points, slot, acc, slot - base) as u64;
+            while slot < end {
+                // Skip whole chunks outside the cone before testing their lanes.
+                let k = slot / LANES;
+                let chunk = &tree.chunks[k];
+                if sphere_in_cone(&ray.cone, chunk.center, chunk.radius) {
+                    c.tested += (end - slot).min(LANES) as u64;
+                    c.accepted +=
+                        splat_lanes(ray, &tree.points.chunks[k], &mut acc[k - base]) as u64;
+                }
                 slot += LANES;
             }
         }
@@ -203,18 +213,9 @@ fn splat_subtree_impl(
     c
 }
 
-/// Test and accumulate 8 consecutive slots; returns the number of feasible samples.
+/// Test and accumulate one chunk of 8 slots; returns the number of feasible samples.
 #[inline(always)]
-fn splat_lanes(
-    ray: &SplatRay,
-    pts: &Points,
-    slot: usize,
-    acc: &mut [&mut [f32]; Channel::COUNT],
-    at: usize,
-) -> u32 {
-    let lane = |v: &[f32]| -> [f32; LANES] { v[slot..slot + LANES].try_into().unwrap() };
-    let (px, py, pz) = (lane(&pts.px), lane(&pts.py), lane(&pts.pz));
-    let (nx, ny, nz) = (lane(&pts.nx), lane(&pts.ny), lane(&pts.nz));
+fn splat_lanes(ray: &SplatRay, pts: &PointChunk, acc: &mut AccumChunk) -> u32 {
     let mut w = [0.0f32; LANES];
     let mut wr = [0.0f32; LANES];
     let mut wd = [0.0f32; LANES];
@@ -222,28 +223,25 @@ fn splat_lanes(
     for l in 0..LANES {
         let r = test_sample(
             ray,
-            Vec3::new(px[l], py[l], pz[l]),
-            Vec3::new(nx[l], ny[l], nz[l]),
+            Vec3::new(pts.px[l], pts.py[l], pts.pz[l]),
+            Vec3::new(pts.nx[l], pts.ny[l], pts.nz[l]),
         );
         w[l] = r.weight;
         wr[l] = r.weight * r.radius;
         wd[l] = r.weight * r.inv_dist;
         hit[l] = if r.feasible { 1.0 } else { 0.0 };
     }
-    let add = |dst: &mut [f32], src: [f32; LANES]| {
-        let dst: &mut [f32; LANES] = (&mut dst[at..at + LANES]).try_into().unwrap();
-        for l in 0..LANES {
-            dst[l] += src[l];
-        }
-    };
     let p = ray.power;
-    add(acc[Channel::R as usize], w.map(|x| x * p.x));
-    add(acc[Channel::G as usize], w.map(|x| x * p.y));
-    add(acc[Channel::B as usize], w.map(|x| x * p.z));
-    add(acc[Channel::Weight as usize], w);
-    add(acc[Channel::WeightedH as usize], wr);
-    add(acc[Channel::WeightedInvDist as usize], wd);
-    add(acc[Channel::Count as usize], hit);
+    let ch = &mut acc.ch;
+    for l in 0..LANES {
+        ch[Channel::R as usize][l] += w[l] * p.x;
+        ch[Channel::G as usize][l] += w[l] * p.y;
+        ch[Channel::B as usize][l] += w[l] * p.z;
+        ch[Channel::Weight as usize][l] += w[l];
+        ch[Channel::WeightedH as usize][l] += wr[l];
+        ch[Channel::WeightedInvDist as usize][l] += wd[l];
+        ch[Channel::Count as usize][l] += hit[l];
+    }
     hit.iter().sum::<f32>() as u32
 }
 

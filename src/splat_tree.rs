@@ -17,7 +17,7 @@
 use glam::{Vec3, Vec3A};
 
 /// A node is a leaf below this many samples (§7.1).
-pub const LEAF_SIZE: usize = 64;
+pub const LEAF_SIZE: usize = 128;
 /// Leaves are padded to a multiple of this many slots (one AVX2 register of f32).
 pub const LANES: usize = 8;
 /// ... or when its cell's diagonal is below this fraction of the scene diagonal (§7.1).
@@ -139,43 +139,58 @@ fn oct_decode(c: u32) -> Vec3A {
     Vec3A::new(x, y, z).normalize()
 }
 
-/// Eye-sample positions and normals in slot order (structure of arrays, leaves padded).
+/// Positions and normals of one chunk of [`LANES`] slots (structure of arrays inside the
+/// chunk, chunks contiguous: one 192-byte block per 8 samples).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct PointChunk {
+    pub px: [f32; LANES],
+    pub py: [f32; LANES],
+    pub pz: [f32; LANES],
+    pub nx: [f32; LANES],
+    pub ny: [f32; LANES],
+    pub nz: [f32; LANES],
+}
+
+/// Splat-target positions and normals in slot order, leaves padded to whole chunks.
 #[derive(Clone, Debug, Default)]
 pub struct Points {
-    pub px: Vec<f32>,
-    pub py: Vec<f32>,
-    pub pz: Vec<f32>,
-    pub nx: Vec<f32>,
-    pub ny: Vec<f32>,
-    pub nz: Vec<f32>,
+    pub chunks: Vec<PointChunk>,
+    len: usize,
 }
 
 impl Points {
     pub fn len(&self) -> usize {
-        self.px.len()
+        self.len
     }
 
     pub fn is_empty(&self) -> bool {
-        self.px.is_empty()
+        self.len == 0
     }
 
     #[inline]
     pub fn position(&self, i: usize) -> Vec3A {
-        Vec3A::new(self.px[i], self.py[i], self.pz[i])
+        let c = &self.chunks[i / LANES];
+        let l = i % LANES;
+        Vec3A::new(c.px[l], c.py[l], c.pz[l])
     }
 
     #[inline]
     pub fn normal(&self, i: usize) -> Vec3A {
-        Vec3A::new(self.nx[i], self.ny[i], self.nz[i])
+        let c = &self.chunks[i / LANES];
+        let l = i % LANES;
+        Vec3A::new(c.nx[l], c.ny[l], c.nz[l])
     }
 
     fn push(&mut self, p: Vec3, n: Vec3) {
-        self.px.push(p.x);
-        self.py.push(p.y);
-        self.pz.push(p.z);
-        self.nx.push(n.x);
-        self.ny.push(n.y);
-        self.nz.push(n.z);
+        let l = self.len % LANES;
+        if l == 0 {
+            self.chunks.push(PointChunk::default());
+        }
+        let c = self.chunks.last_mut().expect("pushed above");
+        (c.px[l], c.py[l], c.pz[l]) = (p.x, p.y, p.z);
+        (c.nx[l], c.ny[l], c.nz[l]) = (n.x, n.y, n.z);
+        self.len += 1;
     }
 }
 
@@ -185,6 +200,13 @@ impl Points {
 pub struct Leaf {
     pub first: u32,
     pub count: u32,
+    pub center: Vec3A,
+    pub radius: f32,
+}
+
+/// Bounding sphere of one 8-slot chunk (leaves are ordered so chunks are compact).
+#[derive(Clone, Copy, Debug)]
+pub struct Chunk {
     pub center: Vec3A,
     pub radius: f32,
 }
@@ -236,6 +258,8 @@ impl Cone {
 pub struct SplatTree {
     pub nodes: Vec<Node>,
     pub leaves: Vec<Leaf>,
+    /// One bounding sphere per [`LANES`] slots.
+    pub chunks: Vec<Chunk>,
     pub points: Points,
     /// Splat target held by each slot (`u32::MAX` for padding).
     pub slot_target: Vec<u32>,
@@ -281,25 +305,22 @@ impl SplatTree {
         // Lay the leaves out in slots, each padded to a multiple of LANES.
         let mut points = Points::default();
         let mut slot_target = Vec::with_capacity(n + n / 2);
+        let mut chunks = Vec::with_capacity(n / LANES + b.leaves.len());
         for leaf in &mut b.leaves {
             let lo = leaf.first as usize;
             let cnt = leaf.count as usize;
-            leaf.first = slot_target.len() as u32;
-            let mut c = Vec3A::ZERO;
-            for &i in &b.order[lo..lo + cnt] {
-                let p = positions[i as usize];
-                points.push(p, normals[i as usize]);
-                slot_target.push(i);
-                c += Vec3A::from(p);
+            median_groups(&mut b.order[lo..lo + cnt], positions);
+            for group in b.order[lo..lo + cnt].chunks(LANES) {
+                chunks.push(bounding_sphere(group, positions));
             }
-            c /= cnt.max(1) as f32;
-            let radius = b.order[lo..lo + cnt]
-                .iter()
-                .map(|&i| Vec3A::from(positions[i as usize]).distance(c))
-                .fold(0.0f32, f32::max);
-            leaf.center = c;
-            // Grow by a relative epsilon so rounding never rejects a sample on the sphere.
-            leaf.radius = radius * (1.0 + 1e-5) + 1e-7 * (1.0 + c.abs().max_element());
+            leaf.first = slot_target.len() as u32;
+            for &i in &b.order[lo..lo + cnt] {
+                points.push(positions[i as usize], normals[i as usize]);
+                slot_target.push(i);
+            }
+            let sphere = bounding_sphere(&b.order[lo..lo + cnt], positions);
+            leaf.center = sphere.center;
+            leaf.radius = sphere.radius;
             let pad_pos = positions[b.order[lo] as usize];
             while slot_target.len() % LANES != 0 {
                 points.push(pad_pos, Vec3::ZERO);
@@ -326,6 +347,7 @@ impl SplatTree {
         Self {
             nodes: b.nodes,
             leaves: b.leaves,
+            chunks,
             points,
             slot_target,
             target_slot,
@@ -344,7 +366,9 @@ impl SplatTree {
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * 8
             + self.leaves.len() * std::mem::size_of::<Leaf>()
-            + self.slots() * (6 * 4 + 4)
+            + self.chunks.len() * std::mem::size_of::<Chunk>()
+            + self.points.chunks.len() * std::mem::size_of::<PointChunk>()
+            + self.slots() * 4
             + self.target_slot.len() * 4
     }
 
@@ -371,8 +395,6 @@ impl SplatTree {
         let (mut idx, mut t0, mut t1) = (subtree.root as usize, t0, t1);
         loop {
             let node = self.nodes[idx];
-            #[cfg(feature = "diag")]
-            DIAG_VISITS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let mut descend = false;
             match node.kind() {
                 KIND_INTERIOR => {
@@ -419,14 +441,7 @@ impl SplatTree {
                 KIND_LEAF => {
                     let lf = &self.leaves[node.leaf_index()];
                     // Bounding-sphere test: skip leaves the cone cannot reach.
-                    let v = lf.center - cone.origin;
-                    let t = v.dot(cone.dir);
-                    let dist2 = (v.length_squared() - t * t).max(0.0);
-                    let reach = (cone.h0 + cone.dh * (t + lf.radius)).min(cone.h_end) + lf.radius;
-                    if t + lf.radius >= 0.0
-                        && t - lf.radius <= cone.length + cone.h_end
-                        && dist2 < reach * reach
-                    {
+                    if sphere_in_cone(cone, lf.center, lf.radius) {
                         out.push((lf.first, node.count() as u32));
                     }
                 }
@@ -448,6 +463,63 @@ impl SplatTree {
                 (idx, t0, t1) = (i as usize, a, b);
             }
         }
+    }
+}
+
+/// Could the cone reach a point within `radius` of `center`? (Conservative: the radius is
+/// taken at the sphere's far end along the ray.)
+#[inline(always)]
+pub fn sphere_in_cone(cone: &Cone, center: Vec3A, radius: f32) -> bool {
+    let v = center - cone.origin;
+    let t = v.dot(cone.dir);
+    let dist2 = (v.length_squared() - t * t).max(0.0);
+    let reach = (cone.h0 + cone.dh * (t + radius)).min(cone.h_end) + radius;
+    t + radius >= 0.0 && t - radius <= cone.length + cone.h_end && dist2 < reach * reach
+}
+
+/// Order `idx` so that consecutive groups of [`LANES`] are compact: recursive splits at a
+/// multiple of LANES near the median of the longest axis.
+fn median_groups(idx: &mut [u32], positions: &[Vec3]) {
+    if idx.len() <= LANES {
+        return;
+    }
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for &i in idx.iter() {
+        lo = lo.min(positions[i as usize]);
+        hi = hi.max(positions[i as usize]);
+    }
+    let e = hi - lo;
+    let axis = if e.x >= e.y && e.x >= e.z {
+        0
+    } else if e.y >= e.z {
+        1
+    } else {
+        2
+    };
+    let k = idx.len().div_ceil(2 * LANES) * LANES;
+    idx.select_nth_unstable_by(k, |a, b| {
+        positions[*a as usize][axis].total_cmp(&positions[*b as usize][axis])
+    });
+    let (left, right) = idx.split_at_mut(k);
+    median_groups(left, positions);
+    median_groups(right, positions);
+}
+
+/// Centroid-centred bounding sphere, grown by a relative epsilon so rounding never rejects a
+/// point on its surface.
+fn bounding_sphere(idx: &[u32], positions: &[Vec3]) -> Chunk {
+    let mut c = Vec3A::ZERO;
+    for &i in idx {
+        c += Vec3A::from(positions[i as usize]);
+    }
+    c /= idx.len().max(1) as f32;
+    let r = idx
+        .iter()
+        .map(|&i| Vec3A::from(positions[i as usize]).distance(c))
+        .fold(0.0f32, f32::max);
+    Chunk {
+        center: c,
+        radius: r * (1.0 + 1e-5) + 1e-7 * (1.0 + c.abs().max_element()),
     }
 }
 
@@ -720,5 +792,3 @@ mod tests {
         }
     }
 }
-#[cfg(feature = "diag")]
-pub static DIAG_VISITS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
