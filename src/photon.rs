@@ -194,7 +194,7 @@ pub struct PhotonBatch {
     pub rays: Vec<PhotonRay>,
     /// Photons emitted while filling each class (the power normalisation of that class).
     pub emitted: [u64; 3],
-    /// Photons traced in total.
+    /// Photons traced in total (a statistic: it depends on how many threads traced).
     pub traced: u64,
     /// Rays stored per class.
     pub stored: [u64; 3],
@@ -208,7 +208,8 @@ pub struct LightPassSettings {
     /// (a scene without specular objects has no caustic photons).
     pub max_emitted_factor: u64,
     pub seed: u64,
-    /// Offset of this batch's photon indices (so batches use disjoint random streams).
+    /// Offset of this batch's photon indices (so batches use disjoint random streams); the next
+    /// batch starts at `first_photon + max(emitted)`, which does not depend on thread count.
     pub first_photon: u64,
 }
 
@@ -444,4 +445,128 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
         }
     }
     batch
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pilot(pdfs: Vec<f32>) -> Pilot {
+        Pilot {
+            mean_length: 0.5,
+            vertex_pdfs: pdfs,
+            scene_diagonal: 10.0,
+        }
+    }
+
+    #[test]
+    fn m0_is_the_sixth_root_of_ten_to_the_fifth() {
+        assert!((M0 - 1e5f32.powf(1.0 / 6.0)).abs() < 1e-4);
+    }
+
+    #[test]
+    fn eq8_bandwidth_formula() {
+        let p = pilot(vec![0.5, 2.0, 8.0]);
+        let params = BandwidthParams {
+            smoothness_c: 0.7,
+            sensitivity_s: 0.6,
+            max_bandwidth_r: 1.0,
+        };
+        let m = 50_000u64;
+        let mean_r = p.mean_r(params.sensitivity_s);
+        let bw = Bandwidth::new(&params, &p, m, mean_r);
+        let w = M0 * p.mu_c() / mean_r;
+        for pdf in [0.5f32, 2.0, 8.0] {
+            // eq. 8: h = C / ⁶√M · w / √(p̃^S)
+            let expect = 0.7 * (m as f32).powf(-1.0 / 6.0) * w / pdf.powf(0.6).sqrt();
+            assert!((bw.h(pdf) - expect).abs() < 1e-6 * expect.max(1.0), "{pdf}");
+        }
+    }
+
+    #[test]
+    fn mean_bandwidth_is_mu_c_at_m_1e5_and_c_1() {
+        // m0 calibrates the mean (unclamped) bandwidth to μC at M = 10⁵, C = 1 (§6).
+        let pdfs: Vec<f32> = (1..200).map(|i| 0.05 * i as f32).collect();
+        let p = pilot(pdfs.clone());
+        let params = BandwidthParams {
+            smoothness_c: 1.0,
+            sensitivity_s: 0.4,
+            max_bandwidth_r: 100.0,
+        };
+        let bw = Bandwidth::new(&params, &p, 100_000, p.mean_r(0.4));
+        let mean: f32 = pdfs.iter().map(|&x| bw.h(x)).sum::<f32>() / pdfs.len() as f32;
+        assert!(
+            (mean - p.mu_c()).abs() < 1e-3 * p.mu_c(),
+            "{mean} vs {}",
+            p.mu_c()
+        );
+    }
+
+    #[test]
+    fn bandwidth_falls_with_the_sixth_root_of_m() {
+        let p = pilot(vec![1.0]);
+        let params = BandwidthParams {
+            max_bandwidth_r: 100.0,
+            ..BandwidthParams::default()
+        };
+        let a = Bandwidth::new(&params, &p, 1_000, 1.0).h(1.0);
+        let b = Bandwidth::new(&params, &p, 64_000, 1.0).h(1.0);
+        assert!((a / b - 2.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn bandwidth_is_clamped() {
+        let p = pilot(vec![1.0]);
+        let params = BandwidthParams::default();
+        let bw = Bandwidth::new(&params, &p, 100_000, 1.0);
+        assert_eq!(bw.h(1e-30), bw.h_max);
+        assert!((bw.h_max - 0.2 * 10.0).abs() < 1e-6);
+        assert_eq!(bw.h(1e30), bw.h_min);
+    }
+
+    #[test]
+    fn cone_from_the_two_end_bandwidths() {
+        let p = pilot(vec![1.0]);
+        let bw = Bandwidth::new(
+            &BandwidthParams {
+                max_bandwidth_r: 100.0,
+                ..BandwidthParams::default()
+            },
+            &p,
+            100_000,
+            1.0,
+        );
+        let mut ray = PhotonRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::X,
+            length: 2.0,
+            power: Vec3::ONE,
+            origin_normal: Vec3::X,
+            pdf_start: 4.0,
+            pdf_end: 1.0,
+            bounce: 1,
+            class: PhotonClass::Indirect,
+        };
+        // §6: h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i)) / length.
+        let (hi, hj) = (bw.h(4.0), bw.h(1.0));
+        let (h0, dh) = bw.cone(&ray);
+        assert_eq!(h0, hi.min(hj));
+        assert!((dh - (hj - hi).max(0.0) / 2.0).abs() < 1e-7);
+        // A shrinking bandwidth gives a cylinder of the smaller radius.
+        ray.pdf_start = 1.0;
+        ray.pdf_end = 4.0;
+        assert_eq!(bw.cone(&ray), (bw.h(4.0), 0.0));
+        // h(x_0) = 0: the segment leaving the light starts as a point (eq. 8).
+        ray.bounce = 0;
+        let (h0, dh) = bw.cone(&ray);
+        assert_eq!(h0, 0.0);
+        assert!((dh - bw.h(4.0) / 2.0).abs() < 1e-7);
+    }
+
+    #[test]
+    fn d_clamps_short_segments() {
+        // eq. 7: D = max(D̃², ‖x − y‖²).
+        assert_eq!(clamped_sq_distance(0.01, 0.1), 0.1f32 * 0.1);
+        assert_eq!(clamped_sq_distance(2.0, 0.1), 4.0);
+    }
 }

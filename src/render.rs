@@ -7,13 +7,13 @@
 //! the image for new C/S/R without re-tracing.
 
 use crate::direct::direct_light;
-use crate::eye::{EyeSamples, EyeSettings, eye_pass};
+use crate::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
 use crate::film::Film;
 use crate::photon::{
     Bandwidth, BandwidthParams, ClassBudgets, LightPassSettings, PhotonBatch, PhotonClass,
     PhotonRay, Pilot, light_pass, pilot,
 };
-use crate::radiance_map::{Accumulators, RadianceMap};
+use crate::radiance_map::{Accumulators, Channel, RadianceMap};
 use crate::scene::{Camera, Scene};
 use crate::splat::{SplatCounters, prepare, splat};
 use crate::splat_tree::SplatTree;
@@ -106,6 +106,7 @@ pub struct Renderer {
     pub settings: RenderSettings,
     pub camera: Camera,
     eye: EyeSamples,
+    targets: SplatTargets,
     tree: SplatTree,
     /// Per pixel: emission seen directly or through specular chains.
     emitted: Vec<Vec3>,
@@ -118,7 +119,10 @@ pub struct Renderer {
     batches: Vec<StoredBatch>,
     /// Stored rays per class so far (each batch's M, eq. 8).
     m_total: [u64; 3],
+    /// Photons traced (depends on thread count: the last wave may trace beyond the budget).
     pub photons_traced: u64,
+    /// Photons whose rays were kept; the next batch's photon indices start here.
+    photons_used: u64,
     pub counters: SplatCounters,
     pub timings: Timings,
 }
@@ -155,13 +159,12 @@ impl Renderer {
             seed: settings.seed,
             merge_targets: settings.merge_targets,
         };
-        let pass = eye_pass(&scene, &camera, &eye_settings);
-        let eye = pass.samples;
-        let tree = SplatTree::build(
-            &pass.targets.position,
-            &pass.targets.normal,
-            scene.diagonal(),
-        );
+        let EyePass {
+            samples: eye,
+            targets,
+            emitted,
+        } = eye_pass(&scene, &camera, &eye_settings);
+        let tree = SplatTree::build(&targets.position, &targets.normal, scene.diagonal());
         timings.t_eye = t.elapsed().as_secs_f64();
 
         let t = Instant::now();
@@ -188,8 +191,9 @@ impl Renderer {
             scene,
             camera,
             eye,
+            targets,
             tree,
-            emitted: pass.emitted,
+            emitted,
             direct,
             pilot,
             acc_indirect: Accumulators::new(slots),
@@ -197,6 +201,7 @@ impl Renderer {
             batches: Vec::new(),
             m_total: [0; 3],
             photons_traced: 0,
+            photons_used: 0,
             counters: SplatCounters::default(),
             timings,
             settings,
@@ -205,6 +210,36 @@ impl Renderer {
 
     pub fn eye_samples(&self) -> &EyeSamples {
         &self.eye
+    }
+
+    pub fn targets(&self) -> &SplatTargets {
+        &self.targets
+    }
+
+    /// Batch-averaged splatted irradiance E (eq. 5) at every splat target, from the indirect
+    /// and caustic photons (`direct` = false) or from the direct photons (`direct` = true).
+    pub fn target_irradiance(&self, direct: bool) -> Vec<Vec3> {
+        let acc = if direct {
+            &self.acc_direct
+        } else {
+            &self.acc_indirect
+        };
+        let b = self.batches.len().max(1) as f32;
+        self.tree
+            .target_slot
+            .iter()
+            .map(|&slot| {
+                let slot = slot as usize;
+                if acc.is_empty() {
+                    return Vec3::ZERO;
+                }
+                Vec3::new(
+                    acc.get(Channel::R, slot),
+                    acc.get(Channel::G, slot),
+                    acc.get(Channel::B, slot),
+                ) / b
+            })
+            .collect()
     }
 
     pub fn tree(&self) -> &SplatTree {
@@ -265,10 +300,11 @@ impl Renderer {
                 budgets,
                 max_emitted_factor: self.settings.max_emitted_factor,
                 seed: self.settings.seed,
-                first_photon: self.photons_traced,
+                first_photon: self.photons_used,
             },
         );
         self.photons_traced += batch.traced;
+        self.photons_used += batch.emitted.iter().copied().max().unwrap_or(0);
         for c in 0..3 {
             self.m_total[c] += batch.stored[c];
         }

@@ -74,10 +74,15 @@ impl Node {
         }
     }
     fn cull(normal: Vec3, cmax: f32) -> Self {
-        // Quantise C_max ∈ [-1, 1] upwards so the test stays conservative.
-        let q = (((cmax + 1.0) * 0.5) * ((1u32 << 30) - 1) as f32).ceil() as u32;
+        // Quantise C_max ∈ [-1, 1] to 24 bits (exact in f32), rounding up so the test stays
+        // conservative.
+        let mut q = (((cmax as f64 + 1.0) * 0.5) * CMAX_LEVELS as f64).ceil() as u32;
+        q = q.min(CMAX_LEVELS);
+        while q < CMAX_LEVELS && decode_cmax(q) < cmax {
+            q += 1;
+        }
         Self {
-            word: KIND_CULL | (q.min((1 << 30) - 1) << 2),
+            word: KIND_CULL | (q << 2),
             data: oct_encode(normal),
         }
     }
@@ -107,12 +112,25 @@ impl Node {
     }
     #[inline(always)]
     fn cmax(&self) -> f32 {
-        (self.word >> 2) as f32 / ((1u32 << 30) - 1) as f32 * 2.0 - 1.0
+        decode_cmax(self.word >> 2)
     }
     #[inline(always)]
     fn normal(&self) -> Vec3A {
         oct_decode(self.data)
     }
+}
+
+/// Quantisation levels of a cull node's C_max.
+const CMAX_LEVELS: u32 = (1 << 24) - 1;
+
+#[inline(always)]
+fn decode_cmax(q: u32) -> f32 {
+    q as f32 / CMAX_LEVELS as f32 * 2.0 - 1.0
+}
+
+/// Angle between unit vectors from their chord (accurate for tiny angles, unlike acos).
+fn small_angle(a: Vec3, b: Vec3) -> f32 {
+    2.0 * (0.5 * (a - b).length()).min(1.0).asin()
 }
 
 /// Octahedral unit-vector encoding, 16 bits per coordinate.
@@ -765,7 +783,7 @@ impl Builder<'_> {
         }
         // Rays with dir·n > sin(α) meet every sample from behind.
         let decoded: Vec3 = oct_decode(oct_encode(mean)).into();
-        let alpha = alpha + decoded.angle_between(mean);
+        let alpha = alpha + small_angle(decoded, mean);
         Some((mean, alpha.sin()))
     }
 }
@@ -780,7 +798,7 @@ mod tests {
         for _ in 0..10_000 {
             let n = crate::sampling::uniform_sphere(rng.next_2d());
             let d: Vec3 = oct_decode(oct_encode(n)).into();
-            assert!(d.angle_between(n) < 1e-4, "{n} -> {d}");
+            assert!(small_angle(d, n) < 1e-4, "{n} -> {d}");
         }
     }
 

@@ -382,8 +382,8 @@ fn icosahedron(center: Vec3, radius: f32) -> (Vec<Vec3>, Vec<Vec3>, Vec<u32>) {
     (p, n, i)
 }
 
-/// A UV sphere with smooth normals.
-pub(crate) fn uv_sphere(
+/// A UV sphere with smooth normals: (positions, normals, indices).
+pub fn uv_sphere(
     center: Vec3,
     radius: f32,
     segments: u32,
@@ -424,10 +424,19 @@ pub(crate) fn uv_sphere(
     (p, n, idx)
 }
 
-/// A minimal glTF 2.0 binary writer for generated scenes: one mesh per object, positions,
-/// normals, u32 indices, metallic-roughness materials, perspective cameras.
+/// The rotation taking −Z to `dir` with +Y kept up (glTF cameras and lights look down −Z).
+fn look_rotation(dir: Vec3) -> glam::Quat {
+    let f = dir.normalize();
+    let r = f.cross(Vec3::Y).normalize_or(Vec3::X);
+    let u = r.cross(f);
+    glam::Quat::from_mat3(&glam::Mat3::from_cols(r, u, -f)).normalize()
+}
+
+/// A minimal glTF 2.0 binary writer for generated scenes (the project's own scenes, tests):
+/// one mesh per object with positions, normals and u32 indices, metallic-roughness materials
+/// given as glTF JSON, perspective cameras and KHR_lights_punctual lights.
 #[derive(Default)]
-pub(crate) struct GlbBuilder {
+pub struct GlbBuilder {
     bin: Vec<u8>,
     views: Vec<Value>,
     accessors: Vec<Value>,
@@ -435,10 +444,12 @@ pub(crate) struct GlbBuilder {
     materials: Vec<Value>,
     nodes: Vec<Value>,
     cameras: Vec<Value>,
+    lights: Vec<Value>,
 }
 
 impl GlbBuilder {
-    pub(crate) fn material(&mut self, m: Value) -> u32 {
+    /// Add a material (a glTF material object); returns its index.
+    pub fn material(&mut self, m: Value) -> u32 {
         self.materials.push(m);
         (self.materials.len() - 1) as u32
     }
@@ -476,7 +487,8 @@ impl GlbBuilder {
         self.accessors.len() - 1
     }
 
-    pub(crate) fn mesh(&mut self, name: &str, p: &[Vec3], n: &[Vec3], idx: &[u32], material: u32) {
+    /// Add a triangle mesh (one primitive) under its own node.
+    pub fn mesh(&mut self, name: &str, p: &[Vec3], n: &[Vec3], idx: &[u32], material: u32) {
         let pos = self.vec3_accessor(p, true);
         let nrm = self.vec3_accessor(n, false);
         let bytes: Vec<u8> = idx.iter().flat_map(|i| i.to_le_bytes()).collect();
@@ -489,13 +501,9 @@ impl GlbBuilder {
             .push(json!({"name": name, "mesh": self.meshes.len() - 1}));
     }
 
-    pub(crate) fn camera(&mut self, name: &str, eye: Vec3, target: Vec3, yfov: f32) {
-        let f = (target - eye).normalize();
-        // Rotation taking −Z to f with +Y kept up.
-        let r = f.cross(Vec3::Y).normalize();
-        let u = r.cross(f);
-        let m = glam::Mat3::from_cols(r, u, -f);
-        let q = glam::Quat::from_mat3(&m).normalize();
+    /// Add a perspective camera at `eye` looking at `target` (vertical field of view in radians).
+    pub fn camera(&mut self, name: &str, eye: Vec3, target: Vec3, yfov: f32) {
+        let q = look_rotation(target - eye);
         self.cameras
             .push(json!({"name": name, "type": "perspective",
             "perspective": {"yfov": yfov, "znear": 0.01, "aspectRatio": 1.0}}));
@@ -504,8 +512,37 @@ impl GlbBuilder {
             "translation": eye.to_array(), "rotation": q.to_array()}));
     }
 
-    pub(crate) fn to_glb(&self) -> Vec<u8> {
-        let root = json!({
+    /// Add a KHR_lights_punctual point light (intensity in W/sr).
+    pub fn point_light(&mut self, name: &str, position: Vec3, color: Vec3, intensity: f32) {
+        self.lights.push(json!({"name": name, "type": "point", "color": color.to_array(), "intensity": intensity}));
+        self.nodes
+            .push(json!({"name": name, "translation": position.to_array(),
+            "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}}));
+    }
+
+    /// Add a KHR_lights_punctual spot light pointing along `direction`.
+    pub fn spot_light(
+        &mut self,
+        name: &str,
+        position: Vec3,
+        direction: Vec3,
+        color: Vec3,
+        intensity: f32,
+        cone: (f32, f32),
+    ) {
+        self.lights.push(
+            json!({"name": name, "type": "spot", "color": color.to_array(), "intensity": intensity,
+            "spot": {"innerConeAngle": cone.0, "outerConeAngle": cone.1}}),
+        );
+        self.nodes
+            .push(json!({"name": name, "translation": position.to_array(),
+            "rotation": look_rotation(direction).to_array(),
+            "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}}));
+    }
+
+    /// The GLB file.
+    pub fn to_glb(&self) -> Vec<u8> {
+        let mut root = json!({
             "asset": {"version": "2.0", "generator": concat!("raysplat ", env!("CARGO_PKG_VERSION"))},
             "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior"],
             "scene": 0,
@@ -518,6 +555,13 @@ impl GlbBuilder {
             "bufferViews": self.views,
             "buffers": [{"byteLength": self.bin.len()}],
         });
+        if !self.lights.is_empty() {
+            root["extensionsUsed"]
+                .as_array_mut()
+                .expect("set above")
+                .push(json!("KHR_lights_punctual"));
+            root["extensions"] = json!({"KHR_lights_punctual": {"lights": self.lights}});
+        }
         let mut json_bytes =
             serde_json::to_vec(&root).expect("serialising a JSON value cannot fail");
         while json_bytes.len() % 4 != 0 {

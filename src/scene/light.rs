@@ -153,7 +153,10 @@ impl Lights {
                 cos_inner,
                 cos_outer,
                 ..
-            } => intensity * 2.0 * PI * (1.0 - 0.5 * (cos_inner + cos_outer)),
+            } => {
+                // ∫ I·falloff dω over the cone: 2π[(1 − cos_i) + (cos_i − cos_o)/3] for the t² ramp.
+                intensity * 2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer) / 3.0)
+            }
             Light::Directional { irradiance, .. } => irradiance * PI * scene_radius * scene_radius,
         }
     }

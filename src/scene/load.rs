@@ -45,8 +45,13 @@ fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<Scene
         source: source.to_string(),
         message,
     };
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice(bytes).map_err(|e| err(format!("not valid glTF: {e}")))?;
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(|e| {
+        if bytes.starts_with(b"glTF") {
+            err(format!("the GLB file is truncated or corrupt ({e})"))
+        } else {
+            err(format!("not valid glTF ({e})"))
+        }
+    })?;
     let buffers = gltf::import_buffers(&document, base, blob)
         .map_err(|e| err(format!("cannot load buffers: {e}")))?;
     check_buffers(&document, &buffers).map_err(err)?;

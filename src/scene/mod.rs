@@ -7,7 +7,7 @@ mod builtin;
 mod light;
 mod load;
 
-pub use builtin::{BuiltinScene, DEFAULT_SCENE_GLB};
+pub use builtin::{BuiltinScene, DEFAULT_SCENE_GLB, GlbBuilder, uv_sphere};
 pub use light::{EmittedPhoton, Light, LightSample, Lights};
 
 use crate::bsdf::Bsdf;

@@ -1,0 +1,314 @@
+//! Analytic checks of the pipeline: irradiance from a point light, eq. 7 on a known geometry,
+//! emitted power, and reproducibility.
+
+mod common;
+
+use glam::Vec3;
+use raysplat::photon::{
+    ClassBudgets, D_TILDE_FRACTION, LightPassSettings, PhotonClass, light_pass,
+};
+use raysplat::render::{DirectMode, RenderSettings, Renderer};
+use raysplat::sampling::Rng;
+use raysplat::scene::Scene;
+use std::f32::consts::PI;
+use std::sync::Arc;
+
+/// Splatted direct photons on a diffuse plane reproduce E = I·cos θ / d² (§4, eq. 5).
+///
+/// Tolerance 3% (the issue's): with 10⁶ photons each ring below averages well over 10⁴
+/// photon splats (statistical error < 1%); the kernel blur of the smooth 1/d³ falloff adds
+/// < 0.5%, and the hemisphere cut-off beyond the hit point (Fig. 4) loses < 1% of the kernel
+/// mass at incidence angles below 22°, the region tested ("away from the edges").
+#[test]
+fn point_light_irradiance_on_a_plane() {
+    let intensity = 2.0;
+    let height = 1.0;
+    let scene = Arc::new(common::point_light_over_plane(intensity, height, 0.5));
+    let settings = RenderSettings {
+        width: 96,
+        height: 96,
+        spp: 1,
+        photons: 1_000_000,
+        fractions: [1.0, 0.0, 0.0],
+        direct: DirectMode::Photons,
+        seed: 7,
+        ..RenderSettings::default()
+    };
+    let mut r = Renderer::new(scene, settings).unwrap();
+    r.run_batch();
+    let e = r.target_irradiance(true);
+    let pos = &r.targets().position;
+    let light = Vec3::new(0.0, height, 0.0);
+    let mut rings = [(0.0f64, 0.0f64, 0usize); 4];
+    for (p, e) in pos.iter().zip(&e) {
+        let radial = (p.x * p.x + p.z * p.z).sqrt();
+        let ring = (radial / 0.1) as usize;
+        if ring >= rings.len() {
+            continue;
+        }
+        let d = light - *p;
+        let analytic = intensity * d.y / d.length().powi(3);
+        rings[ring].0 += e.x as f64;
+        rings[ring].1 += analytic as f64;
+        rings[ring].2 += 1;
+    }
+    for (i, (est, ana, n)) in rings.iter().enumerate() {
+        assert!(*n > 50, "ring {i} has only {n} samples");
+        let rel = est / ana - 1.0;
+        assert!(
+            rel.abs() < 0.03,
+            "ring {i}: splatted {:.4} vs analytic {:.4} ({:+.2}%)",
+            est / *n as f64,
+            ana / *n as f64,
+            100.0 * rel
+        );
+    }
+}
+
+/// eq. 7 on a known path: for a downward area light over a plane, every direct ray has
+/// p̃(x1|x0) = p_e / D(x0, x1) with p_e = (1/A)·cos θ/π, and every ray leaving the plane
+/// after one diffuse bounce multiplies p̃ by (cos θ'/π) / D.
+#[test]
+fn eq7_clamped_path_pdf_on_a_known_geometry() {
+    let side = 0.5;
+    let scene = common::area_light_over_plane(side, 5.0, 1.0);
+    let d_tilde = D_TILDE_FRACTION * scene.diagonal();
+    let batch = light_pass(
+        &scene,
+        &LightPassSettings {
+            budgets: ClassBudgets([2000, 2000, 0]),
+            max_emitted_factor: 4,
+            seed: 3,
+            first_photon: 0,
+        },
+    );
+    let area = side * side;
+    let (mut direct, mut bounced) = (0, 0);
+    for r in &batch.rays {
+        let d = (r.length * r.length).max(d_tilde * d_tilde);
+        match (r.class, r.bounce) {
+            (PhotonClass::Direct, 0) => {
+                let cos = r.dir.dot(-Vec3::Y);
+                let expect = (1.0 / area) * (cos / PI) / d;
+                assert!(
+                    (r.pdf_end / expect - 1.0).abs() < 1e-3,
+                    "direct: {} vs {expect}",
+                    r.pdf_end
+                );
+                direct += 1;
+            }
+            (PhotonClass::Indirect, 1) => {
+                let cos = r.dir.dot(Vec3::Y);
+                let expect = r.pdf_start * (cos / PI) / d;
+                assert!(
+                    (r.pdf_end / expect - 1.0).abs() < 1e-3,
+                    "bounce: {} vs {expect}",
+                    r.pdf_end
+                );
+                bounced += 1;
+            }
+            _ => {}
+        }
+    }
+    assert!(
+        direct >= 2000 && bounced > 500,
+        "{direct} direct, {bounced} bounced"
+    );
+}
+
+/// Photons leave the lights carrying, on average, exactly the lights' power.
+#[test]
+fn emitted_photon_power_equals_light_power() {
+    // Mixed lights: an area light, a point light and a spot light.
+    let mut g = raysplat::scene::GlbBuilder::default();
+    let m = common::white(&mut g);
+    common::plane(&mut g, 2.0, m);
+    let light =
+        g.material(serde_json::json!({"name": "light", "emissiveFactor": [1.0, 0.5, 0.25]}));
+    let p = [
+        Vec3::new(-0.2, 1.0, -0.2),
+        Vec3::new(0.2, 1.0, -0.2),
+        Vec3::new(0.2, 1.0, 0.2),
+        Vec3::new(-0.2, 1.0, 0.2),
+    ];
+    g.mesh("light", &p, &[-Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
+    g.point_light("p", Vec3::new(0.5, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.5), 0.3);
+    g.spot_light(
+        "s",
+        Vec3::new(-0.5, 1.0, 0.0),
+        -Vec3::Y,
+        Vec3::ONE,
+        0.8,
+        (0.2, 0.6),
+    );
+    let scene = Scene::from_glb_bytes(&g.to_glb(), "mixed lights").unwrap();
+    assert_eq!(scene.lights.len(), 4);
+    let n = 400_000;
+    let mut rng = Rng::new(11, 0);
+    let mut sum = glam::DVec3::ZERO;
+    for _ in 0..n {
+        sum += scene
+            .lights
+            .sample_emission(&mut rng)
+            .unwrap()
+            .power
+            .as_dvec3();
+    }
+    let mean = (sum / n as f64).as_vec3();
+    let total = scene.lights.total_power;
+    // Spot photons vary in power with the falloff; 4×10⁵ photons bound the error well below 1%.
+    for c in 0..3 {
+        assert!(
+            (mean[c] / total[c] - 1.0).abs() < 0.01,
+            "channel {c}: {} vs {}",
+            mean[c],
+            total[c]
+        );
+    }
+    // A single uniform area light gives every photon exactly the light's power.
+    let cornell = Scene::default_scene();
+    let mut rng = Rng::new(1, 1);
+    for _ in 0..1000 {
+        let p = cornell.lights.sample_emission(&mut rng).unwrap().power;
+        assert!(
+            (p / cornell.lights.total_power - Vec3::ONE)
+                .abs()
+                .max_element()
+                < 1e-4
+        );
+    }
+}
+
+/// Everything the direct class carries is the emitted power: in the stored light pass the
+/// direct rays' powers sum to the lights' power (each photon's first segment, every photon).
+#[test]
+fn direct_rays_carry_the_light_power() {
+    let scene = Scene::default_scene();
+    let batch = light_pass(
+        &scene,
+        &LightPassSettings {
+            budgets: ClassBudgets([20_000, 0, 0]),
+            max_emitted_factor: 4,
+            seed: 5,
+            first_photon: 0,
+        },
+    );
+    let sum: Vec3 = batch
+        .rays
+        .iter()
+        .filter(|r| r.class == PhotonClass::Direct)
+        .map(|r| r.power)
+        .sum();
+    let total = scene.lights.total_power;
+    assert!(
+        (sum / total - Vec3::ONE).abs().max_element() < 1e-3,
+        "{sum} vs {total}"
+    );
+}
+
+fn small_settings() -> RenderSettings {
+    RenderSettings {
+        width: 64,
+        height: 64,
+        spp: 2,
+        photons: 20_000,
+        seed: 3,
+        ..RenderSettings::default()
+    }
+}
+
+/// The same seed and settings give the same image bit for bit, on 1 or 3 threads: photons and
+/// pixels draw from per-index random streams, and each splat target sums its splats in ray
+/// order inside one task.
+#[test]
+fn same_seed_same_image_on_any_thread_count() {
+    let scene = Arc::new(Scene::default_scene());
+    let render = |threads: usize, direct: DirectMode| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut r = Renderer::new(
+                scene.clone(),
+                RenderSettings {
+                    direct,
+                    ..small_settings()
+                },
+            )
+            .unwrap();
+            r.run_batch();
+            r.run_batch();
+            r.film().rgb
+        })
+    };
+    for direct in [DirectMode::Nee, DirectMode::Photons] {
+        let a = render(1, direct);
+        let b = render(3, direct);
+        assert!(a == b, "{direct:?}: images differ between 1 and 3 threads");
+    }
+}
+
+/// Bandwidth is recomputed from stored rays: re-splatting with the same parameters gives the
+/// same image, with other parameters a different one, and the photon count does not change.
+#[test]
+fn resplat_uses_stored_rays() {
+    let scene = Arc::new(Scene::default_scene());
+    let mut r = Renderer::new(scene, small_settings()).unwrap();
+    r.run_batch();
+    let before = r.film().rgb;
+    let traced = r.photons_traced;
+    let params = r.settings.bandwidth;
+    r.resplat(params);
+    assert!(r.film().rgb == before);
+    r.resplat(raysplat::photon::BandwidthParams {
+        smoothness_c: 0.5,
+        ..params
+    });
+    let after = r.film().rgb;
+    assert!(after != before);
+    assert_eq!(r.photons_traced, traced);
+}
+
+/// Progressive batches: each adds its photons to M, so bandwidths shrink (h ∝ M^(−1/6)) and the
+/// image keeps its brightness while noise falls.
+#[test]
+fn progressive_batches_converge() {
+    let scene = Arc::new(Scene::default_scene());
+    let mut reference = Renderer::new(
+        scene.clone(),
+        RenderSettings {
+            photons: 200_000,
+            ..small_settings()
+        },
+    )
+    .unwrap();
+    for _ in 0..4 {
+        reference.run_batch();
+    }
+    let reference = reference.film();
+    let mut r = Renderer::new(
+        scene,
+        RenderSettings {
+            seed: 99,
+            ..small_settings()
+        },
+    )
+    .unwrap();
+    r.run_batch();
+    let one = raysplat::film::rel_mse(&r.film().indirect, &reference.indirect);
+    for _ in 0..7 {
+        r.run_batch();
+    }
+    let eight = raysplat::film::rel_mse(&r.film().indirect, &reference.indirect);
+    assert_eq!(r.batch_count(), 8);
+    assert!(
+        eight < 0.7 * one,
+        "relMSE after 8 batches {eight} vs after 1 {one}"
+    );
+    let (m1, m8) = (reference.mean(), r.film().mean());
+    assert!(
+        (m8 / m1 - Vec3::ONE).abs().max_element() < 0.05,
+        "{m8} vs {m1}"
+    );
+}

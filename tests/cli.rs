@@ -1,0 +1,169 @@
+//! The command line: a render writes its files and stats; bad scenes give one clear line and a
+//! non-zero exit, never a panic.
+
+mod common;
+
+use glam::Vec3;
+use raysplat::scene::{BuiltinScene, GlbBuilder};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_raysplat"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// Run `render` on a bad file: it must fail with exactly one line naming the file.
+fn expect_clean_error(path: &Path, keyword: &str) {
+    let out = bin()
+        .args(["render", path.to_str().unwrap(), "--out"])
+        .arg(tmp("never.exr"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "{}: exit status {:?}",
+        path.display(),
+        out.status
+    );
+    assert!(
+        !stderr.contains("panicked"),
+        "{}: panicked: {stderr}",
+        path.display()
+    );
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(
+        lines.len(),
+        1,
+        "{}: expected one line, got: {stderr}",
+        path.display()
+    );
+    let name = path.file_name().unwrap().to_str().unwrap();
+    assert!(
+        lines[0].contains(name),
+        "error does not name the file: {stderr}"
+    );
+    assert!(
+        lines[0].to_lowercase().contains(keyword),
+        "error for {name} does not mention '{keyword}': {stderr}"
+    );
+}
+
+#[test]
+fn truncated_glb_is_a_clean_error() {
+    let bytes = BuiltinScene::CornellClassic.to_glb();
+    let path = tmp("truncated.glb");
+    std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+    expect_clean_error(&path, "truncated or corrupt");
+}
+
+#[test]
+fn out_of_range_indices_are_a_clean_error() {
+    let mut g = GlbBuilder::default();
+    let m = g.material(json!({"emissiveFactor": [1.0, 1.0, 1.0]}));
+    let p = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    g.mesh("bad", &p, &[Vec3::Z; 3], &[0, 1, 999], m);
+    let path = tmp("bad_indices.glb");
+    std::fs::write(&path, g.to_glb()).unwrap();
+    expect_clean_error(&path, "index 999 is out of range");
+}
+
+#[test]
+fn nan_positions_are_a_clean_error() {
+    let mut g = GlbBuilder::default();
+    let m = g.material(json!({"emissiveFactor": [1.0, 1.0, 1.0]}));
+    let p = [Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Y];
+    g.mesh("nan", &p, &[Vec3::Z; 3], &[0, 1, 2], m);
+    let path = tmp("nan_positions.glb");
+    std::fs::write(&path, g.to_glb()).unwrap();
+    expect_clean_error(&path, "nan");
+}
+
+#[test]
+fn scene_without_lights_is_a_clean_error() {
+    let mut g = GlbBuilder::default();
+    let m = common::white(&mut g);
+    common::plane(&mut g, 1.0, m);
+    let path = tmp("no_lights.glb");
+    std::fs::write(&path, g.to_glb()).unwrap();
+    expect_clean_error(&path, "no light");
+}
+
+#[test]
+fn missing_file_is_a_clean_error() {
+    expect_clean_error(&tmp("does_not_exist.glb"), "cannot read");
+}
+
+#[test]
+fn render_writes_images_and_stats() {
+    let (exr, png, stats) = (tmp("r.exr"), tmp("r.png"), tmp("r.json"));
+    for p in [&exr, &png, &stats] {
+        let _ = std::fs::remove_file(p);
+    }
+    let out = bin()
+        .args([
+            "render",
+            "--width",
+            "48",
+            "--height",
+            "40",
+            "--spp",
+            "1",
+            "--photons",
+            "5000",
+        ])
+        .arg("--out")
+        .arg(&exr)
+        .arg("--png")
+        .arg(&png)
+        .arg("--stats")
+        .arg(&stats)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("T_E") && stdout.contains("T_S"), "{stdout}");
+    let (w, h, px) = raysplat::film::read_exr(&exr).unwrap();
+    assert_eq!((w, h), (48, 40));
+    assert!(px.iter().all(|c| c.is_finite()));
+    let img = image::open(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (48, 40));
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    for key in [
+        "t_eye",
+        "t_light",
+        "t_splat",
+        "t_total",
+        "photons",
+        "photon_rays",
+        "eye_samples",
+        "peak_rss_mb",
+        "tested_pairs",
+        "accepted_pairs",
+    ] {
+        assert!(j[key].is_number(), "stats lack {key}: {j}");
+    }
+    // Eye samples exist where camera rays reach a diffuse surface (most of the 48×40 pixels).
+    let eye = j["eye_samples"].as_u64().unwrap();
+    assert!((1000..=2 * 48 * 40).contains(&eye), "{eye} eye samples");
+    assert!(j["accepted_pairs"].as_u64().unwrap() <= j["tested_pairs"].as_u64().unwrap());
+    assert!(j["photon_rays"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn bad_parameters_are_refused() {
+    let out = bin().args(["render", "--s", "1.5"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--s"));
+}

@@ -1,0 +1,61 @@
+//! Scenes built in tests.
+#![allow(dead_code)]
+
+use glam::Vec3;
+use raysplat::scene::{GlbBuilder, Scene};
+use serde_json::json;
+
+/// A square diffuse plane at y = 0 (half size `half`), front face up.
+pub fn plane(g: &mut GlbBuilder, half: f32, material: u32) {
+    let p = [
+        Vec3::new(-half, 0.0, -half),
+        Vec3::new(half, 0.0, -half),
+        Vec3::new(half, 0.0, half),
+        Vec3::new(-half, 0.0, half),
+    ];
+    // Counter-clockwise seen from +Y.
+    g.mesh("plane", &p, &[Vec3::Y; 4], &[0, 2, 1, 0, 3, 2], material);
+}
+
+pub fn white(g: &mut GlbBuilder) -> u32 {
+    g.material(json!({"name": "white", "pbrMetallicRoughness": {
+        "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}))
+}
+
+/// A plane under a point light of intensity `intensity` W/sr at height `height`, seen from
+/// straight above by a camera covering ±`view` around the foot of the light.
+pub fn point_light_over_plane(intensity: f32, height: f32, view: f32) -> Scene {
+    let mut g = GlbBuilder::default();
+    let m = white(&mut g);
+    plane(&mut g, 4.0, m);
+    g.point_light("lamp", Vec3::new(0.0, height, 0.0), Vec3::ONE, intensity);
+    let cam_h = 2.0 * height;
+    g.camera(
+        "top",
+        Vec3::new(0.0, cam_h, 0.0),
+        Vec3::ZERO,
+        2.0 * (view / cam_h).atan(),
+    );
+    Scene::from_glb_bytes(&g.to_glb(), "point light over plane").expect("test scene loads")
+}
+
+/// A downward-facing square area light (side `side`, radiance `radiance`) at height `height`
+/// over the plane.
+pub fn area_light_over_plane(side: f32, radiance: f32, height: f32) -> Scene {
+    let mut g = GlbBuilder::default();
+    let m = white(&mut g);
+    plane(&mut g, 4.0, m);
+    let light = g.material(json!({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": radiance}}}));
+    let h = 0.5 * side;
+    let p = [
+        Vec3::new(-h, height, -h),
+        Vec3::new(h, height, -h),
+        Vec3::new(h, height, h),
+        Vec3::new(-h, height, h),
+    ];
+    // Counter-clockwise seen from below (front face down).
+    g.mesh("light", &p, &[-Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
+    g.camera("top", Vec3::new(0.0, 2.0 * height, 0.01), Vec3::ZERO, 0.6);
+    Scene::from_glb_bytes(&g.to_glb(), "area light over plane").expect("test scene loads")
+}
