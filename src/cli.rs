@@ -160,14 +160,15 @@ impl RenderArgs {
     }
 
     fn settings(&self) -> Result<RenderSettings, String> {
-        if !(self.s > 0.0 && self.s <= 1.0) {
+        let positive = |x: f32| x.is_finite() && x > 0.0;
+        if !positive(self.s) || self.s > 1.0 {
             return Err(format!("--s must be in (0, 1], got {}", self.s));
         }
-        if !(self.c > 0.0 && self.c.is_finite()) || !(self.r > 0.0 && self.r.is_finite()) {
+        if !positive(self.c) || !positive(self.r) {
             return Err("--c and --r must be positive".into());
         }
         let f = [self.fractions[0], self.fractions[1], self.fractions[2]];
-        if f.iter().any(|x| !(*x >= 0.0)) || f.iter().sum::<f32>() <= 0.0 {
+        if f.iter().any(|x| x.is_nan() || *x < 0.0) || f.iter().sum::<f32>() <= 0.0 {
             return Err("--fractions must be three non-negative numbers, not all zero".into());
         }
         Ok(RenderSettings {

@@ -258,7 +258,7 @@ fn trace_photon(
             // to where it leaves the scene bounds.
             None => exit_distance(scene, origin, dir),
         };
-        if !(length > 0.0) {
+        if length.is_nan() || length <= 0.0 {
             break;
         }
         // eq. 7: p̃(x1|x0) = p_e/D(x0,x1); p̃(x_{i+1}|x_i) = p̃(x_i|x_{i−1})·p_s⊥/D(x_i,x_{i+1})
@@ -344,7 +344,7 @@ pub fn pilot(scene: &Scene, seed: u64) -> Pilot {
         .map(|c| {
             let mut out = Vec::new();
             for id in c * 512..(c + 1) * 512 {
-                trace_photon(scene, id, seed ^ 0x5eed_0f_9110, [true; 3], &mut out);
+                trace_photon(scene, id, seed ^ 0x005e_ed0f_9110, [true; 3], &mut out);
             }
             out
         })

@@ -360,15 +360,16 @@ impl Renderer {
                 *d += *s;
             }
         }
-        for i in 0..(w * h) as usize {
-            let d = direct[i] + self.emitted[i];
+        for (i, (d, e)) in direct.iter().zip(&self.emitted).enumerate() {
+            let d = *d + *e;
             let ind = map.diffuse[i];
+            let info = &map.info[i];
             film.direct[i] = d;
             film.indirect[i] = ind;
             film.rgb[i] = d + ind;
-            film.bandwidth[i] = map.info[i].mean_bandwidth;
-            film.kernel_weight[i] = map.info[i].kernel_weight;
-            film.harmonic_distance[i] = map.info[i].harmonic_mean_distance;
+            film.bandwidth[i] = info.mean_bandwidth;
+            film.kernel_weight[i] = info.kernel_weight;
+            film.harmonic_distance[i] = info.harmonic_mean_distance;
         }
         self.timings.t_resolve += t.elapsed().as_secs_f64();
         film

@@ -134,7 +134,7 @@ impl Distribution1D {
     /// `None` when there is no positive weight.
     pub fn new(weights: &[f64]) -> Option<Self> {
         let total: f64 = weights.iter().filter(|w| w.is_finite() && **w > 0.0).sum();
-        if !(total > 0.0) || !total.is_finite() {
+        if total.is_nan() || total <= 0.0 || !total.is_finite() {
             return None;
         }
         let mut acc = 0.0f64;

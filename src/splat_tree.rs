@@ -463,12 +463,10 @@ impl SplatTree {
                         out.push((lf.first, node.count() as u32));
                     }
                 }
-                KIND_CULL => {
-                    // Every sample below faces away from the ray (§7.1 backface-culling node).
-                    if cone.dir.dot(node.normal()) <= node.cmax() {
-                        idx += 1;
-                        descend = true;
-                    }
+                // Cull node: every sample below faces away from rays with dir·n > C_max (§7.1).
+                KIND_CULL if cone.dir.dot(node.normal()) <= node.cmax() => {
+                    idx += 1;
+                    descend = true;
                 }
                 _ => {}
             }
@@ -655,11 +653,12 @@ impl Builder<'_> {
         tmax: Vec3A,
     ) {
         let n = hi - lo;
-        if !in_cull && n >= LEAF_SIZE {
-            if let Some((normal, cmax)) = self.normal_cone(lo, hi) {
-                self.nodes.push(Node::cull(normal, cmax));
-                in_cull = true;
-            }
+        if !in_cull
+            && n >= LEAF_SIZE
+            && let Some((normal, cmax)) = self.normal_cone(lo, hi)
+        {
+            self.nodes.push(Node::cull(normal, cmax));
+            in_cull = true;
         }
         if is_leaf {
             self.nodes.push(Node::leaf(self.leaves.len(), n));

@@ -167,3 +167,37 @@ fn bad_parameters_are_refused() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--s"));
 }
+
+#[test]
+fn time_budget_renders_progressive_batches() {
+    let stats = tmp("budget.json");
+    let out = bin()
+        .args([
+            "render",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--spp",
+            "1",
+            "--photons",
+            "4000",
+        ])
+        .args(["--time-budget", "1.0", "--threads", "2", "--out"])
+        .arg(tmp("budget.exr"))
+        .arg("--stats")
+        .arg(&stats)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    // Batches of 4,000 photons at 32×32 take milliseconds: a one-second budget runs many.
+    assert!(j["batches"].as_u64().unwrap() >= 3, "{j}");
+    assert_eq!(j["threads"], 2);
+    let per_batch = 4000 * 7 / 10; // indirect + caustic fractions with NEE
+    assert!(j["photon_rays"].as_u64().unwrap() >= 3 * per_batch as u64 - 3);
+}

@@ -92,7 +92,7 @@ impl Lights {
             let e2 = Vec3::from(t.v2) - v0;
             let c = e1.cross(e2);
             let area = 0.5 * c.length();
-            if !(area > 0.0) || !area.is_finite() {
+            if area.is_nan() || area <= 0.0 || !area.is_finite() {
                 continue;
             }
             lights.push(Light::Area {

@@ -338,7 +338,7 @@ fn add_mesh(
                 positions[c as usize],
             );
             let cross = (pb - pa).cross(pc - pa);
-            if !(cross.length_squared() > 0.0) {
+            if cross.length_squared().is_nan() || cross.length_squared() <= 0.0 {
                 stats.degenerate += 1;
                 continue;
             }
