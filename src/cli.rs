@@ -1,5 +1,5 @@
-//! Command-line entry points: `render`, `bench`, `scenes`. With no command the embedded
-//! default scene is rendered to `raysplat.exr` and `raysplat.png`.
+//! Command-line entry points: `view` (the default: the interactive previewer), `render`,
+//! `bench`, `scenes`.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -25,6 +25,11 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Open the interactive previewer (the default when no command is given).
+    View {
+        /// A .gltf/.glb file; without it, the embedded CORNELL BOX I.
+        scene: Option<PathBuf>,
+    },
     /// Render a scene headless to EXR (and PNG).
     Render(RenderArgs),
     /// Reproduce Table 2's CORNELL BOX I row and report timings and memory.
@@ -119,23 +124,8 @@ struct BenchArgs {
 pub fn main() -> i32 {
     let cli = Cli::parse();
     let result = match cli.command {
-        None => {
-            let args = RenderArgs::parse_defaults();
-            let out = PathBuf::from("raysplat.exr");
-            let png = PathBuf::from("raysplat.png");
-            render(RenderArgs {
-                out: out.clone(),
-                png: Some(png.clone()),
-                ..args
-            })
-            .map(|_| {
-                eprintln!(
-                    "rendered the embedded CORNELL BOX I to {} and {}",
-                    out.display(),
-                    png.display()
-                )
-            })
-        }
+        None => view(None),
+        Some(Command::View { scene }) => view(scene),
         Some(Command::Render(args)) => render(args),
         Some(Command::Bench(args)) => bench(args),
         Some(Command::Scenes { out }) => write_scenes(&out),
@@ -150,15 +140,6 @@ pub fn main() -> i32 {
 }
 
 impl RenderArgs {
-    fn parse_defaults() -> Self {
-        #[derive(Parser)]
-        struct Wrap {
-            #[command(flatten)]
-            args: RenderArgs,
-        }
-        Wrap::parse_from(["raysplat"]).args
-    }
-
     fn settings(&self) -> Result<RenderSettings, String> {
         let positive = |x: f32| x.is_finite() && x > 0.0;
         if !positive(self.s) || self.s > 1.0 {
@@ -190,6 +171,30 @@ impl RenderArgs {
             ..RenderSettings::default()
         })
     }
+}
+
+/// The previewer window.
+fn view(scene: Option<PathBuf>) -> Result<(), String> {
+    let options = eframe::NativeOptions {
+        renderer: eframe::Renderer::Wgpu,
+        viewport: egui::ViewportBuilder::default()
+            .with_title("raysplat")
+            .with_inner_size([1280.0, 860.0])
+            .with_drag_and_drop(true),
+        ..Default::default()
+    };
+    let app_options = raysplat::app::AppOptions {
+        scene,
+        settings: None,
+    };
+    eframe::run_native(
+        "raysplat",
+        options,
+        Box::new(move |cc| Ok(Box::new(raysplat::app::App::new(cc, app_options)))),
+    )
+    .map_err(|e| {
+        format!("cannot open the previewer window ({e}); without a display, use `raysplat render`")
+    })
 }
 
 fn load_scene(arg: Option<&str>) -> Result<Scene, String> {
@@ -403,6 +408,10 @@ fn bench(args: BenchArgs) -> Result<(), String> {
             }),
         );
     }
+    for (name, ms) in preview_bench()? {
+        println!("{name:<24} {ms:8.0} ms");
+        rows.insert(name.to_string(), json!({ "ms": ms }));
+    }
     if let Some(path) = &args.json {
         // Keep rows other benchmarks wrote into the same file.
         let mut doc: serde_json::Value = std::fs::read(path)
@@ -423,6 +432,60 @@ fn bench(args: BenchArgs) -> Result<(), String> {
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The previewer's latencies, driving the worker without a window (500×500×1, 20k photons per
+/// batch, the embedded CORNELL BOX I).
+fn preview_bench() -> Result<Vec<(&'static str, f64)>, String> {
+    use raysplat::session::{Command as C, Frame, Session, SessionConfig};
+    let timeout = Duration::from_secs(60);
+    let wait = |s: &Session, pred: &dyn Fn(&Frame) -> bool| -> Result<Frame, String> {
+        let start = Instant::now();
+        while start.elapsed() < timeout {
+            if let Some(f) = s.wait_frame(Duration::from_millis(20))
+                && pred(&f)
+            {
+                return Ok(f);
+            }
+        }
+        Err("the worker published no frame in time".into())
+    };
+    let config = SessionConfig::default();
+    let t = Instant::now();
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+    wait(&session, &|f| f.stats.batches >= 1)?;
+    let first = t.elapsed().as_secs_f64() * 1e3;
+    // Store about 200k rays (with NEE, 70% of each batch's M is stored), then stop tracing.
+    let f = wait(&session, &|f| f.stats.photon_rays >= 200_000)?;
+    session.send(C::Pause);
+    let f = wait(&session, &|g| g.stats.paused && g.seq > f.seq)?;
+    let mut params = f.settings.bandwidth;
+    params.smoothness_c = 0.7;
+    let t = Instant::now();
+    session.send(C::SetBandwidth(params));
+    let g = wait(&session, &|g| g.generation > f.generation)?;
+    let resplat = t.elapsed().as_secs_f64() * 1e3;
+    wait(&session, &|h| {
+        h.generation == g.generation && !h.stats.resplat_pending
+    })?;
+    let resplat_full = t.elapsed().as_secs_f64() * 1e3;
+    let mut camera = g.camera.clone();
+    camera.position += camera.right() * 0.05;
+    let t = Instant::now();
+    session.send(C::SetCamera {
+        camera,
+        interactive: true,
+    });
+    wait(&session, &|h| {
+        h.generation > g.generation && h.stats.batches >= 1
+    })?;
+    let camera_ms = t.elapsed().as_secs_f64() * 1e3;
+    Ok(vec![
+        ("preview_first_image_ms", first),
+        ("preview_resplat_ms", resplat),
+        ("preview_resplat_full_ms", resplat_full),
+        ("preview_camera_ms", camera_ms),
+    ])
 }
 
 fn write_scenes(out: &Path) -> Result<(), String> {

@@ -2,6 +2,9 @@
 //! Every file is written to a temporary name in the same folder and renamed into place, so a
 //! failed or interrupted write never leaves a partial file under the final name.
 
+pub mod display;
+pub mod snapshot;
+
 use glam::Vec3;
 use std::io::Write;
 use std::path::{Path, PathBuf};

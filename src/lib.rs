@@ -5,6 +5,7 @@
 //! eq. 8) → `splat` (Alg. 1, kernel §5) → `radiance_map` → film (`render`, `film`), with
 //! explicit direct light in `direct`.
 
+pub mod app;
 pub mod bsdf;
 pub mod direct;
 pub mod eye;
@@ -14,5 +15,6 @@ pub mod radiance_map;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod session;
 pub mod splat;
 pub mod splat_tree;

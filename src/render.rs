@@ -1,10 +1,12 @@
 //! The renderer: pipeline state and the progressive batch step shared by the headless
 //! `render` command and the previewer's worker.
 //!
-//! It owns the eye samples (in splat-tree order), the splat tree, explicit direct light,
-//! the stored photon batches and the splat accumulators. Photon rays are view-independent
-//! and bandwidth is a pure function of stored ray data, so [`Renderer::resplat`] recomputes
-//! the image for new C/S/R without re-tracing.
+//! It owns the eye side (eye samples, splat targets, splat tree, explicit direct light), the
+//! stored photon batches and the splat accumulators. Photon rays are view-independent and
+//! bandwidth is a pure function of stored ray data, so new C/S/R ([`Renderer::begin_resplat`])
+//! and a new view ([`Renderer::set_view`]) re-splat stored rays without re-tracing. Re-splatting
+//! is progressive: [`Renderer::step`] splats one stored batch (newest first) per call, and the
+//! film averages over the batches splatted so far.
 
 use crate::direct::direct_light;
 use crate::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
@@ -101,10 +103,17 @@ struct StoredBatch {
     m: [u64; 3],
 }
 
-pub struct Renderer {
-    pub scene: Arc<Scene>,
-    pub settings: RenderSettings,
-    pub camera: Camera,
+/// What [`Renderer::step`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// Re-splatted one stored batch with the current parameters or view.
+    Resplatted,
+    /// Traced and splatted a new batch.
+    Traced,
+}
+
+/// The eye side of a render: everything that depends on the camera and resolution.
+struct EyeSide {
     eye: EyeSamples,
     targets: SplatTargets,
     tree: SplatTree,
@@ -112,17 +121,32 @@ pub struct Renderer {
     emitted: Vec<Vec3>,
     /// Per pixel: NEE direct light (eye weights applied).
     direct: Vec<Vec3>,
-    pilot: Pilot,
     /// Accumulators for indirect and caustic photons, and for direct photons when splatted.
     acc_indirect: Accumulators,
     acc_direct: Accumulators,
+}
+
+pub struct Renderer {
+    pub scene: Arc<Scene>,
+    pub settings: RenderSettings,
+    pub camera: Camera,
+    side: EyeSide,
+    pilot: Pilot,
     batches: Vec<StoredBatch>,
-    /// Stored rays per class so far (each batch's M, eq. 8).
+    /// Stored batches (indices into `batches`) still to be re-splatted, next last.
+    resplat_queue: Vec<usize>,
+    /// Batches whose light the accumulators hold.
+    splatted: usize,
+    /// Batches dropped from the store (over budget) whose light the accumulators still hold.
+    folded: usize,
+    /// Stored rays per class over all traced batches (each batch's M, eq. 8).
     m_total: [u64; 3],
     /// Photons traced (depends on thread count: the last wave may trace beyond the budget).
     pub photons_traced: u64,
     /// Photons whose rays were kept; the next batch's photon indices start here.
     photons_used: u64,
+    /// Keep at most this many photon rays; older batches are folded (see `fold_over_budget`).
+    pub max_stored_rays: usize,
     pub counters: SplatCounters,
     pub timings: Timings,
 }
@@ -130,9 +154,6 @@ pub struct Renderer {
 impl Renderer {
     /// Eye pass, splat tree, direct light and pilot for `scene` as seen by the settings' camera.
     pub fn new(scene: Arc<Scene>, settings: RenderSettings) -> Result<Self, String> {
-        if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
-            return Err("width, height and samples per pixel must be positive".into());
-        }
         let camera = scene
             .camera(settings.camera.as_deref())
             .cloned()
@@ -148,60 +169,33 @@ impl Renderer {
                         .join(", ")
                 )
             })?;
+        Self::with_camera(scene, settings, camera)
+    }
+
+    /// As [`Renderer::new`] with an explicit camera.
+    pub fn with_camera(
+        scene: Arc<Scene>,
+        settings: RenderSettings,
+        camera: Camera,
+    ) -> Result<Self, String> {
         let mut timings = Timings::default();
-
-        let t = Instant::now();
-        let eye_settings = EyeSettings {
-            width: settings.width,
-            height: settings.height,
-            spp: settings.spp,
-            max_specular_depth: settings.max_specular_depth,
-            seed: settings.seed,
-            merge_targets: settings.merge_targets,
-        };
-        let EyePass {
-            samples: eye,
-            targets,
-            emitted,
-        } = eye_pass(&scene, &camera, &eye_settings);
-        let tree = SplatTree::build(&targets.position, &targets.normal, scene.diagonal());
-        timings.t_eye = t.elapsed().as_secs_f64();
-
-        let t = Instant::now();
-        let mut direct = vec![Vec3::ZERO; (settings.width * settings.height) as usize];
-        if settings.direct == DirectMode::Nee {
-            let per_sample = direct_light(&scene, &eye, settings.nee_samples, settings.seed);
-            for (i, l) in per_sample.iter().enumerate() {
-                direct[eye.pixel[i] as usize] += eye.weight[i] * *l;
-            }
-        }
-        timings.t_direct = t.elapsed().as_secs_f64();
-
+        let side = eye_side(&scene, &camera, &settings, &mut timings)?;
         let t = Instant::now();
         let pilot = pilot(&scene, settings.seed);
         timings.t_light = t.elapsed().as_secs_f64();
-
-        let slots = tree.slots();
-        let acc_direct = if settings.direct == DirectMode::Photons {
-            Accumulators::new(slots)
-        } else {
-            Accumulators::default()
-        };
         Ok(Self {
             scene,
             camera,
-            eye,
-            targets,
-            tree,
-            emitted,
-            direct,
+            side,
             pilot,
-            acc_indirect: Accumulators::new(slots),
-            acc_direct,
             batches: Vec::new(),
+            resplat_queue: Vec::new(),
+            splatted: 0,
+            folded: 0,
             m_total: [0; 3],
             photons_traced: 0,
             photons_used: 0,
+            max_stored_rays: usize::MAX,
             counters: SplatCounters::default(),
             timings,
             settings,
@@ -209,23 +203,74 @@ impl Renderer {
     }
 
     pub fn eye_samples(&self) -> &EyeSamples {
-        &self.eye
+        &self.side.eye
     }
 
     pub fn targets(&self) -> &SplatTargets {
-        &self.targets
+        &self.side.targets
+    }
+
+    pub fn tree(&self) -> &SplatTree {
+        &self.side.tree
+    }
+
+    pub fn pilot(&self) -> &Pilot {
+        &self.pilot
+    }
+
+    /// Batches whose light the image holds (stored and splatted, plus folded).
+    pub fn batch_count(&self) -> usize {
+        self.splatted + self.folded
+    }
+
+    /// Batches whose rays are stored.
+    pub fn stored_batches(&self) -> usize {
+        self.batches.len()
+    }
+
+    /// Batches dropped from the ray store whose light the image still holds.
+    pub fn folded_batches(&self) -> usize {
+        self.folded
+    }
+
+    /// True while stored batches wait to be re-splatted after a parameter or view change.
+    pub fn resplat_pending(&self) -> bool {
+        !self.resplat_queue.is_empty()
+    }
+
+    /// Stored photon rays over all batches.
+    pub fn photon_rays(&self) -> usize {
+        self.batches.iter().map(|b| b.rays.len()).sum()
+    }
+
+    /// Photon rays per class over all traced batches.
+    pub fn photon_rays_per_class(&self) -> [u64; 3] {
+        self.m_total
+    }
+
+    pub fn photon_memory_bytes(&self) -> usize {
+        self.photon_rays() * std::mem::size_of::<PhotonRay>()
+    }
+
+    /// Bytes held by eye samples, splat tree and accumulators.
+    pub fn splat_memory_bytes(&self) -> usize {
+        self.side.eye.memory_bytes()
+            + self.side.tree.memory_bytes()
+            + self.side.acc_indirect.memory_bytes()
+            + self.side.acc_direct.memory_bytes()
     }
 
     /// Batch-averaged splatted irradiance E (eq. 5) at every splat target, from the indirect
     /// and caustic photons (`direct` = false) or from the direct photons (`direct` = true).
     pub fn target_irradiance(&self, direct: bool) -> Vec<Vec3> {
         let acc = if direct {
-            &self.acc_direct
+            &self.side.acc_direct
         } else {
-            &self.acc_indirect
+            &self.side.acc_indirect
         };
-        let b = self.batches.len().max(1) as f32;
-        self.tree
+        let b = self.batch_count().max(1) as f32;
+        self.side
+            .tree
             .target_slot
             .iter()
             .map(|&slot| {
@@ -242,32 +287,6 @@ impl Renderer {
             .collect()
     }
 
-    pub fn tree(&self) -> &SplatTree {
-        &self.tree
-    }
-
-    pub fn pilot(&self) -> &Pilot {
-        &self.pilot
-    }
-
-    pub fn batch_count(&self) -> usize {
-        self.batches.len()
-    }
-
-    /// Stored photon rays over all batches.
-    pub fn photon_rays(&self) -> usize {
-        self.batches.iter().map(|b| b.rays.len()).sum()
-    }
-
-    /// Stored photon rays per class.
-    pub fn photon_rays_per_class(&self) -> [u64; 3] {
-        self.m_total
-    }
-
-    pub fn photon_memory_bytes(&self) -> usize {
-        self.photon_rays() * std::mem::size_of::<PhotonRay>()
-    }
-
     fn splat_direct(&self) -> bool {
         self.settings.direct == DirectMode::Photons
     }
@@ -278,16 +297,30 @@ impl Renderer {
             .map(|c| Bandwidth::new(&self.settings.bandwidth, &self.pilot, m[c as usize], mean_r))
     }
 
-    /// Bytes held by eye samples, splat tree and accumulators.
-    pub fn splat_memory_bytes(&self) -> usize {
-        self.eye.memory_bytes()
-            + self.tree.memory_bytes()
-            + self.acc_indirect.memory_bytes()
-            + self.acc_direct.memory_bytes()
+    /// Do one unit of work: re-splat the next stored batch if a re-splat is pending, otherwise
+    /// trace and splat a new batch.
+    pub fn step(&mut self) -> Step {
+        if let Some(b) = self.resplat_queue.pop() {
+            let t = Instant::now();
+            let batch = std::mem::take(&mut self.batches[b].rays);
+            let m = self.batches[b].m;
+            self.splat_rays(&batch, m);
+            self.batches[b].rays = batch;
+            self.splatted += 1;
+            self.timings.t_splat += t.elapsed().as_secs_f64();
+            Step::Resplatted
+        } else {
+            self.run_batch();
+            Step::Traced
+        }
     }
 
     /// Trace one light pass of M photons, splat it with the bandwidth for the total M so far.
+    /// Finishes a pending re-splat first.
     pub fn run_batch(&mut self) {
+        while self.resplat_pending() {
+            self.step();
+        }
         let t = Instant::now();
         let budgets = ClassBudgets::from_fractions(
             self.settings.photons,
@@ -313,54 +346,99 @@ impl Renderer {
         let t = Instant::now();
         let m = self.m_total;
         self.splat_rays(&batch.rays, m);
+        self.splatted += 1;
         self.batches.push(StoredBatch {
             rays: batch.rays,
             m,
         });
+        self.fold_over_budget();
         self.timings.t_splat += t.elapsed().as_secs_f64();
+    }
+
+    /// Drop the oldest stored batches beyond the ray budget; their light stays in the
+    /// accumulators (folded) until the next re-splat, which can only use stored rays.
+    fn fold_over_budget(&mut self) {
+        let mut stored = self.photon_rays();
+        let mut drop = 0;
+        while self.batches.len() - drop > 1 && stored > self.max_stored_rays {
+            stored -= self.batches[drop].rays.len();
+            drop += 1;
+        }
+        if drop > 0 {
+            self.batches.drain(..drop);
+            self.folded += drop;
+            self.splatted -= drop;
+        }
     }
 
     fn splat_rays(&mut self, rays: &[PhotonRay], m: [u64; 3]) {
         let bw = self.bandwidths(m);
         let indirect = prepare(rays, &bw, [false, true, true]);
-        self.counters += splat(&self.tree, &indirect, &mut self.acc_indirect);
+        self.counters += splat(&self.side.tree, &indirect, &mut self.side.acc_indirect);
         if self.splat_direct() {
             let direct = prepare(rays, &bw, [true, false, false]);
-            self.counters += splat(&self.tree, &direct, &mut self.acc_direct);
+            self.counters += splat(&self.side.tree, &direct, &mut self.side.acc_direct);
         }
     }
 
-    /// Re-splat every stored batch with new bandwidth parameters (no re-tracing).
-    pub fn resplat(&mut self, params: BandwidthParams) {
-        let t = Instant::now();
+    /// Start re-splatting every stored batch with new bandwidth parameters (no re-tracing).
+    /// Folded batches cannot be re-splatted: their light leaves the image.
+    pub fn begin_resplat(&mut self, params: BandwidthParams) {
         self.settings.bandwidth = params;
-        self.acc_indirect.clear();
-        self.acc_direct.clear();
-        let batches = std::mem::take(&mut self.batches);
-        for b in &batches {
-            self.splat_rays(&b.rays, b.m);
+        self.side.acc_indirect.clear();
+        self.side.acc_direct.clear();
+        self.splatted = 0;
+        self.folded = 0;
+        // Newest first: it has the smallest bandwidth, so the first frame is the sharpest.
+        self.resplat_queue = (0..self.batches.len()).collect();
+    }
+
+    /// Re-splat every stored batch with new bandwidth parameters, all at once.
+    pub fn resplat(&mut self, params: BandwidthParams) {
+        self.begin_resplat(params);
+        while self.resplat_pending() {
+            self.step();
         }
-        self.batches = batches;
-        self.timings.t_splat += t.elapsed().as_secs_f64();
+    }
+
+    /// A new camera, resolution or sample count: new eye pass and splat tree, then a
+    /// progressive re-splat of the stored rays (photon rays do not depend on the view).
+    pub fn set_view(
+        &mut self,
+        camera: Camera,
+        width: u32,
+        height: u32,
+        spp: u32,
+    ) -> Result<(), String> {
+        let mut settings = self.settings.clone();
+        settings.width = width;
+        settings.height = height;
+        settings.spp = spp;
+        self.side = eye_side(&self.scene, &camera, &settings, &mut self.timings)?;
+        self.settings = settings;
+        self.camera = camera;
+        self.begin_resplat(self.settings.bandwidth);
+        Ok(())
     }
 
     /// Compose the film: emission + direct + splatted light, with AOVs.
     pub fn film(&mut self) -> Film {
         let t = Instant::now();
         let (w, h) = (self.settings.width, self.settings.height);
-        let b = self.batches.len() as u32;
+        let b = self.batch_count() as u32;
+        let side = &self.side;
         let mut map = RadianceMap::new(w, h);
-        map.resolve_from(&self.eye, &self.tree.target_slot, &self.acc_indirect, b);
+        map.resolve_from(&side.eye, &side.tree.target_slot, &side.acc_indirect, b);
         let mut film = Film::new(w, h);
-        let mut direct = self.direct.clone();
-        if self.splat_direct() {
+        let mut direct = side.direct.clone();
+        if self.settings.direct == DirectMode::Photons {
             let mut dmap = RadianceMap::new(w, h);
-            dmap.resolve_from(&self.eye, &self.tree.target_slot, &self.acc_direct, b);
+            dmap.resolve_from(&side.eye, &side.tree.target_slot, &side.acc_direct, b);
             for (d, s) in direct.iter_mut().zip(&dmap.diffuse) {
                 *d += *s;
             }
         }
-        for (i, (d, e)) in direct.iter().zip(&self.emitted).enumerate() {
+        for (i, (d, e)) in direct.iter().zip(&side.emitted).enumerate() {
             let d = *d + *e;
             let ind = map.diffuse[i];
             let info = &map.info[i];
@@ -374,6 +452,60 @@ impl Renderer {
         self.timings.t_resolve += t.elapsed().as_secs_f64();
         film
     }
+}
+
+/// Eye pass, splat tree and explicit direct light for one view.
+fn eye_side(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    timings: &mut Timings,
+) -> Result<EyeSide, String> {
+    if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
+        return Err("width, height and samples per pixel must be positive".into());
+    }
+    let t = Instant::now();
+    let eye_settings = EyeSettings {
+        width: settings.width,
+        height: settings.height,
+        spp: settings.spp,
+        max_specular_depth: settings.max_specular_depth,
+        seed: settings.seed,
+        merge_targets: settings.merge_targets,
+    };
+    let EyePass {
+        samples: eye,
+        targets,
+        emitted,
+    } = eye_pass(scene, camera, &eye_settings);
+    let tree = SplatTree::build(&targets.position, &targets.normal, scene.diagonal());
+    timings.t_eye += t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let mut direct = vec![Vec3::ZERO; (settings.width * settings.height) as usize];
+    if settings.direct == DirectMode::Nee {
+        let per_sample = direct_light(scene, &eye, settings.nee_samples, settings.seed);
+        for (i, l) in per_sample.iter().enumerate() {
+            direct[eye.pixel[i] as usize] += eye.weight[i] * *l;
+        }
+    }
+    timings.t_direct += t.elapsed().as_secs_f64();
+
+    let slots = tree.slots();
+    let acc_direct = if settings.direct == DirectMode::Photons {
+        Accumulators::new(slots)
+    } else {
+        Accumulators::default()
+    };
+    Ok(EyeSide {
+        eye,
+        targets,
+        tree,
+        emitted,
+        direct,
+        acc_indirect: Accumulators::new(slots),
+        acc_direct,
+    })
 }
 
 /// Peak resident memory of this process in MB (Linux VmHWM; 0 where unavailable).

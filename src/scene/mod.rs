@@ -109,7 +109,7 @@ impl Texture {
 }
 
 /// A pinhole camera (glTF perspective camera: looks down its local −Z, +Y up).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Camera {
     pub name: String,
     pub position: Vec3,

@@ -1,0 +1,196 @@
+//! What the previewer shows: a view mode of the film, tone-mapped (final, direct, indirect) or
+//! in false colour (bandwidth as in Fig. 5, kernel density, harmonic mean distance), as RGBA8.
+
+use super::{Film, false_colour, linear_to_srgb};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ViewMode {
+    Final,
+    DirectOnly,
+    IndirectOnly,
+    /// Mean splat bandwidth per pixel, red = smallest to blue = largest (Fig. 5).
+    Bandwidth,
+    /// Kernel-weight sum per pixel.
+    KernelDensity,
+    /// Harmonic mean distance of incident photon rays.
+    HarmonicDistance,
+}
+
+impl ViewMode {
+    pub const ALL: [ViewMode; 6] = [
+        ViewMode::Final,
+        ViewMode::DirectOnly,
+        ViewMode::IndirectOnly,
+        ViewMode::Bandwidth,
+        ViewMode::KernelDensity,
+        ViewMode::HarmonicDistance,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            ViewMode::Final => "Final",
+            ViewMode::DirectOnly => "Direct only",
+            ViewMode::IndirectOnly => "Indirect only",
+            ViewMode::Bandwidth => "Bandwidth (false colour)",
+            ViewMode::KernelDensity => "Kernel-weight density",
+            ViewMode::HarmonicDistance => "Harmonic mean distance",
+        }
+    }
+
+    /// The film buffer a false-colour mode shows, with its unit.
+    fn scalar(self, film: &Film) -> Option<(&[f32], &'static str)> {
+        match self {
+            ViewMode::Bandwidth => Some((&film.bandwidth, "m")),
+            ViewMode::KernelDensity => Some((&film.kernel_weight, "1/m²")),
+            ViewMode::HarmonicDistance => Some((&film.harmonic_distance, "m")),
+            _ => None,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ToneMap {
+    /// Exposure, clamp, sRGB.
+    Clamp,
+    /// x / (1 + x) per channel.
+    Reinhard,
+    /// The ACES filmic fit of Narkowicz (2015).
+    Aces,
+}
+
+impl ToneMap {
+    pub const ALL: [ToneMap; 3] = [ToneMap::Clamp, ToneMap::Reinhard, ToneMap::Aces];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            ToneMap::Clamp => "Clamp",
+            ToneMap::Reinhard => "Reinhard",
+            ToneMap::Aces => "ACES filmic",
+        }
+    }
+
+    #[inline]
+    fn apply(self, x: f32) -> f32 {
+        match self {
+            ToneMap::Clamp => x,
+            ToneMap::Reinhard => x / (1.0 + x),
+            ToneMap::Aces => {
+                let (a, b, c, d, e) = (2.51, 0.03, 2.43, 0.59, 0.14);
+                (x * (a * x + b)) / (x * (c * x + d) + e)
+            }
+        }
+    }
+}
+
+/// The numeric range a false-colour image maps from red (min) to blue (max).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Legend {
+    pub min: f32,
+    pub max: f32,
+    pub unit: &'static str,
+}
+
+/// An image ready for the screen or a PNG.
+#[derive(Clone, Debug)]
+pub struct DisplayImage {
+    pub width: u32,
+    pub height: u32,
+    /// RGBA8, row-major, top row first.
+    pub rgba: Vec<u8>,
+    pub legend: Option<Legend>,
+}
+
+impl DisplayImage {
+    pub fn rgb(&self) -> Vec<u8> {
+        self.rgba
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect()
+    }
+}
+
+/// Render `film` in `mode`. False-colour modes map the 0.5th–99.5th percentile of the pixels
+/// that received splats; pixels without splats are black.
+pub fn display(film: &Film, mode: ViewMode, exposure_stops: f32, tone: ToneMap) -> DisplayImage {
+    let n = (film.width * film.height) as usize;
+    let mut rgba = Vec::with_capacity(4 * n);
+    let mut legend = None;
+    if let Some((values, unit)) = mode.scalar(film) {
+        let mut valid: Vec<f32> = values
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect();
+        let (lo, hi) = if valid.is_empty() {
+            (0.0, 1.0)
+        } else {
+            valid.sort_unstable_by(f32::total_cmp);
+            let at = |q: f64| valid[((valid.len() - 1) as f64 * q).round() as usize];
+            (at(0.005), at(0.995))
+        };
+        let span = (hi - lo).max(f32::MIN_POSITIVE);
+        for &v in values {
+            let c = if v.is_finite() && v > 0.0 {
+                false_colour((v - lo) / span)
+            } else {
+                [0, 0, 0]
+            };
+            rgba.extend_from_slice(&[c[0], c[1], c[2], 255]);
+        }
+        legend = Some(Legend {
+            min: lo,
+            max: hi,
+            unit,
+        });
+    } else {
+        let src: &[Vec3] = match mode {
+            ViewMode::DirectOnly => &film.direct,
+            ViewMode::IndirectOnly => &film.indirect,
+            _ => &film.rgb,
+        };
+        let k = 2f32.powf(exposure_stops);
+        for c in src {
+            let c = if c.is_finite() { *c * k } else { Vec3::ZERO };
+            let q = |x: f32| (linear_to_srgb(tone.apply(x.max(0.0))) * 255.0 + 0.5) as u8;
+            rgba.extend_from_slice(&[q(c.x), q(c.y), q(c.z), 255]);
+        }
+    }
+    DisplayImage {
+        width: film.width,
+        height: film.height,
+        rgba,
+        legend,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bandwidth_view_runs_red_to_blue() {
+        let mut film = Film::new(3, 1);
+        film.bandwidth = vec![0.01, 0.0, 0.05];
+        let d = display(&film, ViewMode::Bandwidth, 0.0, ToneMap::Clamp);
+        assert_eq!(&d.rgba[0..4], &[255, 0, 0, 255]); // smallest: red
+        assert_eq!(&d.rgba[4..8], &[0, 0, 0, 255]); // no splats: black
+        assert_eq!(&d.rgba[8..12], &[0, 0, 255, 255]); // largest: blue
+        let l = d.legend.unwrap();
+        assert_eq!((l.min, l.max, l.unit), (0.01, 0.05, "m"));
+    }
+
+    #[test]
+    fn tone_maps_are_monotone_and_bounded() {
+        for t in ToneMap::ALL {
+            let mut prev = -1.0;
+            for i in 0..1000 {
+                let y = t.apply(i as f32 * 0.02);
+                assert!(y >= prev, "{t:?}");
+                prev = y;
+            }
+        }
+        assert!(ToneMap::Reinhard.apply(1e6) <= 1.0);
+    }
+}

@@ -1,0 +1,123 @@
+//! Snapshots: one PNG (as displayed), one linear EXR and one JSON of metadata sharing a unique
+//! timestamped stem. Each file is written atomically; if any fails, the snapshot's other files
+//! are removed so no partial snapshot remains.
+
+use super::display::{DisplayImage, ToneMap, ViewMode};
+use super::{Film, write_atomic, write_exr, write_png};
+use crate::render::RenderSettings;
+use crate::scene::Camera;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::{SystemTime, UNIX_EPOCH};
+
+/// Everything needed to reproduce a snapshot.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SnapshotMeta {
+    pub scene_name: String,
+    pub scene_path: Option<PathBuf>,
+    pub camera: Camera,
+    /// Every render parameter: resolution, spp, M per batch, fractions, C/S/R, seed, direct mode.
+    pub settings: RenderSettings,
+    pub photons_traced: u64,
+    pub photon_rays: usize,
+    pub batches: usize,
+    pub elapsed_s: f64,
+    pub view_mode: ViewMode,
+    pub exposure: f32,
+    pub tone_map: ToneMap,
+    pub program_version: String,
+    /// UTC, ISO 8601.
+    pub created: String,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct SnapshotFiles {
+    pub png: PathBuf,
+    pub exr: PathBuf,
+    pub json: PathBuf,
+}
+
+/// Write a snapshot into `folder`; the stem is `raysplat-YYYYMMDD-HHMMSS-mmm` (plus `-N` when
+/// that exists already).
+pub fn write_snapshot(
+    folder: &Path,
+    shown: &DisplayImage,
+    film: &Film,
+    meta: &SnapshotMeta,
+) -> Result<SnapshotFiles, String> {
+    if !folder.is_dir() {
+        return Err(format!(
+            "snapshot folder {} does not exist or is not a folder",
+            folder.display()
+        ));
+    }
+    let (stem_time, _) = utc_now();
+    let mut stem = format!("raysplat-{stem_time}");
+    let mut k = 1;
+    while ["png", "exr", "json"]
+        .iter()
+        .any(|e| folder.join(format!("{stem}.{e}")).exists())
+    {
+        k += 1;
+        stem = format!("raysplat-{stem_time}-{k}");
+    }
+    let files = SnapshotFiles {
+        png: folder.join(format!("{stem}.png")),
+        exr: folder.join(format!("{stem}.exr")),
+        json: folder.join(format!("{stem}.json")),
+    };
+    let json = serde_json::to_vec_pretty(meta).map_err(|e| e.to_string())?;
+    let result = write_png(&files.png, shown.width, shown.height, &shown.rgb())
+        .and_then(|_| write_exr(&files.exr, film.width, film.height, &film.rgb))
+        .and_then(|_| write_atomic(&files.json, &json));
+    if let Err(e) = result {
+        for p in [&files.png, &files.exr, &files.json] {
+            let _ = std::fs::remove_file(p);
+        }
+        return Err(e);
+    }
+    Ok(files)
+}
+
+/// ("YYYYMMDD-HHMMSS-mmm", "YYYY-MM-DDTHH:MM:SS.mmmZ") for now, in UTC.
+pub fn utc_now() -> (String, String) {
+    let d = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
+    let secs = d.as_secs() as i64;
+    let ms = d.subsec_millis();
+    let (y, mo, day) = civil_from_days(secs.div_euclid(86_400));
+    let s = secs.rem_euclid(86_400);
+    let (h, mi, se) = (s / 3600, (s / 60) % 60, s % 60);
+    (
+        format!("{y:04}{mo:02}{day:02}-{h:02}{mi:02}{se:02}-{ms:03}"),
+        format!("{y:04}-{mo:02}-{day:02}T{h:02}:{mi:02}:{se:02}.{ms:03}Z"),
+    )
+}
+
+/// Days since 1970-01-01 to (year, month, day), proleptic Gregorian (H. Hinnant's algorithm).
+fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    let y = yoe + era * 400 + if m <= 2 { 1 } else { 0 };
+    (y, m, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn civil_dates() {
+        assert_eq!(civil_from_days(0), (1970, 1, 1));
+        assert_eq!(civil_from_days(19_723), (2024, 1, 1));
+        assert_eq!(civil_from_days(20_514), (2026, 3, 2));
+        assert_eq!(civil_from_days(11_016), (2000, 2, 29));
+    }
+}

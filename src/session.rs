@@ -1,0 +1,506 @@
+//! The progressive worker: one thread owns the scene, the renderer (eye samples, splat tree,
+//! stored photon rays, accumulators) and loops — take pending commands, do one step (re-splat
+//! a stored batch or trace and splat a new one), and about ten times a second publish a frame.
+//!
+//! The UI talks to it only through channels: commands in, frames out (a one-slot channel; a
+//! stale frame is dropped, never queued), events out (scene loaded, load failed). Commands that
+//! arrive together are coalesced and applied once, at the batch boundary.
+
+use crate::film::Film;
+use crate::photon::BandwidthParams;
+use crate::render::{DirectMode, RenderSettings, Renderer, Step};
+use crate::scene::{Camera, Scene};
+use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError, bounded, unbounded};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// Something the UI asks of the worker.
+#[derive(Clone, Debug)]
+pub enum Command {
+    /// New C, S, R: re-splat the stored photon rays (no re-trace).
+    SetBandwidth(BandwidthParams),
+    /// Photons (M) per batch from the next batch on.
+    SetPhotonsPerBatch(u64),
+    SetSamplesPerPixel(u32),
+    SetResolution {
+        width: u32,
+        height: u32,
+    },
+    /// Switching direct light between NEE and photons restarts tracing.
+    SetDirect(DirectMode),
+    /// A new view; `interactive` views render at reduced resolution until a final one arrives.
+    SetCamera {
+        camera: Camera,
+        interactive: bool,
+    },
+    /// Keep at most this many photon rays for re-splatting; older batches are folded.
+    SetRayBudget(usize),
+    Pause,
+    Resume,
+    /// Load a .gltf/.glb; on failure the current scene stays and `Event::LoadFailed` says why.
+    LoadScene(PathBuf),
+    /// Drop all photons and trace from scratch.
+    Restart,
+    Shutdown,
+}
+
+/// Something the worker tells the UI.
+#[derive(Clone, Debug)]
+pub enum Event {
+    SceneLoaded {
+        name: String,
+        path: Option<PathBuf>,
+        cameras: Vec<Camera>,
+        /// Centre of the scene's bounding box (the orbit's pivot).
+        center: glam::Vec3,
+        warnings: Vec<String>,
+    },
+    LoadFailed(String),
+    /// The worker could not apply a change (the previous state stays).
+    Error(String),
+}
+
+/// Counters shown in the stats panel.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SessionStats {
+    pub photons_traced: u64,
+    pub photon_rays: usize,
+    pub photon_ray_bytes: usize,
+    /// Batches whose light the image holds.
+    pub batches: usize,
+    /// Batches folded into the image and dropped from the ray store (budget exceeded).
+    pub folded_batches: usize,
+    pub photons_per_second: f64,
+    /// Splat time of the last step, milliseconds.
+    pub last_splat_ms: f64,
+    pub eye_samples: usize,
+    pub splat_targets: usize,
+    /// Seconds since the current scene was loaded or tracing restarted.
+    pub elapsed_s: f64,
+    pub paused: bool,
+    pub resplat_pending: bool,
+}
+
+/// A published image and everything needed to describe it.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub film: Film,
+    /// Increases with every published frame.
+    pub seq: u64,
+    /// Increases with every applied change (parameters, view, scene, restart).
+    pub generation: u64,
+    pub scene_name: String,
+    pub scene_path: Option<PathBuf>,
+    pub camera: Camera,
+    pub settings: RenderSettings,
+    /// Rendered at reduced resolution while the camera moves.
+    pub interactive: bool,
+    pub stats: SessionStats,
+}
+
+#[derive(Clone, Debug)]
+pub struct SessionConfig {
+    /// Full-resolution settings; `photons` is M per batch.
+    pub settings: RenderSettings,
+    pub max_stored_rays: usize,
+    pub publish_interval: Duration,
+    /// Interactive views divide width and height by this and use 1 sample per pixel.
+    pub interactive_divisor: u32,
+}
+
+impl Default for SessionConfig {
+    fn default() -> Self {
+        Self {
+            settings: RenderSettings {
+                spp: 1,
+                photons: 20_000,
+                ..RenderSettings::default()
+            },
+            max_stored_rays: 4_000_000,
+            publish_interval: Duration::from_millis(100),
+            interactive_divisor: 2,
+        }
+    }
+}
+
+/// Called after a frame or event is sent (e.g. `egui::Context::request_repaint`).
+pub type Notify = Arc<dyn Fn() + Send + Sync>;
+
+/// The UI's handle on the worker thread.
+pub struct Session {
+    cmd_tx: Sender<Command>,
+    frame_rx: Receiver<Frame>,
+    event_rx: Receiver<Event>,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl Session {
+    /// Start the worker on `scene`. The first frame follows as soon as the eye pass and the
+    /// first batch are done.
+    pub fn spawn(
+        scene: Arc<Scene>,
+        scene_path: Option<PathBuf>,
+        config: SessionConfig,
+        notify: Option<Notify>,
+    ) -> Self {
+        let (cmd_tx, cmd_rx) = unbounded();
+        let (frame_tx, frame_rx) = bounded(1);
+        let (event_tx, event_rx) = unbounded();
+        let stale = frame_rx.clone();
+        let handle = std::thread::Builder::new()
+            .name("raysplat-worker".into())
+            .spawn(move || {
+                let events = event_tx.clone();
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    Worker::new(scene, scene_path, config, frame_tx, stale, event_tx, notify)
+                        .run(cmd_rx)
+                }));
+                if let Err(e) = result {
+                    let msg = e
+                        .downcast_ref::<String>()
+                        .cloned()
+                        .or_else(|| e.downcast_ref::<&str>().map(|s| s.to_string()))
+                        .unwrap_or_else(|| "unknown panic".into());
+                    let _ = events.send(Event::Error(format!("the render worker stopped: {msg}")));
+                }
+            })
+            .expect("spawning the worker thread");
+        Self {
+            cmd_tx,
+            frame_rx,
+            event_rx,
+            handle: Some(handle),
+        }
+    }
+
+    pub fn send(&self, c: Command) {
+        // A stopped worker has told the UI why through an event.
+        let _ = self.cmd_tx.send(c);
+    }
+
+    /// The newest frame published since the last call, if any.
+    pub fn try_frame(&self) -> Option<Frame> {
+        let mut last = None;
+        while let Ok(f) = self.frame_rx.try_recv() {
+            last = Some(f);
+        }
+        last
+    }
+
+    /// Wait up to `timeout` for a frame.
+    pub fn wait_frame(&self, timeout: Duration) -> Option<Frame> {
+        self.frame_rx.recv_timeout(timeout).ok()
+    }
+
+    pub fn try_events(&self) -> Vec<Event> {
+        self.event_rx.try_iter().collect()
+    }
+
+    /// False once the worker thread has ended.
+    pub fn is_alive(&self) -> bool {
+        self.handle.as_ref().is_some_and(|h| !h.is_finished())
+    }
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        let _ = self.cmd_tx.send(Command::Shutdown);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+/// Changes gathered from one drain of the command queue, applied once.
+#[derive(Default)]
+struct Pending {
+    load: Option<PathBuf>,
+    restart: bool,
+    view: bool,
+    interactive: Option<bool>,
+    bandwidth: Option<BandwidthParams>,
+}
+
+struct Worker {
+    scene: Arc<Scene>,
+    scene_path: Option<PathBuf>,
+    config: SessionConfig,
+    camera: Camera,
+    interactive: bool,
+    renderer: Option<Renderer>,
+    paused: bool,
+    generation: u64,
+    seq: u64,
+    started: Instant,
+    frame_tx: Sender<Frame>,
+    stale: Receiver<Frame>,
+    event_tx: Sender<Event>,
+    notify: Option<Notify>,
+    last_splat_ms: f64,
+}
+
+impl Worker {
+    fn new(
+        scene: Arc<Scene>,
+        scene_path: Option<PathBuf>,
+        config: SessionConfig,
+        frame_tx: Sender<Frame>,
+        stale: Receiver<Frame>,
+        event_tx: Sender<Event>,
+        notify: Option<Notify>,
+    ) -> Self {
+        let camera = scene.cameras[0].clone();
+        let mut w = Self {
+            scene,
+            scene_path,
+            config,
+            camera,
+            interactive: false,
+            renderer: None,
+            paused: false,
+            generation: 0,
+            seq: 0,
+            started: Instant::now(),
+            frame_tx,
+            stale,
+            event_tx,
+            notify,
+            last_splat_ms: 0.0,
+        };
+        w.announce_scene();
+        w.restart();
+        w
+    }
+
+    fn run(mut self, cmd_rx: Receiver<Command>) {
+        let mut last_publish: Option<Instant> = None;
+        // Something the UI has not seen yet (a change, a pause, a re-splatted batch).
+        let mut unseen = true;
+        loop {
+            let busy = self
+                .renderer
+                .as_ref()
+                .is_some_and(|r| r.resplat_pending() || !self.paused);
+            let mut commands = Vec::new();
+            if !busy {
+                match cmd_rx.recv_timeout(Duration::from_millis(250)) {
+                    Ok(c) => commands.push(c),
+                    Err(RecvTimeoutError::Timeout) => {}
+                    Err(RecvTimeoutError::Disconnected) => return,
+                }
+            }
+            loop {
+                match cmd_rx.try_recv() {
+                    Ok(c) => commands.push(c),
+                    Err(TryRecvError::Empty) => break,
+                    Err(TryRecvError::Disconnected) => return,
+                }
+            }
+            unseen |= !commands.is_empty();
+            let mut pending = Pending::default();
+            for c in commands {
+                if !self.take(c, &mut pending) {
+                    return;
+                }
+            }
+            self.apply(pending);
+            let mut traced = false;
+            if let Some(r) = self.renderer.as_mut()
+                && (r.resplat_pending() || !self.paused)
+            {
+                let t = Instant::now();
+                match r.step() {
+                    // Show re-splat progress at once: it follows a user's change.
+                    Step::Resplatted => unseen = true,
+                    Step::Traced => traced = true,
+                }
+                self.last_splat_ms = t.elapsed().as_secs_f64() * 1e3;
+            }
+            let due = last_publish.is_none_or(|t| t.elapsed() >= self.config.publish_interval);
+            if unseen || (traced && due) {
+                self.publish();
+                last_publish = Some(Instant::now());
+                unseen = false;
+            }
+        }
+    }
+
+    /// Record a command; false on shutdown.
+    fn take(&mut self, c: Command, p: &mut Pending) -> bool {
+        let s = &mut self.config.settings;
+        match c {
+            Command::SetBandwidth(b) => p.bandwidth = Some(b),
+            Command::SetPhotonsPerBatch(n) => {
+                s.photons = n.max(100);
+                if let Some(r) = self.renderer.as_mut() {
+                    r.settings.photons = s.photons;
+                }
+            }
+            Command::SetSamplesPerPixel(spp) => {
+                s.spp = spp.clamp(1, 64);
+                p.view = true;
+            }
+            Command::SetResolution { width, height } => {
+                s.width = width.clamp(8, 4096);
+                s.height = height.clamp(8, 4096);
+                p.view = true;
+            }
+            Command::SetDirect(d) => {
+                if s.direct != d {
+                    s.direct = d;
+                    p.restart = true;
+                }
+            }
+            Command::SetCamera {
+                camera,
+                interactive,
+            } => {
+                self.camera = camera;
+                p.view = true;
+                p.interactive = Some(interactive);
+            }
+            Command::SetRayBudget(n) => {
+                self.config.max_stored_rays = n.max(1);
+                if let Some(r) = self.renderer.as_mut() {
+                    r.max_stored_rays = self.config.max_stored_rays;
+                }
+            }
+            Command::Pause => self.paused = true,
+            Command::Resume => self.paused = false,
+            Command::LoadScene(path) => p.load = Some(path),
+            Command::Restart => p.restart = true,
+            Command::Shutdown => return false,
+        }
+        true
+    }
+
+    /// Apply gathered changes at the batch boundary.
+    fn apply(&mut self, p: Pending) {
+        if let Some(b) = p.bandwidth {
+            self.config.settings.bandwidth = b;
+        }
+        if let Some(i) = p.interactive {
+            self.interactive = i;
+        }
+        if let Some(path) = p.load {
+            match Scene::load(&path) {
+                Ok(scene) => {
+                    self.scene = Arc::new(scene);
+                    self.scene_path = Some(path);
+                    self.camera = self.scene.cameras[0].clone();
+                    self.interactive = false;
+                    self.announce_scene();
+                    self.restart();
+                    return;
+                }
+                Err(e) => {
+                    self.emit(Event::LoadFailed(e.to_string()));
+                }
+            }
+        }
+        if p.restart || self.renderer.is_none() {
+            self.restart();
+            return;
+        }
+        let Some(r) = self.renderer.as_mut() else {
+            return;
+        };
+        if p.view {
+            let s = &self.config.settings;
+            let (w, h, spp) = if self.interactive {
+                let d = self.config.interactive_divisor.max(1);
+                ((s.width / d).max(8), (s.height / d).max(8), 1)
+            } else {
+                (s.width, s.height, s.spp)
+            };
+            r.settings.bandwidth = s.bandwidth;
+            if let Err(e) = r.set_view(self.camera.clone(), w, h, spp) {
+                self.emit(Event::Error(e));
+                return;
+            }
+            self.generation += 1;
+        } else if let Some(b) = p.bandwidth {
+            r.begin_resplat(b);
+            self.generation += 1;
+        }
+    }
+
+    fn restart(&mut self) {
+        self.started = Instant::now();
+        let mut settings = self.config.settings.clone();
+        if self.interactive {
+            let d = self.config.interactive_divisor.max(1);
+            settings.width = (settings.width / d).max(8);
+            settings.height = (settings.height / d).max(8);
+            settings.spp = 1;
+        }
+        match Renderer::with_camera(self.scene.clone(), settings, self.camera.clone()) {
+            Ok(mut r) => {
+                r.max_stored_rays = self.config.max_stored_rays;
+                self.renderer = Some(r);
+            }
+            Err(e) => self.emit(Event::Error(e)),
+        }
+        self.generation += 1;
+    }
+
+    fn announce_scene(&self) {
+        self.emit(Event::SceneLoaded {
+            name: self.scene.name.clone(),
+            path: self.scene_path.clone(),
+            cameras: self.scene.cameras.clone(),
+            center: self.scene.center(),
+            warnings: self.scene.warnings.clone(),
+        });
+    }
+
+    fn emit(&self, e: Event) {
+        let _ = self.event_tx.send(e);
+        if let Some(n) = &self.notify {
+            n();
+        }
+    }
+
+    fn publish(&mut self) {
+        let Some(r) = self.renderer.as_mut() else {
+            return;
+        };
+        let film = r.film();
+        let elapsed = self.started.elapsed().as_secs_f64();
+        let stats = SessionStats {
+            photons_traced: r.photons_traced,
+            photon_rays: r.photon_rays(),
+            photon_ray_bytes: r.photon_memory_bytes(),
+            batches: r.batch_count(),
+            folded_batches: r.folded_batches(),
+            photons_per_second: r.photons_traced as f64 / elapsed.max(1e-9),
+            last_splat_ms: self.last_splat_ms,
+            eye_samples: r.eye_samples().len(),
+            splat_targets: r.tree().samples,
+            elapsed_s: elapsed,
+            paused: self.paused,
+            resplat_pending: r.resplat_pending(),
+        };
+        self.seq += 1;
+        let frame = Frame {
+            film,
+            seq: self.seq,
+            generation: self.generation,
+            scene_name: self.scene.name.clone(),
+            scene_path: self.scene_path.clone(),
+            camera: r.camera.clone(),
+            settings: r.settings.clone(),
+            interactive: self.interactive,
+            stats,
+        };
+        // Keep only the newest frame: drop one the UI has not taken yet.
+        while self.stale.try_recv().is_ok() {}
+        let _ = self.frame_tx.try_send(frame);
+        if let Some(n) = &self.notify {
+            n();
+        }
+    }
+}

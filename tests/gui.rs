@@ -1,0 +1,233 @@
+//! The previewer window, headless with egui_kittest (wgpu on a software device where one is
+//! needed): sliders reach the worker, snapshots write their files, bad scenes show an error.
+
+use egui::accesskit::Role;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use raysplat::app::{App, AppOptions, UiSettings};
+use raysplat::film::snapshot::SnapshotMeta;
+use raysplat::scene::BuiltinScene;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("gui")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn harness(snapshot_dir: PathBuf) -> Harness<'static, App> {
+    let settings = UiSettings {
+        width: 64,
+        height: 64,
+        spp: 1,
+        photons_per_batch: 4_000,
+        snapshot_dir,
+        ..UiSettings::default()
+    };
+    Harness::builder()
+        .with_size(egui::vec2(1100.0, 800.0))
+        .build_eframe(move |cc| {
+            App::new(
+                cc,
+                AppOptions {
+                    scene: None,
+                    settings: Some(settings),
+                },
+            )
+        })
+}
+
+/// Step the UI until `pred` holds; panics after `secs`.
+fn run_until(h: &mut Harness<'static, App>, secs: u64, what: &str, pred: impl Fn(&App) -> bool) {
+    let start = Instant::now();
+    loop {
+        h.step();
+        if pred(h.state()) {
+            return;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(secs),
+            "timed out waiting for {what}; messages: {:?}",
+            h.state().messages()
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+fn pause(h: &mut Harness<'static, App>) {
+    h.get_by_label("Pause (Space)").click();
+    run_until(h, 30, "a paused frame", |a| {
+        a.frame()
+            .is_some_and(|f| f.stats.paused && !f.stats.resplat_pending)
+    });
+}
+
+#[test]
+fn moving_the_c_slider_reaches_the_worker_and_changes_the_image() {
+    let mut h = harness(tmp("slider"));
+    run_until(&mut h, 60, "the first image", |a| {
+        a.frame().is_some_and(|f| f.stats.batches >= 2) && a.shown().is_some()
+    });
+    pause(&mut h);
+    h.step();
+    let before = h.state().shown().unwrap().rgba.clone();
+    let generation = h.state().frame().unwrap().generation;
+    h.get_by_role_and_label(Role::Slider, "C")
+        .set_value_accesskit(0.3);
+    run_until(&mut h, 60, "the re-splatted frame", |a| {
+        a.frame().is_some_and(|f| {
+            f.generation > generation
+                && !f.stats.resplat_pending
+                && (f.settings.bandwidth.smoothness_c - 0.3).abs() < 1e-6
+        })
+    });
+    h.step();
+    let app = h.state();
+    assert!((app.settings().bandwidth.smoothness_c - 0.3).abs() < 1e-6);
+    let after = &app.shown().unwrap().rgba;
+    let changed = before.iter().zip(after).filter(|(a, b)| a != b).count();
+    assert!(changed > before.len() / 20, "only {changed} bytes changed");
+    // Re-splatting did not trace: the photon count is unchanged while paused.
+    assert!(app.frame().unwrap().stats.paused);
+}
+
+#[test]
+fn snapshot_button_writes_png_exr_and_json() {
+    let dir = tmp("snapshot");
+    let mut h = harness(dir.clone());
+    run_until(&mut h, 60, "the first image", |a| a.shown().is_some());
+    h.get_by_role_and_label(Role::Slider, "S")
+        .set_value_accesskit(0.55);
+    run_until(&mut h, 60, "S to reach the worker", |a| {
+        a.frame()
+            .is_some_and(|f| (f.settings.bandwidth.sensitivity_s - 0.55).abs() < 1e-6)
+    });
+    h.get_by_label("Save snapshot").click();
+    run_until(&mut h, 60, "the snapshot", |a| {
+        a.messages().iter().any(|m| m.starts_with("saved "))
+    });
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 3, "{files:?}");
+    let stems: Vec<_> = files
+        .iter()
+        .map(|p| p.file_stem().unwrap().to_owned())
+        .collect();
+    assert!(stems.iter().all(|s| *s == stems[0]), "{files:?}");
+    let ext: Vec<_> = files
+        .iter()
+        .map(|p| p.extension().unwrap().to_str().unwrap().to_string())
+        .collect();
+    assert_eq!(ext, ["exr", "json", "png"]);
+    let meta: SnapshotMeta = serde_json::from_slice(&std::fs::read(&files[1]).unwrap()).unwrap();
+    let app = h.state();
+    assert_eq!(meta.settings.bandwidth, app.settings().bandwidth);
+    assert!((meta.settings.bandwidth.sensitivity_s - 0.55).abs() < 1e-6);
+    assert_eq!(meta.settings.width, 64);
+    assert_eq!(meta.view_mode, app.settings().view_mode);
+    assert_eq!(meta.program_version, env!("CARGO_PKG_VERSION"));
+    let png = image::open(&files[2]).unwrap();
+    assert_eq!((png.width(), png.height()), (64, 64));
+    let (w, _, px) = raysplat::film::read_exr(&files[0]).unwrap();
+    assert_eq!(w, 64);
+    assert!(px.iter().any(|c| c.max_element() > 0.0));
+}
+
+#[test]
+fn snapshot_into_a_missing_folder_shows_an_error_and_goes_on() {
+    let missing = tmp("gone").join("does-not-exist");
+    let mut h = harness(missing);
+    run_until(&mut h, 60, "the first image", |a| a.shown().is_some());
+    let seq = h.state().frame().unwrap().seq;
+    h.get_by_label("Save snapshot").click();
+    run_until(&mut h, 30, "the error", |a| {
+        a.messages().iter().any(|m| m.contains("snapshot failed"))
+    });
+    h.get_by_label_contains("snapshot failed");
+    run_until(&mut h, 30, "more frames", |a| {
+        a.frame().is_some_and(|f| f.seq > seq + 1)
+    });
+}
+
+#[test]
+fn a_malformed_glb_shows_an_error_and_keeps_the_scene() {
+    let dir = tmp("malformed");
+    let bad = dir.join("broken.glb");
+    std::fs::write(&bad, &BuiltinScene::CornellBox2.to_glb()[..1000]).unwrap();
+    let mut h = harness(dir);
+    run_until(&mut h, 60, "the first image", |a| a.shown().is_some());
+    let scene = h.state().scene_name().to_string();
+    assert!(scene.contains("CORNELL BOX I"), "{scene}");
+    h.state_mut().open_scene(bad);
+    run_until(&mut h, 60, "the load error", |a| {
+        a.messages()
+            .iter()
+            .any(|m| m.contains("truncated or corrupt"))
+    });
+    // The error is on screen and the old scene stays.
+    h.get_by_label_contains("truncated or corrupt");
+    assert_eq!(h.state().scene_name(), scene);
+    let seq = h.state().frame().unwrap().seq;
+    run_until(&mut h, 30, "frames of the old scene", |a| {
+        a.frame()
+            .is_some_and(|f| f.seq > seq && f.scene_name == scene)
+    });
+}
+
+#[test]
+fn bandwidth_view_shows_a_legend() {
+    let mut h = harness(tmp("legend"));
+    run_until(&mut h, 60, "the first image", |a| {
+        a.frame().is_some_and(|f| f.stats.batches >= 1)
+    });
+    h.get_by_role_and_label(Role::ComboBox, "View").click();
+    h.run_steps(3);
+    h.get_by_label("Bandwidth (false colour)").click();
+    run_until(&mut h, 10, "the legend", |a| {
+        a.shown().is_some_and(|s| s.legend.is_some())
+    });
+    let legend = h.state().shown().unwrap().legend.clone().unwrap();
+    assert!(legend.min > 0.0 && legend.max > legend.min && legend.unit == "m");
+    h.get_by_label_contains("red = smallest");
+}
+
+/// The whole window renders through wgpu (lavapipe here), with the false-colour image in it.
+#[test]
+fn window_renders_through_wgpu() {
+    let mut h = harness(tmp("wgpu"));
+    run_until(&mut h, 60, "the first image", |a| {
+        a.frame().is_some_and(|f| f.stats.batches >= 2)
+    });
+    h.get_by_role_and_label(Role::ComboBox, "View").click();
+    h.run_steps(3);
+    h.get_by_label("Bandwidth (false colour)").click();
+    run_until(&mut h, 10, "the false-colour image", |a| {
+        a.shown().is_some_and(|s| s.legend.is_some())
+    });
+    h.run_steps(2);
+    let shot = h.render().expect("wgpu renders the window");
+    assert!(shot.width() >= 1100 && shot.height() >= 800);
+    let (mut reddish, mut bluish) = (0, 0);
+    for p in shot.pixels() {
+        let [r, g, b, _] = p.0;
+        if r > 200 && g < 90 && b < 90 {
+            reddish += 1;
+        }
+        if b > 200 && r < 90 && g < 150 {
+            bluish += 1;
+        }
+    }
+    assert!(
+        reddish > 100 && bluish > 100,
+        "red {reddish}, blue {bluish}"
+    );
+    shot.save(Path::new(env!("CARGO_TARGET_TMPDIR")).join("gui/window.png"))
+        .unwrap();
+}
