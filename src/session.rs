@@ -96,7 +96,7 @@ pub struct Frame {
     pub scene_path: Option<PathBuf>,
     pub camera: Camera,
     pub settings: RenderSettings,
-    /// Rendered at reduced resolution while the camera moves.
+    /// Rendered at reduced resolution (while the camera moves, and for the first frame).
     pub interactive: bool,
     pub stats: SessionStats,
 }
@@ -231,6 +231,9 @@ struct Worker {
     camera: Camera,
     interactive: bool,
     renderer: Option<Renderer>,
+    /// A (re)start renders its first frame at the interactive resolution, then switches to
+    /// full resolution (re-splatting, no re-trace): an image appears sooner.
+    coarse_start: bool,
     paused: bool,
     generation: u64,
     seq: u64,
@@ -260,6 +263,7 @@ impl Worker {
             camera,
             interactive: false,
             renderer: None,
+            coarse_start: false,
             paused: false,
             generation: 0,
             seq: 0,
@@ -324,6 +328,16 @@ impl Worker {
                 self.publish();
                 last_publish = Some(Instant::now());
                 unseen = false;
+                if self.coarse_start && self.renderer.as_ref().is_some_and(|r| r.batch_count() > 0)
+                {
+                    self.coarse_start = false;
+                    if !self.interactive {
+                        self.apply(Pending {
+                            view: true,
+                            ..Pending::default()
+                        });
+                    }
+                }
             }
         }
     }
@@ -431,7 +445,8 @@ impl Worker {
     fn restart(&mut self) {
         self.started = Instant::now();
         let mut settings = self.config.settings.clone();
-        if self.interactive {
+        self.coarse_start = self.config.interactive_divisor > 1;
+        if self.interactive || self.coarse_start {
             let d = self.config.interactive_divisor.max(1);
             settings.width = (settings.width / d).max(8);
             settings.height = (settings.height / d).max(8);
@@ -493,7 +508,7 @@ impl Worker {
             scene_path: self.scene_path.clone(),
             camera: r.camera.clone(),
             settings: r.settings.clone(),
-            interactive: self.interactive,
+            interactive: self.interactive || self.coarse_start,
             stats,
         };
         // Keep only the newest frame: drop one the UI has not taken yet.

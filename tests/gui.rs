@@ -231,3 +231,83 @@ fn window_renders_through_wgpu() {
     shot.save(Path::new(env!("CARGO_TARGET_TMPDIR")).join("gui/window.png"))
         .unwrap();
 }
+
+#[derive(Debug)]
+struct Dropped(PathBuf);
+
+impl egui::DroppedFile for Dropped {
+    fn path(&self) -> &Path {
+        &self.0
+    }
+
+    fn bytes(&self) -> Result<Vec<u8>, String> {
+        std::fs::read(&self.0).map_err(|e| e.to_string())
+    }
+}
+
+/// Dropping a .glb onto the window opens it; dropping another file says why it is refused.
+#[test]
+fn dropping_a_scene_opens_it() {
+    let dir = tmp("drop");
+    let good = dir.join("cornell_box_2.glb");
+    std::fs::write(&good, BuiltinScene::CornellBox2.to_glb()).unwrap();
+    let text = dir.join("notes.txt");
+    std::fs::write(&text, "not a scene").unwrap();
+    let mut h = harness(dir);
+    run_until(&mut h, 60, "the first image", |a| a.shown().is_some());
+    h.input_mut()
+        .dropped_files
+        .push(std::sync::Arc::new(Dropped(text)));
+    h.input_mut()
+        .dropped_files
+        .push(std::sync::Arc::new(Dropped(good)));
+    run_until(&mut h, 60, "the dropped scene", |a| {
+        a.frame()
+            .is_some_and(|f| f.scene_name == "cornell_box_2" && f.stats.batches >= 1)
+    });
+    assert!(
+        h.state()
+            .messages()
+            .iter()
+            .any(|m| m.contains("notes.txt: not a .gltf or .glb file")),
+        "{:?}",
+        h.state().messages()
+    );
+}
+
+#[derive(Default)]
+struct MemStorage(std::collections::HashMap<String, String>);
+
+impl eframe::Storage for MemStorage {
+    fn get_string(&self, key: &str) -> Option<String> {
+        self.0.get(key).cloned()
+    }
+
+    fn set_string(&mut self, key: &str, value: String) {
+        self.0.insert(key.to_string(), value);
+    }
+
+    fn remove_string(&mut self, key: &str) {
+        self.0.remove(key);
+    }
+
+    fn flush(&mut self) {}
+}
+
+/// The last parameters persist: what `save` stores reads back as the same settings.
+#[test]
+fn settings_persist_through_eframe_storage() {
+    use eframe::App as _;
+    let mut h = harness(tmp("persist"));
+    run_until(&mut h, 60, "the first image", |a| a.shown().is_some());
+    h.get_by_role_and_label(Role::Slider, "R")
+        .set_value_accesskit(0.35);
+    h.run_steps(2);
+    let mut storage = MemStorage::default();
+    h.state_mut().save(&mut storage);
+    let keys: Vec<&String> = storage.0.keys().collect();
+    let key = keys.first().expect("save stored something").to_string();
+    let restored: UiSettings = eframe::get_value(&storage, &key).expect("settings read back");
+    assert_eq!(&restored, h.state().settings());
+    assert!((restored.bandwidth.max_bandwidth_r - 0.35).abs() < 1e-6);
+}
