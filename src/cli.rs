@@ -1,8 +1,10 @@
 //! Command-line entry points: `view` (the default: the interactive previewer), `render`,
 //! `bench`, `scenes`.
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use raysplat::baseline::Method;
+use raysplat::baseline::compare::{Budget, CompareRow, error_map, render_method, rmse};
 use raysplat::film::Film;
 use raysplat::photon::BandwidthParams;
 use raysplat::render::{DirectMode, RenderSettings, Renderer, peak_rss_mb};
@@ -34,17 +36,14 @@ enum Command {
     Render(RenderArgs),
     /// Reproduce Table 2's CORNELL BOX I row and report timings and memory.
     Bench(BenchArgs),
+    /// Render several methods with the same photons and eye samples and compare them with a
+    /// reference (the path tracer at high spp unless --reference is given).
+    Compare(CompareArgs),
     /// Write the project's generated scenes (.glb) into a folder.
     Scenes {
         #[arg(long, default_value = "assets")]
         out: PathBuf,
     },
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Method {
-    /// Photon ray splatting.
-    Rs,
 }
 
 #[derive(Args, Clone)]
@@ -56,7 +55,7 @@ struct RenderArgs {
     width: u32,
     #[arg(long, default_value_t = 500)]
     height: u32,
-    /// Eye samples per pixel.
+    /// Eye samples per pixel (paths per pixel for --method pt).
     #[arg(long, default_value_t = 4)]
     spp: u32,
     /// M: stored photon rays per batch.
@@ -103,10 +102,36 @@ struct RenderArgs {
     threads: Option<usize>,
     #[arg(long, value_enum, default_value_t = Method::Rs)]
     method: Method,
+    /// K of the global photon map (--method pm).
+    #[arg(long, default_value_t = 400)]
+    pm_k: usize,
+    /// K of the caustic photon map (--method pm).
+    #[arg(long, default_value_t = 250)]
+    pm_caustic_k: usize,
     /// Splat onto every eye sample instead of sharing one splat target among the samples of
     /// a pixel that lie on the same surface.
     #[arg(long)]
     no_merge: bool,
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    #[command(flatten)]
+    render: RenderArgs,
+    /// Methods to compare.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Method::Rs, Method::Pm, Method::Pt])]
+    methods: Vec<Method>,
+    /// Reference image (linear EXR of the same size); without it the path tracer renders one.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Paths per pixel of the path-traced reference.
+    #[arg(long, default_value_t = 512)]
+    ref_spp: u32,
+    /// Paths per pixel of the pt method in the comparison (without --time-budget).
+    #[arg(long, default_value_t = 16)]
+    pt_spp: u32,
+    #[arg(long, default_value = "compare")]
+    out_dir: PathBuf,
 }
 
 #[derive(Args)]
@@ -128,6 +153,7 @@ pub fn main() -> i32 {
         Some(Command::View { scene }) => view(scene),
         Some(Command::Render(args)) => render(args),
         Some(Command::Bench(args)) => bench(args),
+        Some(Command::Compare(args)) => compare(args),
         Some(Command::Scenes { out }) => write_scenes(&out),
     };
     match result {
@@ -168,6 +194,9 @@ impl RenderArgs {
             nee_samples: self.nee_samples,
             camera: self.camera.clone(),
             merge_targets: !self.no_merge,
+            method: self.method,
+            pm_k: self.pm_k,
+            pm_caustic_k: self.pm_caustic_k,
             ..RenderSettings::default()
         })
     }
@@ -236,6 +265,9 @@ fn render(args: RenderArgs) -> Result<(), String> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
+    if args.method == Method::Pt {
+        return render_pt(&args, &settings, &scene, t_load);
+    }
     let progress = ProgressBar::new(match args.time_budget {
         Some(b) => (b * 1000.0) as u64,
         None => 3,
@@ -268,6 +300,17 @@ fn render(args: RenderArgs) -> Result<(), String> {
     let film = r.film();
     progress.finish_and_clear();
     print_table(&r);
+    write_outputs(&args, &film)?;
+    if let Some(path) = &args.stats {
+        let j = stats_json(&r, &film, t_load);
+        let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
+        raysplat::film::write_atomic(path, &bytes)?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn write_outputs(args: &RenderArgs, film: &Film) -> Result<(), String> {
     let invalid = film.invalid_pixels();
     if invalid > 0 {
         eprintln!("warning: {invalid} pixels are NaN or infinite");
@@ -278,12 +321,151 @@ fn render(args: RenderArgs) -> Result<(), String> {
         film.write_png(png, args.exposure)?;
         eprintln!("wrote {}", png.display());
     }
+    Ok(())
+}
+
+/// `render --method pt`: the path tracer, `--spp` paths per pixel or until `--time-budget`.
+fn render_pt(
+    args: &RenderArgs,
+    settings: &RenderSettings,
+    scene: &Arc<Scene>,
+    t_load: f64,
+) -> Result<(), String> {
+    let budget = match args.time_budget {
+        Some(b) => Budget::Seconds(b),
+        None => Budget::Fixed { pt_spp: args.spp },
+    };
+    let progress = ProgressBar::new_spinner();
+    progress.set_message("path tracing");
+    progress.enable_steady_tick(Duration::from_millis(100));
+    let out = render_method(scene, Method::Pt, settings, budget)?;
+    progress.finish_and_clear();
+    println!(
+        "path traced {} paths per pixel in {:.3} s ({} invalid contributions dropped)",
+        out.passes, out.timings.t_splat, out.invalid
+    );
+    write_outputs(args, &out.film)?;
     if let Some(path) = &args.stats {
-        let j = stats_json(&r, &film, t_load);
+        let j = json!({
+            "scene": scene.name,
+            "method": "pt",
+            "settings": settings,
+            "t_load": t_load,
+            "t_total": out.timings.total(),
+            "spp": out.passes,
+            "invalid_contributions": out.invalid,
+            "peak_rss_mb": peak_rss_mb(),
+            "version": env!("CARGO_PKG_VERSION"),
+        });
         let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
         raysplat::film::write_atomic(path, &bytes)?;
-        eprintln!("wrote {}", path.display());
     }
+    Ok(())
+}
+
+/// `compare`: every method with the same settings, against a reference.
+fn compare(args: CompareArgs) -> Result<(), String> {
+    set_threads(args.render.threads)?;
+    let settings = args.render.settings()?;
+    let scene = Arc::new(load_scene(args.render.scene.as_deref())?);
+    std::fs::create_dir_all(&args.out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", args.out_dir.display()))?;
+    let reference = match &args.reference {
+        Some(path) => {
+            let (w, h, px) = raysplat::film::read_exr(path)?;
+            if (w, h) != (settings.width, settings.height) {
+                return Err(format!(
+                    "{}: the reference is {w}×{h}, the comparison {}×{}",
+                    path.display(),
+                    settings.width,
+                    settings.height
+                ));
+            }
+            px
+        }
+        None => {
+            eprintln!(
+                "rendering the reference: path tracing at {} spp…",
+                args.ref_spp
+            );
+            let reference_settings = RenderSettings {
+                seed: settings.seed ^ 0x5eed,
+                ..settings.clone()
+            };
+            let r = render_method(
+                &scene,
+                Method::Pt,
+                &reference_settings,
+                Budget::Fixed {
+                    pt_spp: args.ref_spp,
+                },
+            )?;
+            let path = args.out_dir.join("reference.exr");
+            r.film.write_exr(&path)?;
+            eprintln!("wrote {} ({:.1} s)", path.display(), r.timings.total());
+            r.film.rgb
+        }
+    };
+    let budget = match args.render.time_budget {
+        Some(b) => Budget::Seconds(b),
+        None => Budget::Fixed {
+            pt_spp: args.pt_spp,
+        },
+    };
+    let mut rows = serde_json::Map::new();
+    println!(
+        "{:<6} {:>8} {:>8} {:>8} {:>8} {:>10} {:>10}",
+        "method", "T_E", "T_L", "T_S", "ΣT", "RMSE", "relMSE"
+    );
+    for &m in &args.methods {
+        let r = render_method(&scene, m, &settings, budget)?;
+        let t = r.timings;
+        let row = CompareRow {
+            t_eye: t.t_eye + t.t_direct,
+            t_light: t.t_light,
+            t_splat: t.t_splat + t.t_resolve,
+            t_total: t.total(),
+            rmse: rmse(&r.film.rgb, &reference),
+            relmse: raysplat::film::rel_mse(&r.film.rgb, &reference),
+            photons: r.photons,
+            passes: r.passes,
+        };
+        println!(
+            "{:<6} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.5} {:>10.5}",
+            m.name(),
+            row.t_eye,
+            row.t_light,
+            row.t_splat,
+            row.t_total,
+            row.rmse,
+            row.relmse
+        );
+        r.film
+            .write_exr(&args.out_dir.join(format!("{}.exr", m.name())))?;
+        raysplat::film::write_png(
+            &args.out_dir.join(format!("{}_error.png", m.name())),
+            settings.width,
+            settings.height,
+            &error_map(&r.film.rgb, &reference),
+        )?;
+        rows.insert(
+            m.name().to_string(),
+            serde_json::to_value(&row).map_err(|e| e.to_string())?,
+        );
+    }
+    let doc = json!({
+        "scene": scene.name,
+        "settings": settings,
+        "reference": args.reference.as_ref().map(|p| p.display().to_string())
+            .unwrap_or_else(|| format!("path tracer, {} spp", args.ref_spp)),
+        "methods": rows,
+    });
+    let path = args.out_dir.join("compare.json");
+    raysplat::film::write_atomic(
+        &path,
+        &serde_json::to_vec_pretty(&doc).map_err(|e| e.to_string())?,
+    )?;
+    eprintln!("wrote {} and the images beside it", path.display());
     Ok(())
 }
 
@@ -302,6 +484,17 @@ fn print_table(r: &Renderer) {
         t.t_splat + t.t_resolve,
         t.total()
     );
+    if let Some(pm) = &r.pm_stats {
+        println!(
+            "photon mapping: {} global photons (K avg/max {:.0}/{}), {} caustic photons (K avg/max {:.0}/{})",
+            pm.global_photons,
+            pm.mean_k_global,
+            pm.max_k_global,
+            pm.caustic_photons,
+            pm.mean_k_caustic,
+            pm.max_k_caustic
+        );
+    }
     let c = r.counters;
     println!(
         "photons traced {}, photon rays {}, eye samples {}, batches {}, accepted/tested pairs {}/{} ({:.2})",
@@ -347,6 +540,8 @@ fn stats_json(r: &Renderer, film: &Film, t_load: f64) -> serde_json::Value {
         "accepted_pairs": r.counters.accepted,
         "peak_rss_mb": peak_rss_mb(),
         "invalid_pixels": film.invalid_pixels(),
+        "method": r.settings.method,
+        "pm": r.pm_stats,
         "threads": rayon::current_num_threads(),
         "version": env!("CARGO_PKG_VERSION"),
     })

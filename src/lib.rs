@@ -6,6 +6,7 @@
 //! explicit direct light in `direct`.
 
 pub mod app;
+pub mod baseline;
 pub mod bsdf;
 pub mod direct;
 pub mod eye;

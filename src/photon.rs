@@ -67,6 +67,8 @@ pub struct PhotonRay {
     /// i: 0 for the segment leaving the light.
     pub bounce: u8,
     pub class: PhotonClass,
+    /// The ray ends on a non-specular surface (where photon mapping stores a photon).
+    pub lands: bool,
 }
 
 /// User bandwidth parameters (§6, eq. 8).
@@ -271,6 +273,9 @@ fn trace_photon(
         } else {
             PhotonClass::Caustic
         };
+        let lands = hit
+            .as_ref()
+            .is_some_and(|h| !scene.materials[h.material as usize].is_specular());
         if keep[class as usize] {
             out.push(TaggedRay {
                 photon,
@@ -284,6 +289,7 @@ fn trace_photon(
                     pdf_end: pdf_next,
                     bounce: bounce.min(255) as u8,
                     class,
+                    lands,
                 },
             });
         }
@@ -546,6 +552,7 @@ mod tests {
             pdf_end: 1.0,
             bounce: 1,
             class: PhotonClass::Indirect,
+            lands: true,
         };
         // §6: h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i)) / length.
         let (hi, hj) = (bw.h(4.0), bw.h(1.0));

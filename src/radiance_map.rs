@@ -69,6 +69,11 @@ impl Accumulators {
         self.chunks[slot / LANES].ch[c as usize][slot % LANES]
     }
 
+    #[inline]
+    pub fn set(&mut self, c: Channel, slot: usize, value: f32) {
+        self.chunks[slot / LANES].ch[c as usize][slot % LANES] = value;
+    }
+
     pub fn memory_bytes(&self) -> usize {
         self.chunks.len() * std::mem::size_of::<AccumChunk>()
     }

@@ -8,6 +8,8 @@
 //! is progressive: [`Renderer::step`] splats one stored batch (newest first) per call, and the
 //! film averages over the batches splatted so far.
 
+use crate::baseline::Method;
+use crate::baseline::photon_map::{PmStats, build_maps, estimate_targets};
 use crate::direct::direct_light;
 use crate::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
 use crate::film::Film;
@@ -54,6 +56,12 @@ pub struct RenderSettings {
     pub camera: Option<String>,
     /// Eye samples of a pixel on the same surface share one splat target (docs/deviations.md).
     pub merge_targets: bool,
+    /// Photon ray splatting or photon mapping (the path tracer is `baseline::pt`).
+    pub method: Method,
+    /// K of the global photon map (`--method pm`).
+    pub pm_k: usize,
+    /// K of the caustic photon map (`--method pm`).
+    pub pm_caustic_k: usize,
 }
 
 impl Default for RenderSettings {
@@ -72,6 +80,9 @@ impl Default for RenderSettings {
             max_emitted_factor: 4,
             camera: None,
             merge_targets: true,
+            method: Method::Rs,
+            pm_k: 400,
+            pm_caustic_k: 250,
         }
     }
 }
@@ -149,6 +160,10 @@ pub struct Renderer {
     pub max_stored_rays: usize,
     pub counters: SplatCounters,
     pub timings: Timings,
+    /// Photon mapping: the estimate must be recomputed before the next film.
+    pm_dirty: bool,
+    /// Gather statistics of the last photon-mapping estimate.
+    pub pm_stats: Option<PmStats>,
 }
 
 impl Renderer {
@@ -199,6 +214,8 @@ impl Renderer {
             counters: SplatCounters::default(),
             timings,
             settings,
+            pm_dirty: false,
+            pm_stats: None,
         })
     }
 
@@ -372,6 +389,11 @@ impl Renderer {
     }
 
     fn splat_rays(&mut self, rays: &[PhotonRay], m: [u64; 3]) {
+        if self.settings.method == Method::Pm {
+            // Photon mapping gathers from all stored photons when the film is made.
+            self.pm_dirty = true;
+            return;
+        }
         let bw = self.bandwidths(m);
         let indirect = prepare(rays, &bw, [false, true, true]);
         self.counters += splat(&self.side.tree, &indirect, &mut self.side.acc_indirect);
@@ -421,17 +443,43 @@ impl Renderer {
         Ok(())
     }
 
-    /// Compose the film: emission + direct + splatted light, with AOVs.
+    /// Photon mapping: build the maps from every stored batch and estimate at every target.
+    fn photon_map_estimate(&mut self) {
+        let t = Instant::now();
+        let batches: Vec<&[PhotonRay]> = self.batches.iter().map(|b| &b.rays[..]).collect();
+        let (global, caustic) = build_maps(&batches, self.splat_direct());
+        let r_max = self.settings.bandwidth.max_bandwidth_r * self.scene.diagonal();
+        let side = &mut self.side;
+        self.pm_stats = Some(estimate_targets(
+            &global,
+            &caustic,
+            &side.targets.position,
+            &side.targets.normal,
+            &side.tree.target_slot,
+            (self.settings.pm_k, self.settings.pm_caustic_k),
+            r_max,
+            &mut side.acc_indirect,
+        ));
+        self.pm_dirty = false;
+        self.timings.t_splat += t.elapsed().as_secs_f64();
+    }
+
+    /// Compose the film: emission + direct + splatted (or gathered) light, with AOVs.
     pub fn film(&mut self) -> Film {
+        let pm = self.settings.method == Method::Pm;
+        if pm && self.pm_dirty {
+            self.photon_map_estimate();
+        }
         let t = Instant::now();
         let (w, h) = (self.settings.width, self.settings.height);
-        let b = self.batch_count() as u32;
+        // Photon mapping holds its estimate already averaged over the batches.
+        let b = if pm { 1 } else { self.batch_count() as u32 };
         let side = &self.side;
         let mut map = RadianceMap::new(w, h);
         map.resolve_from(&side.eye, &side.tree.target_slot, &side.acc_indirect, b);
         let mut film = Film::new(w, h);
         let mut direct = side.direct.clone();
-        if self.settings.direct == DirectMode::Photons {
+        if self.settings.direct == DirectMode::Photons && !pm {
             let mut dmap = RadianceMap::new(w, h);
             dmap.resolve_from(&side.eye, &side.tree.target_slot, &side.acc_direct, b);
             for (d, s) in direct.iter_mut().zip(&dmap.diffuse) {

@@ -201,3 +201,55 @@ fn time_budget_renders_progressive_batches() {
     let per_batch = 4000 * 7 / 10; // indirect + caustic fractions with NEE
     assert!(j["photon_rays"].as_u64().unwrap() >= 3 * per_batch as u64 - 3);
 }
+
+#[test]
+fn compare_writes_table_images_and_json() {
+    let dir = tmp("compare_out");
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = bin()
+        .args([
+            "compare",
+            "builtin:classic",
+            "--width",
+            "24",
+            "--height",
+            "24",
+            "--spp",
+            "1",
+        ])
+        .args([
+            "--photons",
+            "5000",
+            "--ref-spp",
+            "16",
+            "--pt-spp",
+            "2",
+            "--methods",
+            "rs,pm,pt",
+        ])
+        .arg("--out-dir")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("relMSE") && stdout.contains("pm"),
+        "{stdout}"
+    );
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("compare.json")).unwrap()).unwrap();
+    for m in ["rs", "pm", "pt"] {
+        for key in ["t_eye", "t_light", "t_splat", "t_total", "rmse", "relmse"] {
+            assert!(j["methods"][m][key].is_number(), "{m}.{key} missing: {j}");
+        }
+        assert!(dir.join(format!("{m}.exr")).exists());
+        let err = image::open(dir.join(format!("{m}_error.png"))).unwrap();
+        assert_eq!((err.width(), err.height()), (24, 24));
+    }
+    assert!(dir.join("reference.exr").exists());
+}

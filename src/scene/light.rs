@@ -58,6 +58,8 @@ pub struct LightSample {
     pub distance: f32,
     /// Incident radiance × geometry / pdf: multiply by f_r·cos θ at the receiver.
     pub value: Vec3,
+    /// Solid-angle pdf of this sample (for MIS); infinite for point, spot and directional lights.
+    pub pdf: f32,
 }
 
 #[derive(Clone, Debug)]
@@ -68,6 +70,8 @@ pub struct Lights {
     pub total_power: Vec3,
     scene_center: Vec3,
     scene_radius: f32,
+    /// The area light of each triangle (`u32::MAX` for triangles that do not emit).
+    light_of_triangle: Vec<u32>,
 }
 
 impl Lights {
@@ -82,7 +86,8 @@ impl Lights {
         let scene_center = 0.5 * (bmin + bmax);
         let scene_radius = 0.5 * (bmax - bmin).length() * 1.01;
         let mut lights = Vec::new();
-        for (t, sh) in triangles.iter().zip(shading) {
+        let mut light_of_triangle = vec![u32::MAX; triangles.len()];
+        for (ti, (t, sh)) in triangles.iter().zip(shading).enumerate() {
             let m = &materials[sh.material as usize];
             if m.emission.max_element() <= 0.0 || !m.emission.is_finite() {
                 continue;
@@ -95,6 +100,7 @@ impl Lights {
             if area.is_nan() || area <= 0.0 || !area.is_finite() {
                 continue;
             }
+            light_of_triangle[ti] = lights.len() as u32;
             lights.push(Light::Area {
                 v0,
                 e1,
@@ -120,6 +126,7 @@ impl Lights {
         let dist = Distribution1D::new(&powers);
         if dist.is_none() {
             lights.clear();
+            light_of_triangle.fill(u32::MAX);
         }
         Self {
             lights,
@@ -127,7 +134,28 @@ impl Lights {
             total_power,
             scene_center,
             scene_radius,
+            light_of_triangle,
         }
+    }
+
+    /// Solid-angle pdf with which [`Lights::sample_direct`] from `from` picks the point `at`
+    /// on emissive triangle `triangle` (0 for triangles that do not emit).
+    pub fn pdf_direct(&self, triangle: u32, from: Vec3, at: Vec3) -> f32 {
+        let Some(&li) = self.light_of_triangle.get(triangle as usize) else {
+            return 0.0;
+        };
+        let (Some(dist), Some(Light::Area { normal, area, .. })) =
+            (self.dist.as_ref(), self.lights.get(li as usize))
+        else {
+            return 0.0;
+        };
+        let d = at - from;
+        let dist2 = d.length_squared();
+        let cos = (d.dot(*normal) / dist2.sqrt()).abs();
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        dist.pmf(li as usize) * dist2 / (area * cos)
     }
 
     pub fn is_empty(&self) -> bool {
@@ -283,6 +311,7 @@ impl Lights {
                     wi,
                     distance,
                     value: radiance * (cos_l * area / (dist2 * p_sel)),
+                    pdf: p_sel * dist2 / (area * cos_l),
                 })
             }
             Light::Point {
@@ -296,6 +325,7 @@ impl Lights {
                     wi: d / distance,
                     distance,
                     value: intensity / (dist2 * p_sel),
+                    pdf: f32::INFINITY,
                 })
             }
             Light::Spot {
@@ -317,6 +347,7 @@ impl Lights {
                     wi,
                     distance,
                     value: intensity * (fall / (dist2 * p_sel)),
+                    pdf: f32::INFINITY,
                 })
             }
             Light::Directional {
@@ -326,6 +357,7 @@ impl Lights {
                 wi: -direction,
                 distance: 4.0 * self.scene_radius,
                 value: irradiance / p_sel,
+                pdf: f32::INFINITY,
             }),
         }
     }

@@ -1,0 +1,183 @@
+//! The built-in reference: an unbiased path tracer with next-event estimation and multiple
+//! importance sampling (power heuristic) over the same BSDFs and lights as the splatter.
+//! Progressive: each call adds samples per pixel; every sample has its own random stream.
+
+use crate::film::Film;
+use crate::sampling::Rng;
+use crate::scene::{Camera, Scene};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Russian roulette starts after this many bounces.
+const RR_DEPTH: u32 = 3;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PtSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Path length limit (Russian roulette ends almost all paths long before).
+    pub max_depth: u32,
+    pub seed: u64,
+}
+
+pub struct PathTracer {
+    pub scene: Arc<Scene>,
+    pub camera: Camera,
+    pub settings: PtSettings,
+    sum: Vec<Vec3>,
+    spp: u32,
+    /// Contributions dropped because they were NaN or infinite.
+    pub invalid: u64,
+}
+
+impl PathTracer {
+    pub fn new(scene: Arc<Scene>, camera: Camera, settings: PtSettings) -> Self {
+        let n = (settings.width * settings.height) as usize;
+        Self {
+            scene,
+            camera,
+            settings,
+            sum: vec![Vec3::ZERO; n],
+            spp: 0,
+            invalid: 0,
+        }
+    }
+
+    pub fn samples_per_pixel(&self) -> u32 {
+        self.spp
+    }
+
+    /// Trace `n` more paths through every pixel.
+    pub fn add_samples(&mut self, n: u32) {
+        let s = self.settings;
+        let aspect = s.width as f32 / s.height as f32;
+        let first = self.spp;
+        let (scene, camera) = (&*self.scene, &self.camera);
+        let invalid: u64 = self
+            .sum
+            .par_chunks_mut(s.width as usize)
+            .enumerate()
+            .map(|(y, row)| {
+                let mut bad = 0;
+                for (x, acc) in row.iter_mut().enumerate() {
+                    let pixel = (y as u64) * s.width as u64 + x as u64;
+                    for k in first..first + n {
+                        let mut rng = Rng::new(s.seed ^ 0x7074_7261_6365, (pixel << 32) | k as u64);
+                        let j = rng.next_2d();
+                        let d = camera.direction(
+                            (x as f32 + j.x) / s.width as f32,
+                            (y as f32 + j.y) / s.height as f32,
+                            aspect,
+                        );
+                        let l = radiance(scene, camera.position, d, &mut rng, s.max_depth);
+                        if l.is_finite() {
+                            *acc += l;
+                        } else {
+                            bad += 1;
+                        }
+                    }
+                }
+                bad
+            })
+            .sum();
+        self.invalid += invalid;
+        self.spp += n;
+    }
+
+    /// The mean radiance per pixel so far.
+    pub fn film(&self) -> Film {
+        let mut f = Film::new(self.settings.width, self.settings.height);
+        let inv = 1.0 / self.spp.max(1) as f32;
+        for (o, s) in f.rgb.iter_mut().zip(&self.sum) {
+            *o = *s * inv;
+        }
+        f
+    }
+}
+
+#[inline]
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+/// Radiance arriving at `o` from direction `d` along one path.
+pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) -> Vec3 {
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let (mut origin, mut dir) = (o, d);
+    // Camera rays and specular bounces see emission with full weight.
+    let mut specular = true;
+    let mut prev_pdf = 0.0f32;
+    let mut prev_pos = o;
+    let eps = scene.ray_epsilon();
+    for depth in 0..max_depth {
+        let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
+            break;
+        };
+        let wo = -dir;
+        let le = scene.emitted(&hit, wo);
+        if le != Vec3::ZERO {
+            let w = if specular {
+                1.0
+            } else {
+                let pl = scene
+                    .lights
+                    .pdf_direct(hit.triangle, prev_pos, hit.position);
+                power_heuristic(prev_pdf, pl)
+            };
+            l += beta * le * w;
+        }
+        let bsdf = scene.bsdf(&hit);
+        let n = if hit.geo_normal.dot(wo) >= 0.0 {
+            hit.normal
+        } else {
+            -hit.normal
+        };
+        if !bsdf.is_specular() {
+            // Next-event estimation, MIS-weighted against BSDF sampling.
+            let u = rng.next_f32();
+            if let Some(ls) = scene.lights.sample_direct(hit.position, u, rng.next_2d()) {
+                let cos = n.dot(ls.wi);
+                if cos > 0.0 && ls.value.is_finite() {
+                    let from = hit.position + n * eps + ls.wi * eps;
+                    let tmax = ls.distance * (1.0 - 1e-4) - 2.0 * eps;
+                    if tmax <= 0.0 || !scene.occluded(from, ls.wi, tmax) {
+                        let f = bsdf.eval(wo, ls.wi, n);
+                        let w = if ls.pdf.is_finite() {
+                            power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, n))
+                        } else {
+                            1.0
+                        };
+                        l += beta * f * ls.value * (cos * w);
+                    }
+                }
+            }
+        } else {
+            // Next-event estimation cannot reach through a delta lobe.
+            rng.next_f32();
+            rng.next_2d();
+        }
+        let Some(s) = bsdf.sample(wo, n, rng.next_2d(), rng.next_f32()) else {
+            break;
+        };
+        beta *= s.weight;
+        if !beta.is_finite() || beta.max_element() <= 0.0 {
+            break;
+        }
+        if depth >= RR_DEPTH {
+            let q = beta.max_element().min(0.95);
+            if rng.next_f32() >= q {
+                break;
+            }
+            beta /= q;
+        }
+        specular = s.specular;
+        prev_pdf = s.pdf;
+        prev_pos = hit.position;
+        origin = scene.offset(&hit, s.wi);
+        dir = s.wi;
+    }
+    l
+}
