@@ -108,6 +108,9 @@ struct RenderArgs {
     /// K of the caustic photon map (--method pm).
     #[arg(long, default_value_t = 250)]
     pm_caustic_k: usize,
+    /// Gather rays per eye sample (--method rs-fg, pm-fg).
+    #[arg(long, default_value_t = 64)]
+    fg_rays: u32,
     /// Splat onto every eye sample instead of sharing one splat target among the samples of
     /// a pixel that lie on the same surface.
     #[arg(long)]
@@ -197,6 +200,7 @@ impl RenderArgs {
             method: self.method,
             pm_k: self.pm_k,
             pm_caustic_k: self.pm_caustic_k,
+            fg_rays: self.fg_rays,
             ..RenderSettings::default()
         })
     }
@@ -265,8 +269,8 @@ fn render(args: RenderArgs) -> Result<(), String> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    if args.method == Method::Pt {
-        return render_pt(&args, &settings, &scene, t_load);
+    if !matches!(args.method, Method::Rs | Method::Pm) {
+        return render_other(&args, &settings, &scene, t_load);
     }
     let progress = ProgressBar::new(match args.time_budget {
         Some(b) => (b * 1000.0) as u64,
@@ -324,8 +328,9 @@ fn write_outputs(args: &RenderArgs, film: &Film) -> Result<(), String> {
     Ok(())
 }
 
-/// `render --method pt`: the path tracer, `--spp` paths per pixel or until `--time-budget`.
-fn render_pt(
+/// `render --method pt|rs-fg|pm-fg`: the path tracer (`--spp` paths per pixel) or final
+/// gathering (`--fg-rays` per eye sample), or either until `--time-budget`.
+fn render_other(
     args: &RenderArgs,
     settings: &RenderSettings,
     scene: &Arc<Scene>,
@@ -336,23 +341,34 @@ fn render_pt(
         None => Budget::Fixed { pt_spp: args.spp },
     };
     let progress = ProgressBar::new_spinner();
-    progress.set_message("path tracing");
+    progress.set_message(format!("rendering ({})", args.method.name()));
     progress.enable_steady_tick(Duration::from_millis(100));
-    let out = render_method(scene, Method::Pt, settings, budget)?;
+    let out = render_method(scene, args.method, settings, budget)?;
     progress.finish_and_clear();
+    let t = out.timings;
     println!(
-        "path traced {} paths per pixel in {:.3} s ({} invalid contributions dropped)",
-        out.passes, out.timings.t_splat, out.invalid
+        "{}: T_E {:.3}  T_D {:.3}  T_L {:.3}  T_S {:.3}  ΣT {:.3} s, {} passes, {} invalid contributions dropped",
+        args.method.name(),
+        t.t_eye,
+        t.t_direct,
+        t.t_light,
+        t.t_splat,
+        t.total(),
+        out.passes,
+        out.invalid
     );
     write_outputs(args, &out.film)?;
     if let Some(path) = &args.stats {
         let j = json!({
             "scene": scene.name,
-            "method": "pt",
+            "method": args.method,
             "settings": settings,
             "t_load": t_load,
             "t_total": out.timings.total(),
-            "spp": out.passes,
+            "passes": out.passes,
+            "t_eye": out.timings.t_eye,
+            "t_light": out.timings.t_light,
+            "t_splat": out.timings.t_splat,
             "invalid_contributions": out.invalid,
             "peak_rss_mb": peak_rss_mb(),
             "version": env!("CARGO_PKG_VERSION"),

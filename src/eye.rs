@@ -83,7 +83,8 @@ impl EyeSamples {
         self.len() * (5 * 12 + 3 * 4)
     }
 
-    fn push(&mut self, s: &RawSample, target: u32) {
+    /// Append one sample whose splat target is `target`.
+    pub fn push_sample(&mut self, s: &EyeSample, target: u32) {
         self.target.push(target);
         self.position.push(s.position);
         self.normal.push(s.normal);
@@ -95,15 +96,22 @@ impl EyeSamples {
     }
 }
 
+/// One eye sample (§3): position, normal facing the viewer, direction to the viewer, material,
+/// pixel, RGB path weight and diffuse albedo.
+#[derive(Clone, Copy, Debug)]
+pub struct EyeSample {
+    pub position: Vec3,
+    pub normal: Vec3,
+    pub wo: Vec3,
+    pub material: u32,
+    pub pixel: u32,
+    pub weight: Vec3,
+    pub albedo: Vec3,
+}
+
 #[derive(Clone, Copy)]
 struct RawSample {
-    position: Vec3,
-    normal: Vec3,
-    wo: Vec3,
-    material: u32,
-    pixel: u32,
-    weight: Vec3,
-    albedo: Vec3,
+    sample: EyeSample,
     /// Length of the eye path to the sample (for the pixel footprint).
     path_length: f32,
     /// Target index within the row during the pass.
@@ -192,7 +200,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     for (row, em, row_targets) in rows {
         let offset = targets.len() as u32;
         for r in &row {
-            samples.push(r, offset + r.target);
+            samples.push_sample(&r.sample, offset + r.target);
         }
         emitted.extend(em);
         targets.position.extend(row_targets.position);
@@ -211,13 +219,13 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
 fn assign_targets(px: &mut [RawSample], targets: &mut SplatTargets, merge: bool, pixel_angle: f32) {
     let base = targets.len();
     for i in 0..px.len() {
-        let s = px[i];
-        let reach = MERGE_FOOTPRINTS * pixel_angle * s.path_length;
+        let reach = MERGE_FOOTPRINTS * pixel_angle * px[i].path_length;
+        let s = px[i].sample;
         let found = if merge {
             px[..i].iter().find(|o| {
                 let t = o.target as usize;
                 t >= base
-                    && o.material == s.material
+                    && o.sample.material == s.material
                     && targets.normal[t].dot(s.normal) >= MERGE_COS
                     && targets.position[t].distance_squared(s.position) <= reach * reach
             })
@@ -274,13 +282,15 @@ fn trace_chain(
                     -hit.normal
                 };
                 out.push(RawSample {
-                    position: hit.position,
-                    normal: n,
-                    wo,
-                    material: hit.material,
-                    pixel,
-                    weight: w,
-                    albedo,
+                    sample: EyeSample {
+                        position: hit.position,
+                        normal: n,
+                        wo,
+                        material: hit.material,
+                        pixel,
+                        weight: w,
+                        albedo,
+                    },
                     path_length,
                     target: 0,
                 });

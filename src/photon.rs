@@ -69,6 +69,8 @@ pub struct PhotonRay {
     pub class: PhotonClass,
     /// The ray ends on a non-specular surface (where photon mapping stores a photon).
     pub lands: bool,
+    /// Geometric normal of the surface the ray hits, facing the ray (zero if it escapes).
+    pub end_normal: Vec3,
 }
 
 /// User bandwidth parameters (§6, eq. 8).
@@ -276,6 +278,13 @@ fn trace_photon(
         let lands = hit
             .as_ref()
             .is_some_and(|h| !scene.materials[h.material as usize].is_specular());
+        let end_normal = hit.as_ref().map_or(Vec3::ZERO, |h| {
+            if h.geo_normal.dot(dir) <= 0.0 {
+                h.geo_normal
+            } else {
+                -h.geo_normal
+            }
+        });
         if keep[class as usize] {
             out.push(TaggedRay {
                 photon,
@@ -290,6 +299,7 @@ fn trace_photon(
                     bounce: bounce.min(255) as u8,
                     class,
                     lands,
+                    end_normal,
                 },
             });
         }
@@ -553,6 +563,7 @@ mod tests {
             bounce: 1,
             class: PhotonClass::Indirect,
             lands: true,
+            end_normal: -Vec3::X,
         };
         // §6: h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i)) / length.
         let (hi, hj) = (bw.h(4.0), bw.h(1.0));

@@ -62,6 +62,8 @@ pub struct RenderSettings {
     pub pm_k: usize,
     /// K of the caustic photon map (`--method pm`).
     pub pm_caustic_k: usize,
+    /// Gather rays per eye sample for the final-gathering methods (§8.4).
+    pub fg_rays: u32,
 }
 
 impl Default for RenderSettings {
@@ -83,6 +85,7 @@ impl Default for RenderSettings {
             method: Method::Rs,
             pm_k: 400,
             pm_caustic_k: 250,
+            fg_rays: 64,
         }
     }
 }

@@ -25,12 +25,48 @@ pub fn epanechnikov(d2: f32, h2: f32) -> f32 {
     }
 }
 
+/// Fraction of the 2D kernel's mass that the hemisphere rule (Fig. 4) keeps on a plane hit at
+/// incidence cos θ: the half-disc before the hit point plus, beyond it, the part of the other
+/// half within the splat radius of the hit point, an ellipse of semi-axes (cos θ, 1) in the
+/// kernel plane. f(1) = 1, f(0) = ½. Tabulated once (64 steps of cos θ, 400² midpoint cells).
+pub fn hemisphere_kept_fraction(cos_theta: f32) -> f32 {
+    static TABLE: std::sync::OnceLock<[f32; 65]> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        let n = 400;
+        std::array::from_fn(|i| {
+            let c = i as f64 / 64.0;
+            let mut sum = 0.0f64;
+            for iy in 0..n {
+                let y = -1.0 + (iy as f64 + 0.5) * 2.0 / n as f64;
+                let xmax = c * (1.0 - y * y).max(0.0).sqrt();
+                for ix in 0..n {
+                    let x = (ix as f64 + 0.5) / n as f64;
+                    if x < xmax {
+                        let r2 = x * x + y * y;
+                        sum += (2.0 / std::f64::consts::PI) * (1.0 - r2).max(0.0);
+                    }
+                }
+            }
+            (0.5 + sum * (2.0 / n as f64) * (1.0 / n as f64)) as f32
+        })
+    });
+    let x = cos_theta.clamp(0.0, 1.0) * 64.0;
+    let i = (x as usize).min(63);
+    let t = x - i as f32;
+    table[i] * (1.0 - t) + table[i + 1] * t
+}
+
 /// A photon ray ready to splat: its cone from the current bandwidth (§6) and its power.
 #[derive(Clone, Copy, Debug)]
 pub struct SplatRay {
     pub cone: Cone,
     pub power: Vec3,
     pub origin_normal: Vec3A,
+    /// Normal of the surface hit, facing the ray (zero when the ray escapes).
+    pub end_normal: Vec3A,
+    /// 1 / [`hemisphere_kept_fraction`] at the hit: restores, on the hit surface, the kernel
+    /// mass the hemisphere rule cuts off (docs/deviations.md).
+    pub end_gain: f32,
     pub bounds_min: Vec3A,
     pub bounds_max: Vec3A,
 }
@@ -47,10 +83,18 @@ impl SplatRay {
             h_end: h0 + dh * ray.length,
         };
         let (bounds_min, bounds_max) = cone.bounds();
+        let cos_hit = -ray.dir.dot(ray.end_normal);
+        let end_gain = if ray.end_normal == Vec3::ZERO {
+            1.0
+        } else {
+            1.0 / hemisphere_kept_fraction(cos_hit)
+        };
         Self {
             cone,
             power: ray.power,
             origin_normal: ray.origin_normal.into(),
+            end_normal: ray.end_normal.into(),
+            end_gain,
             bounds_min,
             bounds_max,
         }
@@ -117,6 +161,15 @@ pub fn test_sample(ray: &SplatRay, p: Vec3, n: Vec3) -> LaneResult {
     let front = vx * ray.origin_normal.x + vy * ray.origin_normal.y + vz * ray.origin_normal.z;
     let feasible =
         (t >= 0.0) & (d2 < r2) & ((t <= c.length) | (e2 < r2)) & (cos > 0.0) & (front >= 0.0);
+    // On the hit surface near the hit point, make up for the mass the hemisphere cut off.
+    let n_end = ray.end_normal;
+    let plane = vx * n_end.x + vy * n_end.y + vz * n_end.z
+        - c.length * (c.dir.x * n_end.x + c.dir.y * n_end.y + c.dir.z * n_end.z);
+    let gain = if plane.abs() < 0.5 * c.h_end {
+        ray.end_gain
+    } else {
+        1.0
+    };
     // One division gives both 1/r² and 1/t: q = 1/(r²·t). The distance to the ray origin is
     // taken along the ray (t), within the splat radius of the true distance.
     let t_safe = t.max(1e-6);
@@ -126,7 +179,7 @@ pub fn test_sample(ray: &SplatRay, p: Vec3, n: Vec3) -> LaneResult {
     let kernel = FRAC_2_PI * inv_r2 * (1.0 - d2 * inv_r2);
     LaneResult {
         feasible,
-        weight: if feasible { kernel * cos } else { 0.0 },
+        weight: if feasible { kernel * cos * gain } else { 0.0 },
         radius,
         inv_dist: q * r2,
     }
@@ -272,6 +325,18 @@ mod tests {
     }
 
     #[test]
+    fn hemisphere_fraction_limits() {
+        assert!((hemisphere_kept_fraction(1.0) - 1.0).abs() < 1e-3);
+        assert!((hemisphere_kept_fraction(0.0) - 0.5).abs() < 1e-3);
+        let mut prev = 0.0;
+        for i in 0..=20 {
+            let f = hemisphere_kept_fraction(i as f32 / 20.0);
+            assert!(f >= prev);
+            prev = f;
+        }
+    }
+
+    #[test]
     fn lane_weight_matches_the_kernel() {
         let bw_ray = SplatRay {
             cone: Cone {
@@ -284,6 +349,8 @@ mod tests {
             },
             power: Vec3::ONE,
             origin_normal: Vec3A::NEG_Y,
+            end_normal: Vec3A::Y,
+            end_gain: 1.0,
             bounds_min: Vec3A::splat(-1.0),
             bounds_max: Vec3A::splat(1.0),
         };

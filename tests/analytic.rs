@@ -65,6 +65,45 @@ fn point_light_irradiance_on_a_plane() {
     }
 }
 
+/// The hemisphere rule beyond the hit point (Fig. 4) cuts off kernel mass on the hit surface
+/// at oblique incidence (measured without correction: −6% at 45°, −17% at 61°, −26% at 69°);
+/// the splat restores it on the hit plane (docs/deviations.md). Out to 66° incidence the
+/// irradiance stays within 3% (statistical error < 1% per ring with 10⁶ photons).
+#[test]
+fn oblique_incidence_keeps_its_energy() {
+    let scene = Arc::new(common::point_light_over_plane(2.0, 1.0, 2.6));
+    let settings = RenderSettings {
+        width: 96,
+        height: 96,
+        spp: 1,
+        photons: 1_000_000,
+        fractions: [1.0, 0.0, 0.0],
+        direct: DirectMode::Photons,
+        seed: 11,
+        ..RenderSettings::default()
+    };
+    let mut r = Renderer::new(scene, settings).unwrap();
+    r.run_batch();
+    let e = r.target_irradiance(true);
+    let mut rings = [(0.0f64, 0.0f64); 6];
+    for (p, e) in r.targets().position.iter().zip(&e) {
+        let ring = ((p.x * p.x + p.z * p.z).sqrt() / 0.4) as usize;
+        if ring < rings.len() {
+            let d = Vec3::new(0.0, 1.0, 0.0) - *p;
+            rings[ring].0 += e.x as f64;
+            rings[ring].1 += (2.0 * d.y / d.length().powi(3)) as f64;
+        }
+    }
+    for (i, (est, ana)) in rings.iter().enumerate() {
+        assert!(
+            (est / ana - 1.0).abs() < 0.03,
+            "ring {i} (about {:.0}°): ratio {:.3}",
+            ((i as f32 + 0.5) * 0.4).atan().to_degrees(),
+            est / ana
+        );
+    }
+}
+
 /// eq. 7 on a known path: for a downward area light over a plane, every direct ray has
 /// p̃(x1|x0) = p_e / D(x0, x1) with p_e = (1/A)·cos θ/π, and every ray leaving the plane
 /// after one diffuse bounce multiplies p̃ by (cos θ'/π) / D.

@@ -72,6 +72,12 @@ fn rays(seed: u64, n: usize, radius: f32, grow: f32) -> Vec<SplatRay> {
                 cone,
                 power: Vec3::new(1.0, 2.0, 3.0),
                 origin_normal,
+                end_normal: if i % 4 == 0 {
+                    Vec3A::ZERO
+                } else {
+                    (-dir).into()
+                },
+                end_gain: 1.0 + rng.next_f32(),
                 bounds_min,
                 bounds_max,
             }

@@ -3,6 +3,7 @@
 //! estimation (Jensen), plus the per-pixel error maps `compare` writes.
 
 pub mod compare;
+pub mod final_gather;
 pub mod photon_map;
 pub mod pt;
 
@@ -18,6 +19,10 @@ pub enum Method {
     Pm,
     /// Unbiased path tracing with next-event estimation and MIS.
     Pt,
+    /// Ray splatting with final gathering (§8.4).
+    RsFg,
+    /// Photon mapping with final gathering.
+    PmFg,
 }
 
 impl Method {
@@ -26,6 +31,8 @@ impl Method {
             Method::Rs => "rs",
             Method::Pm => "pm",
             Method::Pt => "pt",
+            Method::RsFg => "rs-fg",
+            Method::PmFg => "pm-fg",
         }
     }
 }

@@ -1,0 +1,255 @@
+//! Final gathering (§8.4): N gather rays per eye sample, cosine-distributed; photon density is
+//! estimated where they land instead of at the eye samples. Ray splatting stores the gather hits
+//! as eye samples and splats the same photon rays onto them, a band of image rows at a time to
+//! bound memory (the paper's tiles); photon mapping queries its maps there.
+//!
+//! Paths are split without overlap: emission seen directly; direct light by NEE at the eye
+//! sample; caustics (L S+ D E) by splatting caustic photons (rs-fg) or the caustic map (pm-fg)
+//! at the eye sample; everything else through a gather ray that lands on a non-specular surface
+//! (gather rays that meet emitters or specular surfaces add nothing: the terms above hold them).
+
+use super::Method;
+use super::compare::Rendered;
+use super::photon_map::{PhotonMap, build_maps, estimate_targets};
+use crate::direct::direct_light;
+use crate::eye::{EyePass, EyeSample, EyeSamples, EyeSettings, eye_pass};
+use crate::film::Film;
+use crate::photon::{
+    Bandwidth, ClassBudgets, LightPassSettings, PhotonBatch, PhotonClass, light_pass, pilot,
+};
+use crate::radiance_map::{Accumulators, RadianceMap};
+use crate::render::{RenderSettings, Timings};
+use crate::sampling::{Rng, cosine_hemisphere, to_world};
+use crate::scene::Scene;
+use crate::splat::{prepare, splat};
+use crate::splat_tree::SplatTree;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::sync::Arc;
+use std::time::Instant;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FgSettings {
+    /// Gather rays per eye sample.
+    pub rays: u32,
+    /// At most this many gather hits are splatted or gathered at once (a band of rows).
+    pub max_band_samples: usize,
+}
+
+impl Default for FgSettings {
+    fn default() -> Self {
+        Self {
+            rays: 64,
+            max_band_samples: 2_000_000,
+        }
+    }
+}
+
+/// Render with final gathering; `method` is `Method::RsFg` or `Method::PmFg`.
+pub fn render_fg(
+    scene: &Arc<Scene>,
+    method: Method,
+    s: &RenderSettings,
+    fg: FgSettings,
+) -> Result<Rendered, String> {
+    let splatting = match method {
+        Method::RsFg => true,
+        Method::PmFg => false,
+        other => return Err(format!("{other:?} is not a final-gathering method")),
+    };
+    let camera = scene
+        .camera(s.camera.as_deref())
+        .cloned()
+        .ok_or_else(|| format!("no camera named {:?}", s.camera))?;
+    let (w, h) = (s.width, s.height);
+    let n_pixels = (w * h) as usize;
+    let mut timings = Timings::default();
+
+    // Eye pass and explicit direct light at the eye samples.
+    let t = Instant::now();
+    let EyePass {
+        samples: eye,
+        emitted,
+        ..
+    } = eye_pass(
+        scene,
+        &camera,
+        &EyeSettings {
+            width: w,
+            height: h,
+            spp: s.spp,
+            max_specular_depth: s.max_specular_depth,
+            seed: s.seed,
+            merge_targets: false,
+        },
+    );
+    timings.t_eye += t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut image = emitted;
+    for (i, l) in direct_light(scene, &eye, s.nee_samples, s.seed)
+        .iter()
+        .enumerate()
+    {
+        image[eye.pixel[i] as usize] += eye.weight[i] * *l;
+    }
+    timings.t_direct += t.elapsed().as_secs_f64();
+
+    // One light pass with every class: gather hits need direct photons too.
+    let t = Instant::now();
+    let pilot = pilot(scene, s.seed);
+    let batch: PhotonBatch = light_pass(
+        scene,
+        &LightPassSettings {
+            budgets: ClassBudgets::from_fractions(s.photons, s.fractions, true),
+            max_emitted_factor: s.max_emitted_factor,
+            seed: s.seed,
+            first_photon: 0,
+        },
+    );
+    timings.t_light += t.elapsed().as_secs_f64();
+    let mean_r = pilot.mean_r(s.bandwidth.sensitivity_s);
+    let bw = PhotonClass::ALL
+        .map(|c| Bandwidth::new(&s.bandwidth, &pilot, batch.stored[c as usize], mean_r));
+    let maps = (!splatting).then(|| build_maps(&[&batch.rays], true));
+    let r_max = s.bandwidth.max_bandwidth_r * scene.diagonal();
+
+    // Caustics at the eye samples.
+    let t = Instant::now();
+    let own_targets: Vec<u32> = (0..eye.len() as u32).collect();
+    let eye = EyeSamples {
+        target: own_targets,
+        ..eye
+    };
+    let caustic = estimate_at(&eye, n_pixels, w, h, scene, |tree, acc| {
+        if let Some((_, caustic_map)) = &maps {
+            let empty = PhotonMap::build(Vec::new());
+            estimate_targets(
+                &empty,
+                caustic_map,
+                &eye.position,
+                &eye.normal,
+                &tree.target_slot,
+                (0, s.pm_caustic_k),
+                r_max,
+                acc,
+            );
+        } else {
+            let rays = prepare(&batch.rays, &bw, [false, false, true]);
+            splat(tree, &rays, acc);
+        }
+    });
+    for (p, c) in image.iter_mut().zip(&caustic) {
+        *p += *c;
+    }
+
+    // Gather rays, a band of rows at a time.
+    let per_row = (eye.len() / h.max(1) as usize).max(1) * fg.rays as usize;
+    let rows_per_band = (fg.max_band_samples / per_row.max(1)).clamp(1, h as usize) as u32;
+    let all_rays = splatting.then(|| prepare(&batch.rays, &bw, [true, true, true]));
+    let mut y0 = 0;
+    while y0 < h {
+        let y1 = (y0 + rows_per_band).min(h);
+        let (lo, hi) = (y0 * w, y1 * w);
+        let tg = Instant::now();
+        let band = gather_hits(scene, &eye, lo, hi, fg.rays, s.seed);
+        timings.t_eye += tg.elapsed().as_secs_f64();
+        let indirect = estimate_at(&band, n_pixels, w, h, scene, |tree, acc| {
+            if let Some((global, caustic_map)) = &maps {
+                estimate_targets(
+                    global,
+                    caustic_map,
+                    &band.position,
+                    &band.normal,
+                    &tree.target_slot,
+                    (s.pm_k, s.pm_caustic_k),
+                    r_max,
+                    acc,
+                );
+            } else if let Some(rays) = &all_rays {
+                splat(tree, rays, acc);
+            }
+        });
+        for (p, c) in image.iter_mut().zip(&indirect) {
+            *p += *c;
+        }
+        y0 = y1;
+    }
+    timings.t_splat += t.elapsed().as_secs_f64();
+    let mut film = Film::new(w, h);
+    film.rgb = image;
+    Ok(Rendered {
+        invalid: film.invalid_pixels() as u64,
+        film,
+        timings,
+        photons: batch.traced,
+        passes: 1,
+    })
+}
+
+/// Build a splat tree over `samples` (each its own target), fill accumulators with `fill`,
+/// and resolve them into per-pixel radiance.
+fn estimate_at(
+    samples: &EyeSamples,
+    n_pixels: usize,
+    w: u32,
+    h: u32,
+    scene: &Scene,
+    fill: impl FnOnce(&SplatTree, &mut Accumulators),
+) -> Vec<Vec3> {
+    if samples.is_empty() {
+        return vec![Vec3::ZERO; n_pixels];
+    }
+    let tree = SplatTree::build(&samples.position, &samples.normal, scene.diagonal());
+    let mut acc = Accumulators::new(tree.slots());
+    fill(&tree, &mut acc);
+    let mut map = RadianceMap::new(w, h);
+    map.resolve_from(samples, &tree.target_slot, &acc, 1);
+    map.diffuse
+}
+
+/// Gather hits of the eye samples of pixels `lo..hi` (pixel order): each carries
+/// weight · ρ / N towards its pixel (cosine sampling: f·cos/pdf = ρ).
+fn gather_hits(scene: &Scene, eye: &EyeSamples, lo: u32, hi: u32, n: u32, seed: u64) -> EyeSamples {
+    let first = eye.pixel.partition_point(|&p| p < lo);
+    let last = eye.pixel.partition_point(|&p| p < hi);
+    let per_sample: Vec<Vec<EyeSample>> = (first..last)
+        .into_par_iter()
+        .map(|i| {
+            let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
+            let (p, nrm) = (eye.position[i], eye.normal[i]);
+            let weight = eye.weight[i] * eye.albedo[i] / n as f32;
+            let origin = p + nrm * scene.ray_epsilon();
+            let mut out = Vec::with_capacity(n as usize);
+            for _ in 0..n {
+                let dir = to_world(cosine_hemisphere(rng.next_2d()), nrm);
+                let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
+                    continue;
+                };
+                if scene.materials[hit.material as usize].is_specular() {
+                    continue;
+                }
+                let facing = if hit.geo_normal.dot(dir) <= 0.0 {
+                    hit.normal
+                } else {
+                    -hit.normal
+                };
+                out.push(EyeSample {
+                    position: hit.position,
+                    normal: facing,
+                    wo: -dir,
+                    material: hit.material,
+                    pixel: eye.pixel[i],
+                    weight,
+                    albedo: scene.albedo(&hit),
+                });
+            }
+            out
+        })
+        .collect();
+    let mut band = EyeSamples::default();
+    for s in per_sample.iter().flatten() {
+        let t = band.len() as u32;
+        band.push_sample(s, t);
+    }
+    band
+}
