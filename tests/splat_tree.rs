@@ -78,6 +78,7 @@ fn rays(seed: u64, n: usize, radius: f32, grow: f32) -> Vec<SplatRay> {
                     (-dir).into()
                 },
                 end_gain: 1.0 + rng.next_f32(),
+                end_plane: if i % 4 == 0 { 0.0 } else { -length },
                 bounds_min,
                 bounds_max,
             }
