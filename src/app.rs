@@ -128,6 +128,8 @@ pub struct App {
     /// The camera is being moved (interactive frames); when it settles a final view is sent.
     moving_since: Option<Instant>,
     paused: bool,
+    /// The worker path-traces the view for the reference mode.
+    reference_on: bool,
     messages: Vec<Message>,
     snapshot_rx: Option<Receiver<Result<SnapshotFiles, String>>>,
     pick_rx: Option<Receiver<PickResult>>,
@@ -191,6 +193,7 @@ impl App {
             orbit: None,
             moving_since: None,
             paused: false,
+            reference_on: false,
             messages,
             snapshot_rx: None,
             pick_rx: None,
@@ -357,13 +360,23 @@ impl App {
     }
 
     fn update_texture(&mut self, ctx: &egui::Context) {
+        let want_reference = self.settings.view_mode == ViewMode::Reference;
+        if want_reference != self.reference_on {
+            self.reference_on = want_reference;
+            self.session.send(Command::SetReference(want_reference));
+        }
         if !self.display_dirty {
             return;
         }
         self.display_dirty = false;
         let Some(f) = &self.frame else { return };
+        // The reference mode shows the path tracer's image once it has one.
+        let film = match (&f.reference, want_reference) {
+            (Some(r), true) => r,
+            _ => &f.film,
+        };
         let img = display(
-            &f.film,
+            film,
             self.settings.view_mode,
             self.settings.exposure,
             self.settings.tone_map,
@@ -698,6 +711,10 @@ impl App {
             if s.resplat_pending {
                 ui.separator();
                 ui.label("re-splatting…");
+            }
+            if s.reference_spp > 0 {
+                ui.separator();
+                ui.label(format!("reference {} paths/pixel", s.reference_spp));
             }
         });
     }

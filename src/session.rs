@@ -6,6 +6,7 @@
 //! stale frame is dropped, never queued), events out (scene loaded, load failed). Commands that
 //! arrive together are coalesced and applied once, at the batch boundary.
 
+use crate::baseline::pt::{PathTracer, PtSettings};
 use crate::film::Film;
 use crate::photon::BandwidthParams;
 use crate::render::{DirectMode, RenderSettings, Renderer, Step};
@@ -44,6 +45,9 @@ pub enum Command {
     LoadScene(PathBuf),
     /// Drop all photons and trace from scratch.
     Restart,
+    /// Path trace the current view progressively (the reference view mode) instead of tracing
+    /// photon batches, or stop doing so.
+    SetReference(bool),
     Shutdown,
 }
 
@@ -82,6 +86,8 @@ pub struct SessionStats {
     pub elapsed_s: f64,
     pub paused: bool,
     pub resplat_pending: bool,
+    /// Paths per pixel of the reference image, 0 when it is off.
+    pub reference_spp: u32,
 }
 
 /// A published image and everything needed to describe it.
@@ -99,6 +105,8 @@ pub struct Frame {
     /// Rendered at reduced resolution (while the camera moves, and for the first frame).
     pub interactive: bool,
     pub stats: SessionStats,
+    /// The path-traced reference of the same view, while the reference mode is on.
+    pub reference: Option<Film>,
 }
 
 #[derive(Clone, Debug)]
@@ -235,6 +243,9 @@ struct Worker {
     /// full resolution (re-splatting, no re-trace): an image appears sooner.
     coarse_start: bool,
     paused: bool,
+    /// The reference mode's path tracer, for the current view.
+    reference: Option<PathTracer>,
+    reference_on: bool,
     generation: u64,
     seq: u64,
     started: Instant,
@@ -265,6 +276,8 @@ impl Worker {
             renderer: None,
             coarse_start: false,
             paused: false,
+            reference: None,
+            reference_on: false,
             generation: 0,
             seq: 0,
             started: Instant::now(),
@@ -312,7 +325,10 @@ impl Worker {
             }
             self.apply(pending);
             let mut traced = false;
-            if let Some(r) = self.renderer.as_mut()
+            if self.reference_on && !self.paused && self.renderer.is_some() {
+                self.reference_step();
+                traced = true;
+            } else if let Some(r) = self.renderer.as_mut()
                 && (r.resplat_pending() || !self.paused)
             {
                 let t = Instant::now();
@@ -386,6 +402,12 @@ impl Worker {
             Command::Resume => self.paused = false,
             Command::LoadScene(path) => p.load = Some(path),
             Command::Restart => p.restart = true,
+            Command::SetReference(on) => {
+                self.reference_on = on;
+                if !on {
+                    self.reference = None;
+                }
+            }
             Command::Shutdown => return false,
         }
         true
@@ -393,6 +415,10 @@ impl Worker {
 
     /// Apply gathered changes at the batch boundary.
     fn apply(&mut self, p: Pending) {
+        if p.view || p.restart || p.load.is_some() {
+            // The reference shows the current view only.
+            self.reference = None;
+        }
         if let Some(b) = p.bandwidth {
             self.config.settings.bandwidth = b;
         }
@@ -440,6 +466,26 @@ impl Worker {
             r.begin_resplat(b);
             self.generation += 1;
         }
+    }
+
+    /// Add one path per pixel to the reference of the current view.
+    fn reference_step(&mut self) {
+        let Some(r) = self.renderer.as_ref() else {
+            return;
+        };
+        let pt = self.reference.get_or_insert_with(|| {
+            PathTracer::new(
+                self.scene.clone(),
+                r.camera.clone(),
+                PtSettings {
+                    width: r.settings.width,
+                    height: r.settings.height,
+                    max_depth: 64,
+                    seed: r.settings.seed,
+                },
+            )
+        });
+        pt.add_samples(1);
     }
 
     fn restart(&mut self) {
@@ -498,6 +544,7 @@ impl Worker {
             elapsed_s: elapsed,
             paused: self.paused,
             resplat_pending: r.resplat_pending(),
+            reference_spp: self.reference.as_ref().map_or(0, |p| p.samples_per_pixel()),
         };
         self.seq += 1;
         let frame = Frame {
@@ -510,6 +557,7 @@ impl Worker {
             settings: r.settings.clone(),
             interactive: self.interactive || self.coarse_start,
             stats,
+            reference: self.reference.as_ref().map(|p| p.film()),
         };
         // Keep only the newest frame: drop one the UI has not taken yet.
         while self.stale.try_recv().is_ok() {}

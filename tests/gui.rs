@@ -311,3 +311,33 @@ fn settings_persist_through_eframe_storage() {
     assert_eq!(&restored, h.state().settings());
     assert!((restored.bandwidth.max_bandwidth_r - 0.35).abs() < 1e-6);
 }
+
+/// The reference view mode makes the worker path-trace the same view progressively and shows it.
+#[test]
+fn reference_view_mode_path_traces_the_view() {
+    let mut h = harness(tmp("reference"));
+    run_until(&mut h, 60, "the first image", |a| {
+        a.frame()
+            .is_some_and(|f| f.stats.batches >= 1 && !f.interactive)
+    });
+    h.get_by_role_and_label(Role::ComboBox, "View").click();
+    h.run_steps(3);
+    h.get_by_label("Reference (path traced)").click();
+    run_until(&mut h, 60, "a reference with a few paths per pixel", |a| {
+        a.frame()
+            .is_some_and(|f| f.stats.reference_spp >= 4 && f.reference.is_some())
+    });
+    h.run_steps(2);
+    let app = h.state();
+    let f = app.frame().unwrap();
+    let reference = f.reference.as_ref().unwrap();
+    assert_eq!(
+        (reference.width, reference.height),
+        (f.film.width, f.film.height)
+    );
+    assert_eq!(reference.invalid_pixels(), 0);
+    // The shown image is the reference's (brightness within reach of the splatted film's).
+    let (m_ref, m_rs) = (reference.mean(), f.film.mean());
+    assert!((m_ref.x / m_rs.x - 1.0).abs() < 0.5, "{m_ref} vs {m_rs}");
+    h.get_by_label_contains("reference");
+}

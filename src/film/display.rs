@@ -16,16 +16,19 @@ pub enum ViewMode {
     KernelDensity,
     /// Harmonic mean distance of incident photon rays.
     HarmonicDistance,
+    /// The built-in path tracer's image of the same view, refining progressively.
+    Reference,
 }
 
 impl ViewMode {
-    pub const ALL: [ViewMode; 6] = [
+    pub const ALL: [ViewMode; 7] = [
         ViewMode::Final,
         ViewMode::DirectOnly,
         ViewMode::IndirectOnly,
         ViewMode::Bandwidth,
         ViewMode::KernelDensity,
         ViewMode::HarmonicDistance,
+        ViewMode::Reference,
     ];
 
     pub fn label(self) -> &'static str {
@@ -36,6 +39,7 @@ impl ViewMode {
             ViewMode::Bandwidth => "Bandwidth (false colour)",
             ViewMode::KernelDensity => "Kernel-weight density",
             ViewMode::HarmonicDistance => "Harmonic mean distance",
+            ViewMode::Reference => "Reference (path traced)",
         }
     }
 
