@@ -62,7 +62,7 @@ struct RenderArgs {
     #[arg(long, default_value_t = 200_000)]
     photons: u64,
     /// Fractions of M for direct, indirect-diffuse and caustic photons (Table 2).
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.3, 0.6, 0.1])]
+    #[arg(long, value_delimiter = ',', default_values_t = [0.3, 0.6, 0.1])]
     fractions: Vec<f32>,
     /// C: smoothness (eq. 8).
     #[arg(long, default_value_t = 1.0)]
@@ -177,7 +177,13 @@ impl RenderArgs {
         if !positive(self.c) || !positive(self.r) {
             return Err("--c and --r must be positive".into());
         }
-        let f = [self.fractions[0], self.fractions[1], self.fractions[2]];
+        let [f0, f1, f2] = self.fractions[..] else {
+            return Err(format!(
+                "--fractions takes three numbers (direct, indirect, caustic), got {}",
+                self.fractions.len()
+            ));
+        };
+        let f = [f0, f1, f2];
         if f.iter().any(|x| x.is_nan() || *x < 0.0) || f.iter().sum::<f32>() <= 0.0 {
             return Err("--fractions must be three non-negative numbers, not all zero".into());
         }

@@ -253,3 +253,40 @@ fn compare_writes_table_images_and_json() {
     }
     assert!(dir.join("reference.exr").exists());
 }
+
+#[test]
+fn fractions_take_three_comma_separated_numbers() {
+    let stats = tmp("fractions.json");
+    let out = bin()
+        .args([
+            "render",
+            "--width",
+            "24",
+            "--height",
+            "24",
+            "--spp",
+            "1",
+            "--photons",
+            "4000",
+        ])
+        .args(["--fractions", "0.5,0.5,0.0", "--direct", "photons", "--out"])
+        .arg(tmp("fractions.exr"))
+        .arg("--stats")
+        .arg(&stats)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    assert_eq!(j["photon_rays_caustic"], 0);
+    assert!(j["photon_rays_direct"].as_u64().unwrap() >= 2000);
+    let bad = bin()
+        .args(["render", "--fractions", "0.5,0.5"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("three numbers"));
+}
