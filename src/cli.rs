@@ -39,6 +39,16 @@ enum Command {
     /// Render several methods with the same photons and eye samples and compare them with a
     /// reference (the path tracer at high spp unless --reference is given).
     Compare(CompareArgs),
+    /// Tone-map a linear EXR to an sRGB PNG (exposure in stops, ACES filmic or clamp).
+    Tonemap {
+        input: PathBuf,
+        output: PathBuf,
+        #[arg(long, default_value_t = 0.0)]
+        exposure: f32,
+        /// Clamp instead of the ACES filmic curve.
+        #[arg(long)]
+        clamp: bool,
+    },
     /// Write the project's generated scenes (.glb) into a folder.
     Scenes {
         #[arg(long, default_value = "assets")]
@@ -158,6 +168,12 @@ pub fn main() -> i32 {
         Some(Command::Bench(args)) => bench(args),
         Some(Command::Compare(args)) => compare(args),
         Some(Command::Scenes { out }) => write_scenes(&out),
+        Some(Command::Tonemap {
+            input,
+            output,
+            exposure,
+            clamp,
+        }) => tonemap_file(&input, &output, exposure, clamp),
     };
     match result {
         Ok(()) => 0,
@@ -703,6 +719,18 @@ fn preview_bench() -> Result<Vec<(&'static str, f64)>, String> {
         ("preview_resplat_full_ms", resplat_full),
         ("preview_camera_ms", camera_ms),
     ])
+}
+
+fn tonemap_file(input: &Path, output: &Path, exposure: f32, clamp: bool) -> Result<(), String> {
+    use raysplat::film::display::{ToneMap, ViewMode, display};
+    let (w, h, rgb) = raysplat::film::read_exr(input)?;
+    let mut film = Film::new(w, h);
+    film.rgb = rgb;
+    let tone = if clamp { ToneMap::Clamp } else { ToneMap::Aces };
+    let img = display(&film, ViewMode::Final, exposure, tone);
+    raysplat::film::write_png(output, w, h, &img.rgb())?;
+    eprintln!("wrote {}", output.display());
+    Ok(())
 }
 
 fn write_scenes(out: &Path) -> Result<(), String> {

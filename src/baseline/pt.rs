@@ -130,10 +130,13 @@ pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) 
             l += beta * le * w;
         }
         let bsdf = scene.bsdf(&hit);
+        // The BSDFs take the surface's own shading normal (a dielectric tells inside from
+        // outside by the sign of wo·n); `n` faces the viewer for the NEE cosine.
+        let ns = hit.normal;
         let n = if hit.geo_normal.dot(wo) >= 0.0 {
-            hit.normal
+            ns
         } else {
-            -hit.normal
+            -ns
         };
         if !bsdf.is_specular() {
             // Next-event estimation, MIS-weighted against BSDF sampling.
@@ -144,9 +147,9 @@ pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) 
                     let from = hit.position + n * eps + ls.wi * eps;
                     let tmax = ls.distance * (1.0 - 1e-4) - 2.0 * eps;
                     if tmax <= 0.0 || !scene.occluded(from, ls.wi, tmax) {
-                        let f = bsdf.eval(wo, ls.wi, n);
+                        let f = bsdf.eval(wo, ls.wi, ns);
                         let w = if ls.pdf.is_finite() {
-                            power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, n))
+                            power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, ns))
                         } else {
                             1.0
                         };
@@ -159,7 +162,7 @@ pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) 
             rng.next_f32();
             rng.next_2d();
         }
-        let Some(s) = bsdf.sample(wo, n, rng.next_2d(), rng.next_f32()) else {
+        let Some(s) = bsdf.sample(wo, ns, rng.next_2d(), rng.next_f32()) else {
             break;
         };
         beta *= s.weight;
