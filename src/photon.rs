@@ -243,7 +243,9 @@ fn trace_photon(
         return false;
     };
     let d_tilde = D_TILDE_FRACTION * scene.diagonal();
-    let mut origin = e.origin;
+    // Leave the emitting surface on the side the photon goes, so it cannot hit its own light
+    // (a two-sided panel lies in the plane of its origin: t = 0 would count as a hit).
+    let mut origin = e.origin + e.normal * scene.ray_epsilon();
     let mut dir = e.direction;
     let mut normal = e.normal;
     let mut power = e.power;

@@ -201,6 +201,61 @@ fn emitted_photon_power_equals_light_power() {
     }
 }
 
+/// Photons leave a two-sided emitter from both faces without hitting the emitter itself: every
+/// direct ray has a real length, and both sides' light bounces on (the Sibenik panel is such a
+/// light; photons used to die on it at t = 0).
+#[test]
+fn photons_leave_a_two_sided_light() {
+    let mut g = raysplat::scene::GlbBuilder::default();
+    let m = common::white(&mut g);
+    common::plane(&mut g, 3.0, m);
+    let light = g.material(serde_json::json!({"doubleSided": true,
+        "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]},
+        "emissiveFactor": [1.0, 1.0, 1.0]}));
+    // Tilted, so that rounding puts photon origins on either side of its plane.
+    let p = [
+        Vec3::new(-0.5, 0.9, -0.5),
+        Vec3::new(0.5, 0.9, -0.5),
+        Vec3::new(0.5, 1.17, 0.5),
+        Vec3::new(-0.5, 1.17, 0.5),
+    ];
+    // Wound to face up: only its back face looks at the plane.
+    g.mesh("panel", &p, &[Vec3::Y; 4], &[0, 2, 1, 0, 3, 2], light);
+    g.mesh(
+        "ceiling",
+        &p.map(|v| v + Vec3::Y),
+        &[-Vec3::Y; 4],
+        &[0, 1, 2, 0, 2, 3],
+        m,
+    );
+    let scene = Scene::from_glb_bytes(&g.to_glb(), "two-sided light").unwrap();
+    let batch = light_pass(
+        &scene,
+        &LightPassSettings {
+            budgets: ClassBudgets([5_000, 5_000, 0]),
+            max_emitted_factor: 4,
+            seed: 2,
+            first_photon: 0,
+        },
+    );
+    let direct: Vec<_> = batch
+        .rays
+        .iter()
+        .filter(|r| r.class == PhotonClass::Direct)
+        .collect();
+    assert!(
+        direct.iter().all(|r| r.length > 0.5),
+        "a photon hit its own light"
+    );
+    let up = direct.iter().filter(|r| r.dir.y > 0.0).count();
+    assert!(
+        (2_000..3_000).contains(&up),
+        "{up} of {} leave upwards",
+        direct.len()
+    );
+    assert!(batch.stored[PhotonClass::Indirect as usize] >= 5_000);
+}
+
 /// Everything the direct class carries is the emitted power: in the stored light pass the
 /// direct rays' powers sum to the lights' power (each photon's first segment, every photon).
 #[test]
