@@ -168,9 +168,9 @@ fn bad_parameters_are_refused() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--s"));
 }
 
-#[test]
-fn time_budget_renders_progressive_batches() {
-    let stats = tmp("budget.json");
+/// A small render with `extra` arguments; asserts success and returns its stats.
+fn render_stats(name: &str, extra: &[&str]) -> serde_json::Value {
+    let stats = tmp(&format!("{name}.json"));
     let out = bin()
         .args([
             "render",
@@ -183,8 +183,9 @@ fn time_budget_renders_progressive_batches() {
             "--photons",
             "4000",
         ])
-        .args(["--time-budget", "1.0", "--threads", "2", "--out"])
-        .arg(tmp("budget.exr"))
+        .args(extra)
+        .arg("--out")
+        .arg(tmp(&format!("{name}.exr")))
         .arg("--stats")
         .arg(&stats)
         .output()
@@ -194,7 +195,12 @@ fn time_budget_renders_progressive_batches() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap()
+}
+
+#[test]
+fn time_budget_renders_progressive_batches() {
+    let j = render_stats("budget", &["--time-budget", "1.0", "--threads", "2"]);
     // Batches of 4,000 photons at 32×32 take milliseconds: a one-second budget runs many.
     assert!(j["batches"].as_u64().unwrap() >= 3, "{j}");
     assert_eq!(j["threads"], 2);
@@ -256,31 +262,10 @@ fn compare_writes_table_images_and_json() {
 
 #[test]
 fn fractions_take_three_comma_separated_numbers() {
-    let stats = tmp("fractions.json");
-    let out = bin()
-        .args([
-            "render",
-            "--width",
-            "24",
-            "--height",
-            "24",
-            "--spp",
-            "1",
-            "--photons",
-            "4000",
-        ])
-        .args(["--fractions", "0.5,0.5,0.0", "--direct", "photons", "--out"])
-        .arg(tmp("fractions.exr"))
-        .arg("--stats")
-        .arg(&stats)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let j = render_stats(
+        "fractions",
+        &["--fractions", "0.5,0.5,0.0", "--direct", "photons"],
     );
-    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
     assert_eq!(j["photon_rays_caustic"], 0);
     assert!(j["photon_rays_direct"].as_u64().unwrap() >= 2000);
     let bad = bin()
