@@ -690,15 +690,20 @@ impl App {
                 s.photon_ray_bytes as f64 / 1e6
             ));
             ui.separator();
-            ui.label(format!("batches {}", s.batches));
+            ui.label(format!(
+                "batches {} ({} stored)",
+                s.batches, s.stored_batches
+            ));
             ui.separator();
             ui.label(format!("{:.0} photons/s", s.photons_per_second));
             ui.separator();
             ui.label(format!("splat {:.0} ms/batch", s.last_splat_ms));
             ui.separator();
             ui.label(format!(
-                "eye samples {} ({} splat targets)",
-                s.eye_samples, s.splat_targets
+                "eye samples {} ({} splat targets, {:.1} MB with tree and accumulators)",
+                s.eye_samples,
+                s.splat_targets,
+                s.splat_bytes as f64 / 1e6
             ));
             ui.separator();
             ui.label(format!("{}×{}", f.film.width, f.film.height));
@@ -761,6 +766,7 @@ impl App {
                     ui.label(format!("indirect {}", fmt3(film.indirect[i])));
                     ui.label(format!("bandwidth {:.4} m", film.bandwidth[i]));
                     ui.label(format!("kernel weight {:.3}", film.kernel_weight[i]));
+                    ui.label(format!("splats per batch {:.0}", film.splats[i]));
                     ui.label(format!(
                         "harmonic mean distance {:.3} m",
                         film.harmonic_distance[i]

@@ -26,6 +26,8 @@ pub struct Film {
     pub kernel_weight: Vec<f32>,
     /// Harmonic mean distance of incident photon rays (m).
     pub harmonic_distance: Vec<f32>,
+    /// Accepted splats per batch.
+    pub splats: Vec<f32>,
 }
 
 impl Film {
@@ -40,6 +42,7 @@ impl Film {
             bandwidth: vec![0.0; n],
             kernel_weight: vec![0.0; n],
             harmonic_distance: vec![0.0; n],
+            splats: vec![0.0; n],
         }
     }
 

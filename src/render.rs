@@ -499,6 +499,7 @@ impl Renderer {
             film.bandwidth[i] = info.mean_bandwidth;
             film.kernel_weight[i] = info.kernel_weight;
             film.harmonic_distance[i] = info.harmonic_mean_distance;
+            film.splats[i] = info.splats;
         }
         self.timings.t_resolve += t.elapsed().as_secs_f64();
         film

@@ -77,6 +77,10 @@ pub struct SessionStats {
     pub batches: usize,
     /// Batches folded into the image and dropped from the ray store (budget exceeded).
     pub folded_batches: usize,
+    /// Batches whose rays are stored (re-splattable).
+    pub stored_batches: usize,
+    /// Bytes held by eye samples, splat tree and accumulators.
+    pub splat_bytes: usize,
     pub photons_per_second: f64,
     /// Splat time of the last step, milliseconds.
     pub last_splat_ms: f64,
@@ -537,6 +541,8 @@ impl Worker {
             photon_ray_bytes: r.photon_memory_bytes(),
             batches: r.batch_count(),
             folded_batches: r.folded_batches(),
+            stored_batches: r.stored_batches(),
+            splat_bytes: r.splat_memory_bytes(),
             photons_per_second: r.photons_traced as f64 / elapsed.max(1e-9),
             last_splat_ms: self.last_splat_ms,
             eye_samples: r.eye_samples().len(),

@@ -214,6 +214,14 @@ fn ray_budget_folds_old_batches() {
         f.stats.photon_rays
     );
     assert!(f.stats.batches > f.stats.folded_batches);
+    // Every batch whose light the image holds is either stored or folded.
+    if !f.stats.resplat_pending {
+        assert_eq!(
+            f.stats.stored_batches + f.stats.folded_batches,
+            f.stats.batches
+        );
+    }
+    assert!(f.stats.splat_bytes > 0);
     session.send(Command::Pause);
     let p = wait(&session, 30, |g| g.stats.paused);
     session.send(Command::SetBandwidth(BandwidthParams {
