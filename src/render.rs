@@ -172,21 +172,7 @@ pub struct Renderer {
 impl Renderer {
     /// Eye pass, splat tree, direct light and pilot for `scene` as seen by the settings' camera.
     pub fn new(scene: Arc<Scene>, settings: RenderSettings) -> Result<Self, String> {
-        let camera = scene
-            .camera(settings.camera.as_deref())
-            .cloned()
-            .ok_or_else(|| {
-                format!(
-                    "no camera named {:?}; the scene has: {}",
-                    settings.camera.as_deref().unwrap_or(""),
-                    scene
-                        .cameras
-                        .iter()
-                        .map(|c| c.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
-            })?;
+        let camera = scene.camera_or_error(settings.camera.as_deref())?;
         Self::with_camera(scene, settings, camera)
     }
 

@@ -186,20 +186,6 @@ impl Points {
         self.len == 0
     }
 
-    #[inline]
-    pub fn position(&self, i: usize) -> Vec3A {
-        let c = &self.chunks[i / LANES];
-        let l = i % LANES;
-        Vec3A::new(c.px[l], c.py[l], c.pz[l])
-    }
-
-    #[inline]
-    pub fn normal(&self, i: usize) -> Vec3A {
-        let c = &self.chunks[i / LANES];
-        let l = i % LANES;
-        Vec3A::new(c.nx[l], c.ny[l], c.nz[l])
-    }
-
     fn push(&mut self, p: Vec3, n: Vec3) {
         let l = self.len % LANES;
         if l == 0 {

@@ -102,10 +102,7 @@ pub fn render_method(
             Ok(out)
         }
         Method::Pt => {
-            let camera = scene
-                .camera(settings.camera.as_deref())
-                .cloned()
-                .ok_or_else(|| format!("no camera named {:?}", settings.camera))?;
+            let camera = scene.camera_or_error(settings.camera.as_deref())?;
             let mut pt = PathTracer::new(
                 scene.clone(),
                 camera,

@@ -57,10 +57,7 @@ pub fn render_fg(
         Method::PmFg => false,
         other => return Err(format!("{other:?} is not a final-gathering method")),
     };
-    let camera = scene
-        .camera(s.camera.as_deref())
-        .cloned()
-        .ok_or_else(|| format!("no camera named {:?}", s.camera))?;
+    let camera = scene.camera_or_error(s.camera.as_deref())?;
     let (w, h) = (s.width, s.height);
     let n_pixels = (w * h) as usize;
     let mut timings = Timings::default();
@@ -212,44 +209,61 @@ fn estimate_at(
 fn gather_hits(scene: &Scene, eye: &EyeSamples, lo: u32, hi: u32, n: u32, seed: u64) -> EyeSamples {
     let first = eye.pixel.partition_point(|&p| p < lo);
     let last = eye.pixel.partition_point(|&p| p < hi);
-    let per_sample: Vec<Vec<EyeSample>> = (first..last)
-        .into_par_iter()
-        .map(|i| {
-            let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
-            let (p, nrm) = (eye.position[i], eye.normal[i]);
-            let weight = eye.weight[i] * eye.albedo[i] / n as f32;
-            let origin = p + nrm * scene.ray_epsilon();
-            let mut out = Vec::with_capacity(n as usize);
-            for _ in 0..n {
-                let dir = to_world(cosine_hemisphere(rng.next_2d()), nrm);
-                let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
-                    continue;
-                };
-                if scene.materials[hit.material as usize].is_specular() {
-                    continue;
-                }
-                let facing = if hit.geo_normal.dot(dir) <= 0.0 {
-                    hit.normal
-                } else {
-                    -hit.normal
-                };
-                out.push(EyeSample {
-                    position: hit.position,
-                    normal: facing,
-                    wo: -dir,
-                    material: hit.material,
-                    pixel: eye.pixel[i],
-                    weight,
-                    albedo: scene.albedo(&hit),
-                });
+    // One vector per chunk of eye samples, not per sample.
+    let per_chunk: Vec<Vec<EyeSample>> = (first..last)
+        .collect::<Vec<usize>>()
+        .par_chunks(256)
+        .map(|chunk| {
+            let mut out = Vec::with_capacity(chunk.len() * n as usize);
+            for &i in chunk {
+                gather_from(scene, eye, i, n, seed, &mut out);
             }
             out
         })
         .collect();
     let mut band = EyeSamples::default();
-    for s in per_sample.iter().flatten() {
+    for s in per_chunk.iter().flatten() {
         let t = band.len() as u32;
         band.push_sample(s, t);
     }
     band
+}
+
+/// Cast eye sample `i`'s `n` gather rays and push their non-specular hits.
+fn gather_from(
+    scene: &Scene,
+    eye: &EyeSamples,
+    i: usize,
+    n: u32,
+    seed: u64,
+    out: &mut Vec<EyeSample>,
+) {
+    let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
+    let (p, nrm) = (eye.position[i], eye.normal[i]);
+    // Cosine sampling: f·cos/pdf = ρ, shared by the n rays.
+    let weight = eye.weight[i] * eye.albedo[i] / n as f32;
+    let origin = p + nrm * scene.ray_epsilon();
+    for _ in 0..n {
+        let dir = to_world(cosine_hemisphere(rng.next_2d()), nrm);
+        let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
+            continue;
+        };
+        if scene.materials[hit.material as usize].is_specular() {
+            continue;
+        }
+        let facing = if hit.geo_normal.dot(dir) <= 0.0 {
+            hit.normal
+        } else {
+            -hit.normal
+        };
+        out.push(EyeSample {
+            position: hit.position,
+            normal: facing,
+            wo: -dir,
+            material: hit.material,
+            pixel: eye.pixel[i],
+            weight,
+            albedo: scene.albedo(&hit),
+        });
+    }
 }

@@ -104,6 +104,7 @@ impl PhotonMap {
         } else {
             r_max * r_max
         };
+        // eq. 4 with a uniform kernel over the disc of the K-th neighbour: E ≈ ΣΦ / (π r²).
         let sum: Vec3 = heap
             .iter()
             .map(|c| self.photons[c.index as usize].power)

@@ -298,6 +298,18 @@ impl Scene {
         }
     }
 
+    /// [`Scene::camera`], or an error listing the cameras there are.
+    pub fn camera_or_error(&self, name: Option<&str>) -> Result<Camera, String> {
+        self.camera(name).cloned().ok_or_else(|| {
+            let names: Vec<&str> = self.cameras.iter().map(|c| c.name.as_str()).collect();
+            format!(
+                "no camera named {:?}; the scene has: {}",
+                name.unwrap_or(""),
+                names.join(", ")
+            )
+        })
+    }
+
     /// Closest hit along `origin + t·dir`, t ∈ (0, tmax).
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
