@@ -4,9 +4,9 @@
 //! next. `n` is the shading normal; models are two-sided where the physics allows (a Lambertian
 //! wall is lit from either side), the dielectric tells inside from outside by the sign of `wo·n`.
 
-use crate::sampling::{cosine_hemisphere, to_world};
+use crate::sampling::{cosine_hemisphere, luminance, to_world};
 use glam::{Vec2, Vec3};
-use std::f32::consts::FRAC_1_PI;
+use std::f32::consts::{FRAC_1_PI, PI};
 
 /// A sampled direction. `weight` = f_r · |cos θ_i| / pdf (the throughput factor).
 #[derive(Clone, Copy, Debug)]
@@ -20,15 +20,31 @@ pub struct BsdfSample {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bsdf {
-    Lambert { albedo: Vec3 },
-    Mirror { color: Vec3 },
-    Dielectric { ior: f32, tint: Vec3 },
+    Lambert {
+        albedo: Vec3,
+    },
+    /// Moderately glossy (§8.1): a Lambertian part plus a normalised modified-Phong lobe
+    /// around the mirror direction (Lafortune & Willems 1994),
+    /// f = kd/π + ks·(e+2)/(2π)·cos^e α, α the angle between wi and the mirror direction of wo.
+    /// Energy-conserving whenever kd + ks ≤ 1 per channel (see [`glossy_from_pbr`]).
+    Glossy {
+        kd: Vec3,
+        ks: Vec3,
+        exponent: f32,
+    },
+    Mirror {
+        color: Vec3,
+    },
+    Dielectric {
+        ior: f32,
+        tint: Vec3,
+    },
 }
 
 impl Bsdf {
     /// True for models whose every lobe is a Dirac delta (handled by deterministic eye chains).
     pub fn is_specular(&self) -> bool {
-        !matches!(self, Bsdf::Lambert { .. })
+        !matches!(self, Bsdf::Lambert { .. } | Bsdf::Glossy { .. })
     }
 
     pub fn eval(&self, wo: Vec3, wi: Vec3, n: Vec3) -> Vec3 {
@@ -39,6 +55,14 @@ impl Bsdf {
                 } else {
                     Vec3::ZERO
                 }
+            }
+            Bsdf::Glossy { kd, ks, exponent } => {
+                let cos_o = wo.dot(n);
+                if cos_o * wi.dot(n) <= 0.0 {
+                    return Vec3::ZERO;
+                }
+                let r = reflect(wo, n);
+                kd * FRAC_1_PI + ks * phong_lobe(r.dot(wi), exponent)
             }
             Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => Vec3::ZERO,
         }
@@ -52,6 +76,14 @@ impl Bsdf {
                 } else {
                     0.0
                 }
+            }
+            Bsdf::Glossy { kd, ks, exponent } => {
+                if wo.dot(n) * wi.dot(n) <= 0.0 {
+                    return 0.0;
+                }
+                let p_s = specular_probability(kd, ks);
+                let cos_a = reflect(wo, n).dot(wi);
+                (1.0 - p_s) * wi.dot(n).abs() * FRAC_1_PI + p_s * phong_pdf(cos_a, exponent)
             }
             Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => 0.0,
         }
@@ -71,6 +103,35 @@ impl Bsdf {
                     wi,
                     weight: albedo,
                     pdf: cos * FRAC_1_PI,
+                    specular: false,
+                })
+            }
+            Bsdf::Glossy { kd, ks, exponent } => {
+                let side = if wo.dot(n) >= 0.0 { n } else { -n };
+                let p_s = specular_probability(kd, ks);
+                let wi = if u_lobe < p_s {
+                    // The lobe around the mirror direction: cos α = u^(1/(e+1)).
+                    let cos_a = u.x.powf(1.0 / (exponent + 1.0));
+                    let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+                    let phi = 2.0 * PI * u.y;
+                    let local = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
+                    to_world(local, reflect(wo, side))
+                } else {
+                    to_world(cosine_hemisphere(u), side)
+                };
+                // Lobe directions below the surface carry no reflection (f = 0 there).
+                let cos = wi.dot(side);
+                if cos <= 0.0 {
+                    return None;
+                }
+                let pdf = self.pdf(wo, wi, n);
+                if pdf <= 0.0 {
+                    return None;
+                }
+                Some(BsdfSample {
+                    wi,
+                    weight: self.eval(wo, wi, n) * cos / pdf,
+                    pdf,
                     specular: false,
                 })
             }
@@ -103,6 +164,58 @@ impl Bsdf {
                 }
             }
         }
+    }
+}
+
+/// The normalised modified-Phong lobe (e+2)/(2π)·max(0, cos α)^e.
+#[inline]
+pub fn phong_lobe(cos_a: f32, exponent: f32) -> f32 {
+    if cos_a <= 0.0 {
+        0.0
+    } else {
+        (exponent + 2.0) * (0.5 * FRAC_1_PI) * cos_a.powf(exponent)
+    }
+}
+
+/// Solid-angle pdf of sampling the Phong lobe around its axis: (e+1)/(2π)·cos^e α.
+#[inline]
+pub fn phong_pdf(cos_a: f32, exponent: f32) -> f32 {
+    if cos_a <= 0.0 {
+        0.0
+    } else {
+        (exponent + 1.0) * (0.5 * FRAC_1_PI) * cos_a.powf(exponent)
+    }
+}
+
+/// Probability of sampling the glossy lobe rather than the diffuse part: its share of the
+/// reflectance by luminance.
+#[inline]
+pub fn specular_probability(kd: Vec3, ks: Vec3) -> f32 {
+    let (d, s) = (luminance(kd).max(0.0), luminance(ks).max(0.0));
+    if d + s <= 0.0 { 0.5 } else { s / (d + s) }
+}
+
+/// Specular reflectance of glTF's dielectric (F0 = 0.04) averaged over the hemisphere with
+/// Schlick's approximation: F0 + (1 − F0)/21.
+pub const DIELECTRIC_SPECULAR: f32 = 0.04 + 0.96 / 21.0;
+
+/// The Phong exponent for glTF's perceptual roughness: α = roughness² (glTF spec), and
+/// e = 2/α² − 2 (Walter et al. 2007's Beckmann–Phong correspondence), kept in [1, 10⁴].
+pub fn phong_exponent(roughness: f32) -> f32 {
+    let a = (roughness * roughness).max(1e-3);
+    (2.0 / (a * a) - 2.0).clamp(1.0, 1e4)
+}
+
+/// glTF metallic-roughness → [`Bsdf::Glossy`]: metals reflect their base colour in the lobe,
+/// dielectrics reflect [`DIELECTRIC_SPECULAR`] in the lobe and the rest of their base colour
+/// diffusely. kd + ks ≤ 1 per channel for base ≤ 1, so the model conserves energy.
+pub fn glossy_from_pbr(base: Vec3, roughness: f32, metallic: f32) -> Bsdf {
+    let m = metallic.clamp(0.0, 1.0);
+    let base = base.clamp(Vec3::ZERO, Vec3::ONE);
+    Bsdf::Glossy {
+        kd: (1.0 - m) * (1.0 - DIELECTRIC_SPECULAR) * base,
+        ks: m * base + Vec3::splat((1.0 - m) * DIELECTRIC_SPECULAR),
+        exponent: phong_exponent(roughness),
     }
 }
 

@@ -7,6 +7,7 @@ use raysplat::baseline::Method;
 use raysplat::baseline::compare::{Budget, CompareRow, error_map, render_method, rmse};
 use raysplat::film::Film;
 use raysplat::photon::BandwidthParams;
+use raysplat::radiance_map::DirectionalMode;
 use raysplat::render::{DirectMode, RenderSettings, Renderer, peak_rss_mb};
 use raysplat::scene::{BuiltinScene, Scene};
 use serde_json::json;
@@ -125,6 +126,10 @@ struct RenderArgs {
     /// a pixel that lie on the same surface.
     #[arg(long)]
     no_merge: bool,
+    /// Directional storage at glossy surfaces (§8.1): diffuse (irradiance only), sh
+    /// (16 spherical-harmonic coefficients per channel) or histogram (20 strata).
+    #[arg(long, value_enum, default_value_t = DirectionalMode::Sh)]
+    radiance_map: DirectionalMode,
 }
 
 #[derive(Args)]
@@ -223,6 +228,7 @@ impl RenderArgs {
             pm_k: self.pm_k,
             pm_caustic_k: self.pm_caustic_k,
             fg_rays: self.fg_rays,
+            radiance_map: self.radiance_map,
             ..RenderSettings::default()
         })
     }
@@ -553,6 +559,7 @@ fn truncate(s: &str, n: usize) -> String {
 fn stats_json(r: &Renderer, film: &Film, t_load: f64) -> serde_json::Value {
     let t = r.timings;
     let per_class = r.photon_rays_per_class();
+    let (dir_bytes, glossy_targets) = r.directional_memory();
     json!({
         "scene": r.scene.name,
         "camera": r.camera.name,
@@ -577,6 +584,10 @@ fn stats_json(r: &Renderer, film: &Film, t_load: f64) -> serde_json::Value {
         "tested_pairs": r.counters.tested,
         "accepted_pairs": r.counters.accepted,
         "peak_rss_mb": peak_rss_mb(),
+        "radiance_map": r.settings.radiance_map,
+        "directional_bytes": dir_bytes,
+        "glossy_targets": glossy_targets,
+        "directional_bytes_per_glossy_target": dir_bytes as f64 / glossy_targets.max(1) as f64,
         "invalid_pixels": film.invalid_pixels(),
         "method": r.settings.method,
         "pm": r.pm_stats,

@@ -7,7 +7,6 @@ use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::f32::consts::FRAC_1_PI;
 
 /// Reflected direct radiance towards the eye at every sample (BSDF applied, eye weight not).
 pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) -> Vec<Vec3> {
@@ -19,7 +18,8 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
             let mut rng = Rng::new(seed, 0x2000_0000_0000 + i as u64);
             let p = eye.position[i];
             let n = eye.normal[i];
-            let f = eye.albedo[i] * FRAC_1_PI;
+            let bsdf = eye.bsdf(i, scene);
+            let wo = eye.wo[i];
             let mut sum = Vec3::ZERO;
             for _ in 0..samples {
                 let u = rng.next_f32();
@@ -35,7 +35,7 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
                 if tmax > 0.0 && scene.occluded(origin, ls.wi, tmax) {
                     continue;
                 }
-                sum += f * ls.value * cos;
+                sum += bsdf.eval(wo, ls.wi, n) * ls.value * cos;
             }
             sum / samples as f32
         })

@@ -44,8 +44,10 @@ pub struct EyeSamples {
     pub pixel: Vec<u32>,
     /// RGB path weight: specular-chain throughput / samples per pixel.
     pub weight: Vec<Vec3>,
-    /// Diffuse albedo at the sample (texture applied).
+    /// Diffuse albedo at the sample (texture applied); kd of a glossy sample.
     pub albedo: Vec<Vec3>,
+    /// Glossy-lobe reflectance ks (zero for Lambertian samples).
+    pub specular: Vec<Vec3>,
     /// The splat target whose splatted irradiance this sample uses.
     pub target: Vec<u32>,
 }
@@ -57,6 +59,8 @@ pub struct EyeSamples {
 pub struct SplatTargets {
     pub position: Vec<Vec3>,
     pub normal: Vec<Vec3>,
+    /// The target lies on a glossy surface and needs directional storage (§8.1).
+    pub glossy: Vec<bool>,
 }
 
 impl SplatTargets {
@@ -80,7 +84,29 @@ impl EyeSamples {
 
     /// Bytes held by the sample arrays.
     pub fn memory_bytes(&self) -> usize {
-        self.len() * (5 * 12 + 3 * 4)
+        self.len() * (6 * 12 + 3 * 4)
+    }
+
+    /// True when the sample's BSDF has a glossy lobe.
+    #[inline]
+    pub fn is_glossy(&self, i: usize) -> bool {
+        self.specular[i] != Vec3::ZERO
+    }
+
+    /// The sample's BSDF: Lambertian, or glossy with the material's Phong exponent.
+    #[inline]
+    pub fn bsdf(&self, i: usize, scene: &Scene) -> Bsdf {
+        if self.is_glossy(i) {
+            Bsdf::Glossy {
+                kd: self.albedo[i],
+                ks: self.specular[i],
+                exponent: scene.glossy_exponent(self.material[i]),
+            }
+        } else {
+            Bsdf::Lambert {
+                albedo: self.albedo[i],
+            }
+        }
     }
 
     /// Append one sample whose splat target is `target`.
@@ -93,11 +119,12 @@ impl EyeSamples {
         self.pixel.push(s.pixel);
         self.weight.push(s.weight);
         self.albedo.push(s.albedo);
+        self.specular.push(s.specular);
     }
 }
 
 /// One eye sample (§3): position, normal facing the viewer, direction to the viewer, material,
-/// pixel, RGB path weight and diffuse albedo.
+/// pixel, RGB path weight, diffuse albedo and glossy reflectance.
 #[derive(Clone, Copy, Debug)]
 pub struct EyeSample {
     pub position: Vec3,
@@ -107,6 +134,7 @@ pub struct EyeSample {
     pub pixel: u32,
     pub weight: Vec3,
     pub albedo: Vec3,
+    pub specular: Vec3,
 }
 
 #[derive(Clone, Copy)]
@@ -189,6 +217,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
         &mut samples.wo,
         &mut samples.weight,
         &mut samples.albedo,
+        &mut samples.specular,
     ] {
         v.reserve_exact(total);
     }
@@ -205,6 +234,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
         emitted.extend(em);
         targets.position.extend(row_targets.position);
         targets.normal.extend(row_targets.normal);
+        targets.glossy.extend(row_targets.glossy);
     }
     EyePass {
         samples,
@@ -237,6 +267,7 @@ fn assign_targets(px: &mut [RawSample], targets: &mut SplatTargets, merge: bool,
             None => {
                 targets.position.push(s.position);
                 targets.normal.push(s.normal);
+                targets.glossy.push(s.specular != Vec3::ZERO);
                 (targets.len() - 1) as u32
             }
         };
@@ -267,6 +298,34 @@ fn trace_chain(
         let wo = -d;
         emitted += w * scene.emitted(&hit, wo);
         let bsdf = scene.bsdf(&hit);
+        let surface = match bsdf {
+            Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO)),
+            Bsdf::Glossy { kd, ks, .. } => Some((kd, ks)),
+            _ => None,
+        };
+        if let Some((albedo, specular)) = surface {
+            // Face the viewer: flip both normals to the side the ray came from.
+            let n = if hit.geo_normal.dot(wo) >= 0.0 {
+                hit.normal
+            } else {
+                -hit.normal
+            };
+            out.push(RawSample {
+                sample: EyeSample {
+                    position: hit.position,
+                    normal: n,
+                    wo,
+                    material: hit.material,
+                    pixel,
+                    weight: w,
+                    albedo,
+                    specular,
+                },
+                path_length,
+                target: 0,
+            });
+            continue;
+        }
         let mut push = |o: Vec3, d: Vec3, w: Vec3, top: &mut usize| {
             if w.max_element() >= MIN_BRANCH_WEIGHT && *top < BRANCH_STACK {
                 stack[*top] = (o, d, w, depth + 1, path_length);
@@ -274,27 +333,8 @@ fn trace_chain(
             }
         };
         match bsdf {
-            Bsdf::Lambert { albedo } => {
-                // Face the viewer: flip both normals to the side the ray came from.
-                let n = if hit.geo_normal.dot(wo) >= 0.0 {
-                    hit.normal
-                } else {
-                    -hit.normal
-                };
-                out.push(RawSample {
-                    sample: EyeSample {
-                        position: hit.position,
-                        normal: n,
-                        wo,
-                        material: hit.material,
-                        pixel,
-                        weight: w,
-                        albedo,
-                    },
-                    path_length,
-                    target: 0,
-                });
-            }
+            // Non-specular surfaces were handled above.
+            Bsdf::Lambert { .. } | Bsdf::Glossy { .. } => {}
             _ if depth >= max_depth => {}
             Bsdf::Mirror { color } => {
                 let n = if hit.normal.dot(wo) >= 0.0 {

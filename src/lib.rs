@@ -9,6 +9,7 @@ pub mod app;
 pub mod baseline;
 pub mod bsdf;
 pub mod direct;
+pub mod directional;
 pub mod eye;
 pub mod film;
 pub mod photon;

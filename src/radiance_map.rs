@@ -2,13 +2,65 @@
 //!
 //! Splatting adds into [`Accumulators`] (structure of arrays over the splat tree's slots, so a
 //! subtree's accumulators are contiguous and 8 lanes add at once); [`RadianceMap::resolve_from`]
-//! folds them through each eye sample's BSDF and weight into pixels. Diffuse RGB here;
-//! directional storage (SH, histogram, §8.1) is a later extension of this module.
+//! folds them through each eye sample's BSDF and weight into pixels.
+//!
+//! Every slot keeps the irradiance sum (one coefficient: all a Lambertian needs, §8.1). Slots
+//! on glossy surfaces additionally own a directional record, in spherical harmonics (16
+//! coefficients per channel) or as a 20-strata histogram, chosen by [`DirectionalMode`]; only
+//! those slots pay for it.
 
+use crate::directional::{
+    HISTOGRAM_SAMPLES, SH_COEFFS, STRATA, histogram_density, phong_zonal, sh_basis,
+    sh_lobe_integral,
+};
 use crate::eye::EyeSamples;
-use crate::splat_tree::LANES;
+use crate::sampling::to_world;
+use crate::scene::Scene;
+use crate::splat_tree::{LANES, PADDING, SplatTree};
 use glam::Vec3;
-use std::f32::consts::FRAC_1_PI;
+use serde::{Deserialize, Serialize};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// How the radiance map stores the direction of incident light at glossy samples (§8.1).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum DirectionalMode {
+    /// Irradiance only: glossy surfaces are shaded as if matte with their whole reflectance.
+    Diffuse,
+    /// 16 spherical-harmonic coefficients (bands 0–3) per channel at glossy samples.
+    #[default]
+    Sh,
+    /// 20 directional strata (dodecahedron vertices) per channel at glossy samples.
+    Histogram,
+}
+
+impl DirectionalMode {
+    pub const ALL: [DirectionalMode; 3] = [
+        DirectionalMode::Diffuse,
+        DirectionalMode::Sh,
+        DirectionalMode::Histogram,
+    ];
+
+    /// Floats per directional record (all three channels).
+    pub fn record_floats(self) -> usize {
+        match self {
+            DirectionalMode::Diffuse => 0,
+            DirectionalMode::Sh => 3 * SH_COEFFS,
+            DirectionalMode::Histogram => 3 * STRATA,
+        }
+    }
+
+    pub fn label(self) -> &'static str {
+        match self {
+            DirectionalMode::Diffuse => "diffuse (irradiance only)",
+            DirectionalMode::Sh => "spherical harmonics (16 per channel)",
+            DirectionalMode::Histogram => "histogram (20 strata)",
+        }
+    }
+}
+
+/// Marks a slot without a directional record.
+pub const NO_RECORD: u32 = u32::MAX;
 
 /// The sums kept per slot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,17 +90,85 @@ pub struct AccumChunk {
     pub ch: [[f32; LANES]; Channel::COUNT],
 }
 
-/// Per-slot sums over all splats of all batches, one block per chunk of slots.
+/// Per-slot sums over all splats of all batches, one block per chunk of slots, and the
+/// directional records of glossy slots.
 #[derive(Clone, Debug, Default)]
 pub struct Accumulators {
     chunks: Vec<AccumChunk>,
+    pub mode: DirectionalMode,
+    /// Per slot: its directional record, or [`NO_RECORD`]. Records are numbered in slot order,
+    /// so a subtree's records are contiguous.
+    slot_record: Vec<u32>,
+    /// Per chunk: whether any of its slots has a record.
+    chunk_has_record: Vec<bool>,
+    /// Records, [`DirectionalMode::record_floats`] each: SH channel-major (c·16 + k),
+    /// histogram stratum-major (s·3 + c).
+    records: Vec<f32>,
+}
+
+/// One subtree's disjoint share of the accumulators for lock-free parallel splatting.
+pub struct AccView<'a> {
+    pub chunks: &'a mut [AccumChunk],
+    /// The slot records of these chunks' slots (global record numbers).
+    pub slot_record: &'a [u32],
+    pub chunk_has_record: &'a [bool],
+    /// The records numbered from `first_record`.
+    pub records: &'a mut [f32],
+    pub first_record: u32,
 }
 
 impl Accumulators {
+    /// Sums for `slots` slots, no directional records.
     pub fn new(slots: usize) -> Self {
         Self {
             chunks: vec![AccumChunk::default(); slots.div_ceil(LANES)],
+            slot_record: vec![NO_RECORD; slots.div_ceil(LANES) * LANES],
+            chunk_has_record: vec![false; slots.div_ceil(LANES)],
+            ..Self::default()
         }
+    }
+
+    /// Sums for every slot of `tree` and, unless `mode` is diffuse, a directional record for
+    /// each slot whose target is glossy.
+    pub fn for_tree(tree: &SplatTree, glossy: &[bool], mode: DirectionalMode) -> Self {
+        let mut acc = Self::new(tree.slots());
+        acc.mode = mode;
+        if mode == DirectionalMode::Diffuse {
+            return acc;
+        }
+        let mut n = 0u32;
+        for (slot, &t) in tree.slot_target.iter().enumerate() {
+            if t != PADDING && glossy[t as usize] {
+                acc.slot_record[slot] = n;
+                acc.chunk_has_record[slot / LANES] = true;
+                n += 1;
+            }
+        }
+        acc.records = vec![0.0; n as usize * mode.record_floats()];
+        acc
+    }
+
+    /// Directional records held.
+    pub fn record_count(&self) -> usize {
+        self.records.len() / self.mode.record_floats().max(1)
+    }
+
+    /// The directional record of `slot`, if it has one.
+    #[inline]
+    pub fn record(&self, slot: usize) -> Option<&[f32]> {
+        let r = self.slot_record[slot];
+        (r != NO_RECORD).then(|| {
+            let f = self.mode.record_floats();
+            &self.records[r as usize * f..(r as usize + 1) * f]
+        })
+    }
+
+    /// Mutable directional record of `slot`, if it has one.
+    #[inline]
+    pub fn record_mut(&mut self, slot: usize) -> Option<&mut [f32]> {
+        let r = self.slot_record[slot];
+        let f = self.mode.record_floats();
+        (r != NO_RECORD).then(|| &mut self.records[r as usize * f..(r as usize + 1) * f])
     }
 
     /// Slots held (a multiple of [`LANES`]).
@@ -62,6 +182,7 @@ impl Accumulators {
 
     pub fn clear(&mut self) {
         self.chunks.fill(AccumChunk::default());
+        self.records.fill(0.0);
     }
 
     #[inline]
@@ -75,25 +196,56 @@ impl Accumulators {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.chunks.len() * std::mem::size_of::<AccumChunk>()
+        self.chunks.len() * std::mem::size_of::<AccumChunk>() + self.directional_bytes()
+    }
+
+    /// Bytes of the directional records (and their slot index).
+    pub fn directional_bytes(&self) -> usize {
+        if self.mode == DirectionalMode::Diffuse {
+            0
+        } else {
+            self.records.len() * 4 + self.slot_record.len() * 4
+        }
     }
 
     /// Disjoint mutable views of increasing, non-overlapping slot ranges (start, len), both
     /// multiples of [`LANES`].
-    pub fn split(
-        &mut self,
-        ranges: impl Iterator<Item = (usize, usize)>,
-    ) -> Vec<&mut [AccumChunk]> {
+    pub fn split(&mut self, ranges: impl Iterator<Item = (usize, usize)>) -> Vec<AccView<'_>> {
+        let f = self.mode.record_floats();
         let mut out = Vec::new();
         let mut rest: &mut [AccumChunk] = &mut self.chunks;
+        let mut rest_rec: &mut [f32] = &mut self.records;
         let mut at = 0;
+        let mut at_rec = 0usize;
         for (start, len) in ranges {
             debug_assert!(start % LANES == 0 && len % LANES == 0);
             let (_, tail) = rest.split_at_mut(start / LANES - at);
             let (mine, tail) = tail.split_at_mut(len / LANES);
-            out.push(mine);
             rest = tail;
             at = (start + len) / LANES;
+            let slot_record = &self.slot_record[start..start + len];
+            // Records of this range: numbered in slot order, so contiguous.
+            let mut first = None;
+            let mut last = 0;
+            for &r in slot_record.iter().filter(|&&r| r != NO_RECORD) {
+                first.get_or_insert(r);
+                last = r;
+            }
+            let (first_record, count) = match first {
+                Some(a) => (a as usize, (last - a + 1) as usize),
+                None => (at_rec, 0),
+            };
+            let (_, tail) = rest_rec.split_at_mut((first_record - at_rec) * f);
+            let (mine_rec, tail) = tail.split_at_mut(count * f);
+            rest_rec = tail;
+            at_rec = first_record + count;
+            out.push(AccView {
+                chunks: mine,
+                slot_record,
+                chunk_has_record: &self.chunk_has_record[start / LANES..(start + len) / LANES],
+                records: mine_rec,
+                first_record: first_record as u32,
+            });
         }
         out
     }
@@ -118,8 +270,8 @@ pub struct SplatInfo {
 pub struct RadianceMap {
     pub width: u32,
     pub height: u32,
-    /// Outgoing radiance towards the eye from splatted light, Lambertian BSDF applied.
-    pub diffuse: Vec<Vec3>,
+    /// Outgoing radiance towards the eye from splatted light, the eye samples' BSDFs applied.
+    pub radiance: Vec<Vec3>,
     pub info: Vec<SplatInfo>,
 }
 
@@ -129,28 +281,30 @@ impl RadianceMap {
         Self {
             width,
             height,
-            diffuse: vec![Vec3::ZERO; n],
+            radiance: vec![Vec3::ZERO; n],
             info: vec![SplatInfo::default(); n],
         }
     }
 
-    /// Fold slot accumulators (summed over `batches` light passes) into pixels:
-    /// L = Σ_samples weight · ρ/π · E, E the batch-averaged splatted irradiance (eq. 6) at
-    /// the sample's splat target. `target_slot` maps splat targets to slots.
+    /// Fold slot accumulators (summed over `batches` light passes) into pixels. Per eye sample,
+    /// L = weight · (kd/π · E + L_glossy), E the batch-averaged splatted irradiance (eq. 6) at
+    /// its splat target and L_glossy the lobe integrated against the target's directional
+    /// record (§8.1). `target_slot` maps splat targets to slots.
     pub fn resolve_from(
         &mut self,
+        scene: &Scene,
         eye: &EyeSamples,
         target_slot: &[u32],
         acc: &Accumulators,
         batches: u32,
     ) {
-        self.diffuse.fill(Vec3::ZERO);
+        self.radiance.fill(Vec3::ZERO);
         self.info.fill(SplatInfo::default());
         if batches == 0 {
             return;
         }
         let inv_b = 1.0 / batches as f32;
-        let mut weight_norm = vec![0.0f32; self.diffuse.len()];
+        let mut weight_norm = vec![0.0f32; self.radiance.len()];
         for i in 0..eye.len() {
             let slot = target_slot[eye.target[i] as usize] as usize;
             let a = &acc.chunks[slot / LANES].ch;
@@ -158,8 +312,17 @@ impl RadianceMap {
             let get = |c: Channel| a[c as usize][l];
             let px = eye.pixel[i] as usize;
             let w = eye.weight[i];
-            let flux = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B));
-            self.diffuse[px] += w * eye.albedo[i] * FRAC_1_PI * flux * inv_b;
+            let e = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B)) * inv_b;
+            let mut out = eye.albedo[i] * FRAC_1_PI * e;
+            if eye.is_glossy(i) {
+                let ks = eye.specular[i];
+                out += match acc.record(slot) {
+                    Some(rec) => ks * glossy_radiance(scene, eye, i, acc.mode, rec) * inv_b,
+                    // No directional record: the lobe's reflectance is treated as matte.
+                    None => ks * FRAC_1_PI * e,
+                };
+            }
+            self.radiance[px] += w * out;
             let info = &mut self.info[px];
             let share = w.max_element();
             let wsum = get(Channel::Weight);
@@ -181,6 +344,56 @@ impl RadianceMap {
                 info.mean_bandwidth = 0.0;
                 info.harmonic_mean_distance = 0.0;
             }
+        }
+    }
+}
+
+/// ∫ lobe(ωo, ω)·(L cos θ)(ω) dω at glossy eye sample `i` from its directional record (before
+/// ks and the batch average), the lobe being the normalised Phong lobe around the mirror
+/// direction of ωo (§8.1).
+fn glossy_radiance(
+    scene: &Scene,
+    eye: &EyeSamples,
+    i: usize,
+    mode: DirectionalMode,
+    rec: &[f32],
+) -> Vec3 {
+    let n = eye.normal[i];
+    let r = crate::bsdf::reflect(eye.wo[i], n);
+    let exponent = scene.glossy_exponent(eye.material[i]);
+    match mode {
+        DirectionalMode::Diffuse => Vec3::ZERO,
+        // The SH table entry for this view direction: the zonal lobe rotated to r; the
+        // integration is one dot product per channel.
+        DirectionalMode::Sh => {
+            let zonal = phong_zonal(exponent);
+            let y = sh_basis(r);
+            Vec3::new(
+                sh_lobe_integral(&rec[0..SH_COEFFS], &zonal, &y),
+                sh_lobe_integral(&rec[SH_COEFFS..2 * SH_COEFFS], &zonal, &y),
+                sh_lobe_integral(&rec[2 * SH_COEFFS..], &zonal, &y),
+            )
+            .max(Vec3::ZERO)
+        }
+        // Sample the lobe: f/pdf = (e+2)/(e+1) per sample above the surface, times the
+        // histogram's radiance density there. A fixed stratified pattern, rotated per sample.
+        DirectionalMode::Histogram => {
+            let rot = crate::sampling::hash_unit(i as u64);
+            let g = (HISTOGRAM_SAMPLES as f32).sqrt() as usize;
+            let rows = HISTOGRAM_SAMPLES / g;
+            let mut sum = Vec3::ZERO;
+            for k in 0..HISTOGRAM_SAMPLES {
+                let u = ((k % g) as f32 + 0.5) / g as f32;
+                let v = (((k / g) as f32 + 0.5) / rows as f32 + rot) % 1.0;
+                let cos_a = u.powf(1.0 / (exponent + 1.0));
+                let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+                let phi = 2.0 * PI * v;
+                let d = to_world(Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a), r);
+                if d.dot(n) > 0.0 {
+                    sum += histogram_density(rec, d);
+                }
+            }
+            sum * ((exponent + 2.0) / (exponent + 1.0) / HISTOGRAM_SAMPLES as f32)
         }
     }
 }

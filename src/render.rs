@@ -17,7 +17,7 @@ use crate::photon::{
     Bandwidth, BandwidthParams, ClassBudgets, LightPassSettings, PhotonBatch, PhotonClass,
     PhotonRay, Pilot, light_pass, pilot,
 };
-use crate::radiance_map::{Accumulators, Channel, RadianceMap};
+use crate::radiance_map::{Accumulators, Channel, DirectionalMode, RadianceMap};
 use crate::scene::{Camera, Scene};
 use crate::splat::{SplatCounters, prepare, splat};
 use crate::splat_tree::SplatTree;
@@ -64,6 +64,9 @@ pub struct RenderSettings {
     pub pm_caustic_k: usize,
     /// Gather rays per eye sample for the final-gathering methods (§8.4).
     pub fg_rays: u32,
+    /// Directional storage at glossy samples (§8.1).
+    #[serde(default)]
+    pub radiance_map: DirectionalMode,
 }
 
 impl Default for RenderSettings {
@@ -86,6 +89,7 @@ impl Default for RenderSettings {
             pm_k: 400,
             pm_caustic_k: 250,
             fg_rays: 64,
+            radiance_map: DirectionalMode::Sh,
         }
     }
 }
@@ -258,6 +262,15 @@ impl Renderer {
         self.photon_rays() * std::mem::size_of::<PhotonRay>()
     }
 
+    /// Bytes of directional radiance-map records (§8.1) and the glossy splat targets owning them.
+    pub fn directional_memory(&self) -> (usize, usize) {
+        let side = &self.side;
+        (
+            side.acc_indirect.directional_bytes() + side.acc_direct.directional_bytes(),
+            side.targets.glossy.iter().filter(|&&g| g).count(),
+        )
+    }
+
     /// Bytes held by eye samples, splat tree and accumulators.
     pub fn splat_memory_bytes(&self) -> usize {
         self.side.eye.memory_bytes()
@@ -384,10 +397,11 @@ impl Renderer {
             return;
         }
         let bw = self.bandwidths(m);
-        let indirect = prepare(rays, &bw, [false, true, true]);
+        let mode = self.settings.radiance_map;
+        let indirect = prepare(rays, &bw, [false, true, true], mode);
         self.counters += splat(&self.side.tree, &indirect, &mut self.side.acc_indirect);
         if self.splat_direct() {
-            let direct = prepare(rays, &bw, [true, false, false]);
+            let direct = prepare(rays, &bw, [true, false, false], mode);
             self.counters += splat(&self.side.tree, &direct, &mut self.side.acc_direct);
         }
     }
@@ -464,20 +478,33 @@ impl Renderer {
         // Photon mapping holds its estimate already averaged over the batches.
         let b = if pm { 1 } else { self.batch_count() as u32 };
         let side = &self.side;
+        let scene = &self.scene;
         let mut map = RadianceMap::new(w, h);
-        map.resolve_from(&side.eye, &side.tree.target_slot, &side.acc_indirect, b);
+        map.resolve_from(
+            scene,
+            &side.eye,
+            &side.tree.target_slot,
+            &side.acc_indirect,
+            b,
+        );
         let mut film = Film::new(w, h);
         let mut direct = side.direct.clone();
         if self.settings.direct == DirectMode::Photons && !pm {
             let mut dmap = RadianceMap::new(w, h);
-            dmap.resolve_from(&side.eye, &side.tree.target_slot, &side.acc_direct, b);
-            for (d, s) in direct.iter_mut().zip(&dmap.diffuse) {
+            dmap.resolve_from(
+                scene,
+                &side.eye,
+                &side.tree.target_slot,
+                &side.acc_direct,
+                b,
+            );
+            for (d, s) in direct.iter_mut().zip(&dmap.radiance) {
                 *d += *s;
             }
         }
         for (i, (d, e)) in direct.iter().zip(&side.emitted).enumerate() {
             let d = *d + *e;
-            let ind = map.diffuse[i];
+            let ind = map.radiance[i];
             let info = &map.info[i];
             film.direct[i] = d;
             film.indirect[i] = ind;
@@ -529,19 +556,20 @@ fn eye_side(
     }
     timings.t_direct += t.elapsed().as_secs_f64();
 
-    let slots = tree.slots();
+    let mode = settings.radiance_map;
     let acc_direct = if settings.direct == DirectMode::Photons {
-        Accumulators::new(slots)
+        Accumulators::for_tree(&tree, &targets.glossy, mode)
     } else {
         Accumulators::default()
     };
+    let acc_indirect = Accumulators::for_tree(&tree, &targets.glossy, mode);
     Ok(EyeSide {
         eye,
         targets,
         tree,
         emitted,
         direct,
-        acc_indirect: Accumulators::new(slots),
+        acc_indirect,
         acc_direct,
     })
 }

@@ -7,8 +7,9 @@
 //! AVX2 (chosen once per subtree, never per photon). Both paths compute the same IEEE
 //! operations, so they give identical results.
 
+use crate::directional::{FILTER_TAPS, SH_COEFFS, filter_taps, sh_basis};
 use crate::photon::{Bandwidth, PhotonRay};
-use crate::radiance_map::{AccumChunk, Accumulators, Channel};
+use crate::radiance_map::{AccView, AccumChunk, Accumulators, Channel, DirectionalMode, NO_RECORD};
 use crate::splat_tree::{Cone, LANES, PointChunk, SplatTree, Subtree, sphere_in_cone};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
@@ -71,10 +72,14 @@ pub struct SplatRay {
     pub end_plane: f32,
     pub bounds_min: Vec3A,
     pub bounds_max: Vec3A,
+    /// The incident direction (−dir) in the radiance map's basis (§8.1), computed once per
+    /// ray: Y_k(−dir) in SH mode; the filter taps (stratum, weight) in histogram mode.
+    pub basis: [f32; SH_COEFFS],
+    pub taps: [u8; FILTER_TAPS],
 }
 
 impl SplatRay {
-    pub fn new(ray: &PhotonRay, bw: &Bandwidth) -> Self {
+    pub fn new(ray: &PhotonRay, bw: &Bandwidth, mode: DirectionalMode) -> Self {
         let (h0, dh) = bw.cone(ray);
         let cone = Cone {
             origin: ray.origin.into(),
@@ -91,7 +96,20 @@ impl SplatRay {
         } else {
             1.0 / hemisphere_kept_fraction(cos_hit)
         };
+        let mut basis = [0.0; SH_COEFFS];
+        let mut taps = [0u8; FILTER_TAPS];
+        match mode {
+            DirectionalMode::Diffuse => {}
+            DirectionalMode::Sh => basis = sh_basis(-ray.dir),
+            DirectionalMode::Histogram => {
+                let t = filter_taps(-ray.dir);
+                taps = t.stratum;
+                basis[..FILTER_TAPS].copy_from_slice(&t.weight);
+            }
+        }
         Self {
+            basis,
+            taps,
             cone,
             power: ray.power,
             origin_normal: ray.origin_normal.into(),
@@ -104,15 +122,17 @@ impl SplatRay {
     }
 }
 
-/// Prepare rays of the classes selected by `classes` with per-class bandwidths.
+/// Prepare rays of the classes selected by `classes` with per-class bandwidths, their
+/// directions expressed in the basis of `mode`.
 pub fn prepare(
     rays: &[PhotonRay],
     bandwidths: &[Bandwidth; 3],
     classes: [bool; 3],
+    mode: DirectionalMode,
 ) -> Vec<SplatRay> {
     rays.par_iter()
         .filter(|r| classes[r.class as usize])
-        .map(|r| SplatRay::new(r, &bandwidths[r.class as usize]))
+        .map(|r| SplatRay::new(r, &bandwidths[r.class as usize], mode))
         .collect()
 }
 
@@ -190,6 +210,7 @@ pub fn test_sample(ray: &SplatRay, p: Vec3, n: Vec3) -> LaneResult {
 /// disjoint range of slots.
 pub fn splat(tree: &SplatTree, rays: &[SplatRay], acc: &mut Accumulators) -> SplatCounters {
     assert_eq!(acc.len(), tree.slots());
+    let mode = acc.mode;
     let views = acc.split(
         tree.subtrees
             .iter()
@@ -198,7 +219,7 @@ pub fn splat(tree: &SplatTree, rays: &[SplatRay], acc: &mut Accumulators) -> Spl
     tree.subtrees
         .par_iter()
         .zip(views)
-        .map(|(st, view)| splat_subtree(tree, st, rays, view))
+        .map(|(st, view)| splat_subtree(tree, st, rays, view, mode))
         .reduce(SplatCounters::default, |mut a, b| {
             a += b;
             a
@@ -209,16 +230,17 @@ fn splat_subtree(
     tree: &SplatTree,
     st: &Subtree,
     rays: &[SplatRay],
-    acc: &mut [AccumChunk],
+    acc: AccView,
+    mode: DirectionalMode,
 ) -> SplatCounters {
     #[cfg(target_arch = "x86_64")]
     {
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { splat_subtree_avx2(tree, st, rays, acc) };
+            return unsafe { splat_subtree_avx2(tree, st, rays, acc, mode) };
         }
     }
-    splat_subtree_impl(tree, st, rays, acc)
+    splat_subtree_impl(tree, st, rays, acc, mode)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -227,9 +249,10 @@ fn splat_subtree_avx2(
     tree: &SplatTree,
     st: &Subtree,
     rays: &[SplatRay],
-    acc: &mut [AccumChunk],
+    acc: AccView,
+    mode: DirectionalMode,
 ) -> SplatCounters {
-    splat_subtree_impl(tree, st, rays, acc)
+    splat_subtree_impl(tree, st, rays, acc, mode)
 }
 
 #[inline(always)]
@@ -237,7 +260,8 @@ fn splat_subtree_impl(
     tree: &SplatTree,
     st: &Subtree,
     rays: &[SplatRay],
-    acc: &mut [AccumChunk],
+    acc: AccView,
+    mode: DirectionalMode,
 ) -> SplatCounters {
     let mut c = SplatCounters::default();
     let base = st.first as usize / LANES;
@@ -257,8 +281,20 @@ fn splat_subtree_impl(
                 let chunk = &tree.chunks[k];
                 if sphere_in_cone(&ray.cone, chunk.center, chunk.radius) {
                     c.tested += (end - slot).min(LANES) as u64;
-                    c.accepted +=
-                        splat_lanes(ray, &tree.points.chunks[k], &mut acc[k - base]) as u64;
+                    let (w, accepted) =
+                        splat_lanes(ray, &tree.points.chunks[k], &mut acc.chunks[k - base]);
+                    c.accepted += accepted as u64;
+                    if accepted > 0 && acc.chunk_has_record[k - base] {
+                        let lane0 = (k - base) * LANES;
+                        deposit_directional(
+                            ray,
+                            &w,
+                            &acc.slot_record[lane0..lane0 + LANES],
+                            acc.first_record,
+                            acc.records,
+                            mode,
+                        );
+                    }
                 }
                 slot += LANES;
             }
@@ -267,9 +303,53 @@ fn splat_subtree_impl(
     c
 }
 
-/// Test and accumulate one chunk of 8 slots; returns the number of feasible samples.
+/// Add a splat's weighted power to the directional records of the glossy lanes of a chunk
+/// (§8.1): in SH mode projected onto the basis, in histogram mode into the filter's strata.
 #[inline(always)]
-fn splat_lanes(ray: &SplatRay, pts: &PointChunk, acc: &mut AccumChunk) -> u32 {
+fn deposit_directional(
+    ray: &SplatRay,
+    w: &[f32; LANES],
+    lane_record: &[u32],
+    first_record: u32,
+    records: &mut [f32],
+    mode: DirectionalMode,
+) {
+    let f = mode.record_floats();
+    for l in 0..LANES {
+        let r = lane_record[l];
+        if r == NO_RECORD || w[l] <= 0.0 {
+            continue;
+        }
+        let at = (r - first_record) as usize * f;
+        let rec = &mut records[at..at + f];
+        let p = ray.power * w[l];
+        match mode {
+            DirectionalMode::Diffuse => {}
+            DirectionalMode::Sh => {
+                for (c, pc) in [p.x, p.y, p.z].into_iter().enumerate() {
+                    let dst = &mut rec[c * SH_COEFFS..(c + 1) * SH_COEFFS];
+                    for k in 0..SH_COEFFS {
+                        dst[k] += pc * ray.basis[k];
+                    }
+                }
+            }
+            DirectionalMode::Histogram => {
+                for t in 0..FILTER_TAPS {
+                    let wt = ray.basis[t];
+                    let s = ray.taps[t] as usize * 3;
+                    rec[s] += wt * p.x;
+                    rec[s + 1] += wt * p.y;
+                    rec[s + 2] += wt * p.z;
+                }
+            }
+        }
+    }
+}
+
+/// Test and accumulate one chunk of 8 slots; returns the lanes' splat weights K·cos θ
+/// (zero where infeasible) and the number of feasible samples.
+#[inline(always)]
+fn splat_lanes(ray: &SplatRay, pts: &PointChunk, acc: &mut AccumChunk) -> ([f32; LANES], u32) {
     let mut w = [0.0f32; LANES];
     let mut wr = [0.0f32; LANES];
     let mut wd = [0.0f32; LANES];
@@ -296,7 +376,7 @@ fn splat_lanes(ray: &SplatRay, pts: &PointChunk, acc: &mut AccumChunk) -> u32 {
         ch[Channel::WeightedInvDist as usize][l] += wd[l];
         ch[Channel::Count as usize][l] += hit[l];
     }
-    hit.iter().sum::<f32>() as u32
+    (w, hit.iter().sum::<f32>() as u32)
 }
 
 #[cfg(test)]
@@ -355,6 +435,8 @@ mod tests {
             end_plane: -1.0,
             bounds_min: Vec3A::splat(-1.0),
             bounds_max: Vec3A::splat(1.0),
+            basis: [0.0; SH_COEFFS],
+            taps: [0; FILTER_TAPS],
         };
         // A sample on the floor 3 cm off the axis, facing up: K(0.03)·cos 0.
         let r = test_sample(&bw_ray, Vec3::new(0.03, -1.0, 0.0), Vec3::Y);

@@ -1,9 +1,11 @@
 //! The kd-tree traversal (Alg. 1 with cull nodes, leaf and chunk spheres) finds exactly the
-//! eye samples a brute-force conical test finds, on random data.
+//! eye samples a brute-force conical test finds, on random data, and the directional records
+//! of glossy targets (SH mode, §8.1) hold exactly the brute-force projections.
 
 use glam::{Vec3, Vec3A};
 use proptest::prelude::*;
-use raysplat::radiance_map::{Accumulators, Channel};
+use raysplat::directional::{FILTER_TAPS, SH_COEFFS, sh_basis};
+use raysplat::radiance_map::{Accumulators, Channel, DirectionalMode};
 use raysplat::sampling::{Rng, uniform_sphere};
 use raysplat::splat::{SplatRay, splat, test_sample};
 use raysplat::splat_tree::{Cone, SplatTree};
@@ -81,6 +83,8 @@ fn rays(seed: u64, n: usize, radius: f32, grow: f32) -> Vec<SplatRay> {
                 end_plane: if i % 4 == 0 { 0.0 } else { -length },
                 bounds_min,
                 bounds_max,
+                basis: sh_basis(-dir),
+                taps: [0; FILTER_TAPS],
             }
         })
         .collect()
@@ -90,17 +94,38 @@ fn check(seed: u64, n_targets: usize, n_rays: usize, radius: f32, grow: f32) {
     let (p, nrm) = targets(seed, n_targets);
     let tree = SplatTree::build(&p, &nrm, 3.5);
     let rays = rays(seed, n_rays, radius, grow);
-    let mut acc = Accumulators::new(tree.slots());
+    // Every third target glossy, so that subtrees own differing numbers of records.
+    let glossy: Vec<bool> = (0..p.len()).map(|t| t % 3 == 1).collect();
+    let mut acc = Accumulators::for_tree(&tree, &glossy, DirectionalMode::Sh);
     splat(&tree, &rays, &mut acc);
     for (t, (&pos, &n)) in p.iter().zip(&nrm).enumerate() {
         let slot = tree.target_slot[t] as usize;
         let (mut count, mut weight) = (0u32, 0.0f64);
+        let mut sh = [0.0f64; 3 * SH_COEFFS];
         for ray in &rays {
             let r = test_sample(ray, pos, n);
             if r.feasible {
                 count += 1;
                 weight += r.weight as f64;
+                let pw = ray.power * r.weight;
+                for (c, pc) in [pw.x, pw.y, pw.z].into_iter().enumerate() {
+                    for k in 0..SH_COEFFS {
+                        sh[c * SH_COEFFS + k] += (pc * ray.basis[k]) as f64;
+                    }
+                }
             }
+        }
+        match acc.record(slot) {
+            Some(rec) => {
+                assert!(glossy[t], "target {t} is not glossy but has a record");
+                for (k, (&got, &want)) in rec.iter().zip(&sh).enumerate() {
+                    assert!(
+                        (got as f64 - want).abs() <= 1e-3 * (1.0 + weight * 6.0),
+                        "target {t} coefficient {k}: {got} vs {want}"
+                    );
+                }
+            }
+            None => assert!(!glossy[t], "glossy target {t} has no record"),
         }
         let got = acc.get(Channel::Count, slot);
         assert_eq!(

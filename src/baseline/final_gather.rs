@@ -17,9 +17,9 @@ use crate::film::Film;
 use crate::photon::{
     Bandwidth, ClassBudgets, LightPassSettings, PhotonBatch, PhotonClass, light_pass, pilot,
 };
-use crate::radiance_map::{Accumulators, RadianceMap};
+use crate::radiance_map::{Accumulators, DirectionalMode, RadianceMap};
 use crate::render::{RenderSettings, Timings};
-use crate::sampling::{Rng, cosine_hemisphere, to_world};
+use crate::sampling::Rng;
 use crate::scene::Scene;
 use crate::splat::{prepare, splat};
 use crate::splat_tree::SplatTree;
@@ -131,7 +131,12 @@ pub fn render_fg(
                 acc,
             );
         } else {
-            let rays = prepare(&batch.rays, &bw, [false, false, true]);
+            let rays = prepare(
+                &batch.rays,
+                &bw,
+                [false, false, true],
+                DirectionalMode::Diffuse,
+            );
             splat(tree, &rays, acc);
         }
     });
@@ -142,7 +147,14 @@ pub fn render_fg(
     // Gather rays, a band of rows at a time.
     let per_row = (eye.len() / h.max(1) as usize).max(1) * fg.rays as usize;
     let rows_per_band = (fg.max_band_samples / per_row.max(1)).clamp(1, h as usize) as u32;
-    let all_rays = splatting.then(|| prepare(&batch.rays, &bw, [true, true, true]));
+    let all_rays = splatting.then(|| {
+        prepare(
+            &batch.rays,
+            &bw,
+            [true, true, true],
+            DirectionalMode::Diffuse,
+        )
+    });
     let mut y0 = 0;
     while y0 < h {
         let y1 = (y0 + rows_per_band).min(h);
@@ -200,12 +212,12 @@ fn estimate_at(
     let mut acc = Accumulators::new(tree.slots());
     fill(&tree, &mut acc);
     let mut map = RadianceMap::new(w, h);
-    map.resolve_from(samples, &tree.target_slot, &acc, 1);
-    map.diffuse
+    map.resolve_from(scene, samples, &tree.target_slot, &acc, 1);
+    map.radiance
 }
 
 /// Gather hits of the eye samples of pixels `lo..hi` (pixel order): each carries
-/// weight · ρ / N towards its pixel (cosine sampling: f·cos/pdf = ρ).
+/// weight · (f·cos/pdf) / N towards its pixel (BSDF sampling; f·cos/pdf = ρ for a Lambertian).
 fn gather_hits(scene: &Scene, eye: &EyeSamples, lo: u32, hi: u32, n: u32, seed: u64) -> EyeSamples {
     let first = eye.pixel.partition_point(|&p| p < lo);
     let last = eye.pixel.partition_point(|&p| p < hi);
@@ -240,11 +252,14 @@ fn gather_from(
 ) {
     let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
     let (p, nrm) = (eye.position[i], eye.normal[i]);
-    // Cosine sampling: f·cos/pdf = ρ, shared by the n rays.
-    let weight = eye.weight[i] * eye.albedo[i] / n as f32;
+    let bsdf = eye.bsdf(i, scene);
     let origin = p + nrm * scene.ray_epsilon();
     for _ in 0..n {
-        let dir = to_world(cosine_hemisphere(rng.next_2d()), nrm);
+        // BSDF sampling (cosine sampling for a Lambertian: f·cos/pdf = ρ).
+        let Some(s) = bsdf.sample(eye.wo[i], nrm, rng.next_2d(), rng.next_f32()) else {
+            continue;
+        };
+        let (dir, weight) = (s.wi, eye.weight[i] * s.weight / n as f32);
         let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
             continue;
         };
@@ -263,7 +278,13 @@ fn gather_from(
             material: hit.material,
             pixel: eye.pixel[i],
             weight,
-            albedo: scene.albedo(&hit),
+            // Gather hits are shaded as matte with the BSDF's whole reflectance (§8.4 uses no
+            // radiance map there; docs/deviations.md).
+            albedo: match scene.bsdf(&hit) {
+                crate::bsdf::Bsdf::Glossy { kd, ks, .. } => kd + ks,
+                _ => scene.albedo(&hit),
+            },
+            specular: Vec3::ZERO,
         });
     }
 }

@@ -39,8 +39,8 @@ impl std::error::Error for SceneError {}
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MaterialKind {
     Diffuse,
-    /// Moderately glossy (0.05 ≤ roughness < 0.9 or metallic but rough). Shaded as Lambertian
-    /// with its base colour until the glossy BSDF and directional radiance map land (§8.1).
+    /// Moderately glossy (0.05 ≤ roughness < 0.9 or metallic but rough): [`Bsdf::Glossy`],
+    /// rendered through the directional radiance map (§8.1).
     Glossy {
         roughness: f32,
         metallic: f32,
@@ -369,6 +369,15 @@ impl Scene {
         }
     }
 
+    /// Phong exponent of a glossy material (1 for any other).
+    #[inline]
+    pub fn glossy_exponent(&self, material: u32) -> f32 {
+        match self.materials[material as usize].kind {
+            MaterialKind::Glossy { roughness, .. } => crate::bsdf::phong_exponent(roughness),
+            _ => 1.0,
+        }
+    }
+
     /// Diffuse albedo at a hit (base colour × texture).
     #[inline]
     pub fn albedo(&self, hit: &Hit) -> Vec3 {
@@ -387,9 +396,13 @@ impl Scene {
     pub fn bsdf(&self, hit: &Hit) -> Bsdf {
         let m = &self.materials[hit.material as usize];
         match m.kind {
-            MaterialKind::Diffuse | MaterialKind::Glossy { .. } => Bsdf::Lambert {
+            MaterialKind::Diffuse => Bsdf::Lambert {
                 albedo: self.albedo(hit),
             },
+            MaterialKind::Glossy {
+                roughness,
+                metallic,
+            } => crate::bsdf::glossy_from_pbr(self.albedo(hit), roughness, metallic),
             MaterialKind::Mirror => Bsdf::Mirror {
                 color: self.albedo(hit),
             },
