@@ -206,6 +206,7 @@ pub fn histogram_density(h: &[f32], d: Vec3) -> Vec3 {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use crate::sampling::{Rng, uniform_sphere};

@@ -328,8 +328,8 @@ fn deposit_directional(
             DirectionalMode::Sh => {
                 for (c, pc) in [p.x, p.y, p.z].into_iter().enumerate() {
                     let dst = &mut rec[c * SH_COEFFS..(c + 1) * SH_COEFFS];
-                    for k in 0..SH_COEFFS {
-                        dst[k] += pc * ray.basis[k];
+                    for (d, b) in dst.iter_mut().zip(&ray.basis) {
+                        *d += pc * b;
                     }
                 }
             }
