@@ -59,7 +59,8 @@ enum Command {
 
 #[derive(Args, Clone)]
 struct RenderArgs {
-    /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic.
+    /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic |
+    /// builtin:glossy.
     /// Without it, the embedded CORNELL BOX I.
     scene: Option<String>,
     #[arg(long, default_value_t = 500)]
@@ -262,15 +263,13 @@ fn load_scene(arg: Option<&str>) -> Result<Scene, String> {
     match arg {
         None => Ok(Scene::default_scene()),
         Some(name) if name.starts_with("builtin:") => {
-            let which = match &name["builtin:".len()..] {
-                "cornell1" => BuiltinScene::CornellBox1,
-                "cornell2" => BuiltinScene::CornellBox2,
-                "classic" => BuiltinScene::CornellClassic,
-                other => {
-                    return Err(format!(
-                        "unknown built-in scene '{other}' (cornell1, cornell2, classic)"
-                    ));
-                }
+            let key = &name["builtin:".len()..];
+            let Some(which) = BuiltinScene::from_key(key) else {
+                let keys: Vec<&str> = BuiltinScene::ALL.iter().map(|s| s.key()).collect();
+                return Err(format!(
+                    "unknown built-in scene '{key}' ({})",
+                    keys.join(", ")
+                ));
             };
             Ok(Scene::builtin(which))
         }

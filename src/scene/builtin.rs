@@ -20,20 +20,38 @@ pub enum BuiltinScene {
     CornellBox2,
     /// The classic Lambertian box with the short and the tall block.
     CornellClassic,
+    /// Three moderately glossy metal spheres (roughness 0.5, 0.65, 0.8) for §8.1.
+    CornellGlossy,
 }
 
 impl BuiltinScene {
-    pub const ALL: [BuiltinScene; 3] = [
+    pub const ALL: [BuiltinScene; 4] = [
         BuiltinScene::CornellBox1,
         BuiltinScene::CornellBox2,
         BuiltinScene::CornellClassic,
+        BuiltinScene::CornellGlossy,
     ];
+
+    /// The name after `builtin:` on the command line.
+    pub fn key(self) -> &'static str {
+        match self {
+            BuiltinScene::CornellBox1 => "cornell1",
+            BuiltinScene::CornellBox2 => "cornell2",
+            BuiltinScene::CornellClassic => "classic",
+            BuiltinScene::CornellGlossy => "glossy",
+        }
+    }
+
+    pub fn from_key(key: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.key() == key)
+    }
 
     pub fn file_name(self) -> &'static str {
         match self {
             BuiltinScene::CornellBox1 => "cornell_box_1.glb",
             BuiltinScene::CornellBox2 => "cornell_box_2.glb",
             BuiltinScene::CornellClassic => "cornell_classic.glb",
+            BuiltinScene::CornellGlossy => "cornell_glossy.glb",
         }
     }
 
@@ -42,6 +60,7 @@ impl BuiltinScene {
             BuiltinScene::CornellBox1 => "CORNELL BOX I",
             BuiltinScene::CornellBox2 => "CORNELL BOX II",
             BuiltinScene::CornellClassic => "Cornell box (classic)",
+            BuiltinScene::CornellGlossy => "Glossy Cornell box",
         }
     }
 
@@ -52,10 +71,11 @@ impl BuiltinScene {
         cornell_shell(&mut g, bumpy);
         match self {
             BuiltinScene::CornellBox1 => {
+                // Brushed brass: Phong exponent 9.2, a lobe the 16 SH coefficients carry.
                 let gloss = g.material(json!({
                     "name": "glossy_icosahedron",
                     "pbrMetallicRoughness": {"baseColorFactor": [0.75, 0.7, 0.45, 1.0],
-                        "metallicFactor": 0.0, "roughnessFactor": 0.35}
+                        "metallicFactor": 1.0, "roughnessFactor": 0.65}
                 }));
                 let (p, n, i) = icosahedron(Vec3::new(0.13, 0.1, -0.36), 0.11);
                 g.mesh("icosahedron", &p, &n, &i, gloss);
@@ -74,6 +94,37 @@ impl BuiltinScene {
                 let glass = glass_material(&mut g);
                 let (p, n, i) = uv_sphere(Vec3::new(-0.1, 0.1, -0.17), 0.1, 48, 24);
                 g.mesh("glass_sphere", &p, &n, &i, glass);
+            }
+            BuiltinScene::CornellGlossy => {
+                for (name, color, roughness, center) in [
+                    (
+                        "silver_r050",
+                        [0.9, 0.9, 0.9],
+                        0.5,
+                        Vec3::new(-0.15, 0.085, -0.38),
+                    ),
+                    (
+                        "gold_r065",
+                        [0.95, 0.75, 0.35],
+                        0.65,
+                        Vec3::new(0.0, 0.085, -0.22),
+                    ),
+                    (
+                        "copper_r080",
+                        [0.95, 0.6, 0.45],
+                        0.8,
+                        Vec3::new(0.15, 0.085, -0.38),
+                    ),
+                ] {
+                    let m = g.material(json!({
+                        "name": name,
+                        "pbrMetallicRoughness": {
+                            "baseColorFactor": [color[0], color[1], color[2], 1.0],
+                            "metallicFactor": 1.0, "roughnessFactor": roughness}
+                    }));
+                    let (p, n, i) = uv_sphere(center, 0.085, 48, 24);
+                    g.mesh(name, &p, &n, &i, m);
+                }
             }
             BuiltinScene::CornellClassic => {
                 let white = g.material(diffuse_json("block_white", WHITE));

@@ -1,6 +1,8 @@
 //! Scenes built in tests.
 #![allow(dead_code)]
 
+pub mod chi2;
+
 use glam::Vec3;
 use raysplat::scene::{GlbBuilder, Scene};
 use serde_json::json;
