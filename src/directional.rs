@@ -20,8 +20,6 @@ pub const FILTER_RES: usize = 32;
 /// Angular radius of the directional filter kernel around a stratum (50°): every direction
 /// has at least one stratum within 37.4° (the face centres), so every direction is covered.
 const FILTER_COS: f32 = 0.642_787_6;
-/// BSDF samples per glossy eye sample when integrating a histogram record.
-pub const HISTOGRAM_SAMPLES: usize = 32;
 
 /// The real SH basis Y_lm(d) for l ≤ 3 in the usual order (l, m = −l..l), orthonormal on the
 /// sphere (Sloan, "Stupid spherical harmonics tricks", constants).
@@ -191,20 +189,6 @@ pub fn filter_taps(d: Vec3) -> &'static FilterTaps {
     &filter_table()[j * FILTER_RES + i]
 }
 
-/// Density of cos θ-weighted radiance at `d` reconstructed from stratum sums `h` (one value
-/// per stratum and channel, stratum-major): each stratum spreads its sum over its filter
-/// footprint, whose solid angle is 4π/20 by the dodecahedron's symmetry.
-#[inline]
-pub fn histogram_density(h: &[f32], d: Vec3) -> Vec3 {
-    let t = filter_taps(d);
-    let mut s = Vec3::ZERO;
-    for k in 0..FILTER_TAPS {
-        let i = t.stratum[k] as usize * 3;
-        s += t.weight[k] * Vec3::new(h[i], h[i + 1], h[i + 2]);
-    }
-    s * (STRATA as f32 / (4.0 * PI))
-}
-
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)]
 mod tests {
@@ -349,17 +333,27 @@ mod tests {
         }
     }
 
-    /// A histogram record's density integrates to its total (∫ρ dω = Σ h).
+    /// Each stratum's filter footprint has solid angle 4π/20 (the dodecahedron's symmetry):
+    /// spreading every stratum's sum over its footprint keeps the total.
     #[test]
-    fn histogram_density_conserves_the_total() {
+    fn filter_footprints_share_the_sphere_equally() {
         let mut h = [0.0f32; STRATA * 3];
         for (i, v) in h.iter_mut().enumerate() {
             *v = (i % 7) as f32 * 0.1 + 0.05;
         }
         let grid = sphere_grid(200);
+        // Integrate the plain footprints (no surface).
         let total: Vec3 = grid
             .iter()
-            .map(|(d, dw)| histogram_density(&h, *d) * *dw)
+            .map(|(d, dw)| {
+                let t = filter_taps(*d);
+                let mut s = Vec3::ZERO;
+                for k in 0..FILTER_TAPS {
+                    let i = t.stratum[k] as usize * 3;
+                    s += t.weight[k] * Vec3::new(h[i], h[i + 1], h[i + 2]);
+                }
+                s * (STRATA as f32 / (4.0 * PI)) * *dw
+            })
             .sum();
         let want = Vec3::new(
             h.iter().step_by(3).sum(),

@@ -9,17 +9,13 @@
 //! coefficients per channel) or as a 20-strata histogram, chosen by [`DirectionalMode`]; only
 //! those slots pay for it.
 
-use crate::directional::{
-    HISTOGRAM_SAMPLES, SH_COEFFS, STRATA, histogram_density, phong_zonal, sh_basis,
-    sh_lobe_integral,
-};
+use crate::directional::{SH_COEFFS, STRATA, phong_zonal, sh_basis, sh_lobe_integral, strata};
 use crate::eye::EyeSamples;
-use crate::sampling::to_world;
 use crate::scene::Scene;
 use crate::splat_tree::{LANES, PADDING, SplatTree};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
 
 /// How the radiance map stores the direction of incident light at glossy samples (§8.1).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -375,25 +371,18 @@ fn glossy_radiance(
             )
             .max(Vec3::ZERO)
         }
-        // Sample the lobe: f/pdf = (e+2)/(e+1) per sample above the surface, times the
-        // histogram's radiance density there. A fixed stratified pattern, rotated per sample.
+        // Sample the BSDF at the strata (§8.1): the deposit weights interpolate the incident
+        // direction between neighbouring strata, so each stratum's sum is reflected as if it
+        // arrived from the stratum's direction.
         DirectionalMode::Histogram => {
-            let rot = crate::sampling::hash_unit(i as u64);
-            let g = (HISTOGRAM_SAMPLES as f32).sqrt() as usize;
-            let rows = HISTOGRAM_SAMPLES / g;
             let mut sum = Vec3::ZERO;
-            for k in 0..HISTOGRAM_SAMPLES {
-                let u = ((k % g) as f32 + 0.5) / g as f32;
-                let v = (((k / g) as f32 + 0.5) / rows as f32 + rot) % 1.0;
-                let cos_a = u.powf(1.0 / (exponent + 1.0));
-                let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-                let phi = 2.0 * PI * v;
-                let d = to_world(Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a), r);
-                if d.dot(n) > 0.0 {
-                    sum += histogram_density(rec, d);
+            for (k, s) in strata().iter().enumerate() {
+                let f = crate::bsdf::phong_lobe(r.dot(*s), exponent);
+                if f > 0.0 {
+                    sum += f * Vec3::new(rec[3 * k], rec[3 * k + 1], rec[3 * k + 2]);
                 }
             }
-            sum * ((exponent + 2.0) / (exponent + 1.0) / HISTOGRAM_SAMPLES as f32)
+            sum
         }
     }
 }

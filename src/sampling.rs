@@ -49,12 +49,6 @@ impl Rng {
     }
 }
 
-/// A uniform number in [0, 1) hashed from `key` (decorrelates fixed sample patterns).
-#[inline]
-pub fn hash_unit(key: u64) -> f32 {
-    (splitmix64(key) >> 40) as f32 / (1u64 << 24) as f32
-}
-
 fn splitmix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
