@@ -6,7 +6,7 @@
 //! coefficients"), so the reflected radiance is ∫ f(ωo, ω)·(L cos θ)(ω) dω.
 
 use glam::Vec3;
-use std::f32::consts::PI;
+
 use std::sync::OnceLock;
 
 /// Coefficients per colour channel in SH mode: bands l = 0..3.
@@ -194,6 +194,7 @@ pub fn filter_taps(d: Vec3) -> &'static FilterTaps {
 mod tests {
     use super::*;
     use crate::sampling::{Rng, uniform_sphere};
+    use std::f32::consts::PI;
 
     /// Midpoint quadrature over the sphere in (cos θ, φ): returns (direction, dω) pairs.
     fn sphere_grid(n: usize) -> Vec<(Vec3, f32)> {
