@@ -46,6 +46,31 @@ impl DirectionalMode {
         }
     }
 
+    /// Add `power` arriving from direction `incident` (pointing away from the surface) to a
+    /// record: projected onto the SH basis, or spread over the strata by the filter (§8.1).
+    pub fn deposit(self, rec: &mut [f32], incident: Vec3, power: Vec3) {
+        match self {
+            DirectionalMode::Diffuse => {}
+            DirectionalMode::Sh => {
+                let y = sh_basis(incident);
+                for (c, pc) in [power.x, power.y, power.z].into_iter().enumerate() {
+                    for (d, b) in rec[c * SH_COEFFS..(c + 1) * SH_COEFFS].iter_mut().zip(&y) {
+                        *d += pc * b;
+                    }
+                }
+            }
+            DirectionalMode::Histogram => {
+                let t = crate::directional::filter_taps(incident);
+                for (&s, &w) in t.stratum.iter().zip(&t.weight) {
+                    let i = s as usize * 3;
+                    rec[i] += w * power.x;
+                    rec[i + 1] += w * power.y;
+                    rec[i + 2] += w * power.z;
+                }
+            }
+        }
+    }
+
     pub fn label(self) -> &'static str {
         match self {
             DirectionalMode::Diffuse => "diffuse (irradiance only)",

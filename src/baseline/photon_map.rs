@@ -116,6 +116,14 @@ impl PhotonMap {
         }
     }
 
+    /// The photons the last [`PhotonMap::estimate`] with `heap` gathered.
+    pub fn gathered<'a>(
+        &'a self,
+        heap: &'a BinaryHeap<Candidate>,
+    ) -> impl Iterator<Item = &'a MapPhoton> + 'a {
+        heap.iter().map(|c| &self.photons[c.index as usize])
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn search(
         &self,
@@ -193,9 +201,14 @@ pub fn build_maps(batches: &[&[PhotonRay]], with_direct: bool) -> (PhotonMap, Ph
     (PhotonMap::build(global), PhotonMap::build(caustic))
 }
 
+/// The largest directional record (histogram: 20 strata × 3 channels).
+const MAX_RECORD: usize = 60;
+
 /// Direct visualisation: the K-NN irradiance of both maps at every splat target, written into
 /// `acc` (flux = E, weight = 1, weighted bandwidth = the global gather radius, count = photons
 /// gathered), ready for [`crate::radiance_map::RadianceMap::resolve_from`] with one batch.
+/// Glossy targets with a directional record get the gathered photons' directions too (§8.1
+/// applied to photon mapping: each photon's ΔΦ/(πr²) deposited from where it came).
 #[allow(clippy::too_many_arguments)]
 pub fn estimate_targets(
     global: &PhotonMap,
@@ -207,14 +220,31 @@ pub fn estimate_targets(
     r_max: f32,
     acc: &mut Accumulators,
 ) -> PmStats {
-    let results: Vec<(Estimate, Estimate)> = positions
+    let mode = acc.mode;
+    let floats = mode.record_floats();
+    let has_record: Vec<bool> = target_slot
+        .iter()
+        .map(|&s| acc.record(s as usize).is_some())
+        .collect();
+    let results: Vec<(Estimate, Estimate, [f32; MAX_RECORD])> = positions
         .par_iter()
         .zip(normals)
-        .map_init(BinaryHeap::new, |heap, (p, n)| {
-            (
-                global.estimate(*p, *n, k.0, r_max, heap),
-                caustic.estimate(*p, *n, k.1, r_max, heap),
-            )
+        .zip(&has_record)
+        .map_init(BinaryHeap::new, |heap, ((p, n), &directional)| {
+            let mut rec = [0.0f32; MAX_RECORD];
+            let mut gather = |map: &PhotonMap, k: usize, heap: &mut BinaryHeap<Candidate>| {
+                let e = map.estimate(*p, *n, k, r_max, heap);
+                if directional && e.found > 0 {
+                    let area = std::f32::consts::PI * e.radius * e.radius;
+                    for ph in map.gathered(heap) {
+                        mode.deposit(&mut rec[..floats], -ph.dir, ph.power / area);
+                    }
+                }
+                e
+            };
+            let g = gather(global, k.0, heap);
+            let c = gather(caustic, k.1, heap);
+            (g, c, rec)
         })
         .collect();
     acc.clear();
@@ -223,8 +253,11 @@ pub fn estimate_targets(
         caustic_photons: caustic.len(),
         ..PmStats::default()
     };
-    for (t, (g, c)) in results.iter().enumerate() {
+    for (t, (g, c, rec)) in results.iter().enumerate() {
         let slot = target_slot[t] as usize;
+        if let Some(dst) = acc.record_mut(slot) {
+            dst.copy_from_slice(&rec[..floats]);
+        }
         let e = g.irradiance + c.irradiance;
         acc.set(Channel::R, slot, e.x);
         acc.set(Channel::G, slot, e.y);
