@@ -5,6 +5,7 @@ use crate::film::display::{DisplayImage, ToneMap, ViewMode, display};
 use crate::film::false_colour;
 use crate::film::snapshot::{SnapshotFiles, SnapshotMeta, utc_now, write_snapshot};
 use crate::photon::BandwidthParams;
+use crate::radiance_map::DirectionalMode;
 use crate::render::DirectMode;
 use crate::scene::{Camera, Scene};
 use crate::session::{Command, Event, Frame, Session, SessionConfig};
@@ -26,6 +27,8 @@ pub struct UiSettings {
     pub width: u32,
     pub height: u32,
     pub direct: DirectMode,
+    /// Directional storage at glossy surfaces (§8.1).
+    pub radiance_map: DirectionalMode,
     pub view_mode: ViewMode,
     pub exposure: f32,
     pub tone_map: ToneMap,
@@ -44,6 +47,7 @@ impl Default for UiSettings {
             width: s.settings.width,
             height: s.settings.height,
             direct: s.settings.direct,
+            radiance_map: s.settings.radiance_map,
             view_mode: ViewMode::Final,
             exposure: 0.0,
             tone_map: ToneMap::Aces,
@@ -566,6 +570,26 @@ impl App {
             self.settings.direct = direct;
             self.session.send(Command::SetDirect(direct));
         }
+        let mut map = self.settings.radiance_map;
+        ui.horizontal(|ui| {
+            egui::ComboBox::from_label("Glossy radiance map")
+                .selected_text(map.label())
+                .show_ui(ui, |ui| {
+                    for m in DirectionalMode::ALL {
+                        ui.selectable_value(&mut map, m, m.label());
+                    }
+                })
+                .response
+                .on_hover_text(
+                    "How glossy surfaces store the direction of incident light (§8.1): \
+                     irradiance only (matte), 16 spherical-harmonic coefficients or 20 \
+                     strata per colour channel. Switching re-splats the stored photon rays.",
+                );
+        });
+        if map != self.settings.radiance_map {
+            self.settings.radiance_map = map;
+            self.session.send(Command::SetRadianceMap(map));
+        }
         let mut budget_m = self.settings.ray_budget as f64 / 1e6;
         ui.horizontal(|ui| {
             ui.label("Ray store budget");
@@ -705,6 +729,15 @@ impl App {
                 s.splat_targets,
                 s.splat_bytes as f64 / 1e6
             ));
+            if s.glossy_targets > 0 {
+                ui.separator();
+                ui.label(format!(
+                    "glossy targets {} ({:.1} MB directional, {:.0} B each)",
+                    s.glossy_targets,
+                    s.directional_bytes as f64 / 1e6,
+                    s.directional_bytes as f64 / s.glossy_targets as f64
+                ));
+            }
             ui.separator();
             ui.label(format!("{}×{}", f.film.width, f.film.height));
             ui.separator();
@@ -884,6 +917,7 @@ fn session_config(s: &UiSettings) -> SessionConfig {
     c.settings.width = s.width;
     c.settings.height = s.height;
     c.settings.direct = s.direct;
+    c.settings.radiance_map = s.radiance_map;
     c.max_stored_rays = s.ray_budget;
     c
 }

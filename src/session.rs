@@ -9,6 +9,7 @@
 use crate::baseline::pt::{PathTracer, PtSettings};
 use crate::film::Film;
 use crate::photon::BandwidthParams;
+use crate::radiance_map::DirectionalMode;
 use crate::render::{DirectMode, RenderSettings, Renderer, Step};
 use crate::scene::{Camera, Scene};
 use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError, bounded, unbounded};
@@ -32,6 +33,9 @@ pub enum Command {
     },
     /// Switching direct light between NEE and photons restarts tracing.
     SetDirect(DirectMode),
+    /// Directional storage at glossy samples (§8.1): new accumulators, then a re-splat of
+    /// the stored rays (no re-trace).
+    SetRadianceMap(DirectionalMode),
     /// A new view; `interactive` views render at reduced resolution until a final one arrives.
     SetCamera {
         camera: Camera,
@@ -81,6 +85,10 @@ pub struct SessionStats {
     pub stored_batches: usize,
     /// Bytes held by eye samples, splat tree and accumulators.
     pub splat_bytes: usize,
+    /// Bytes of the directional radiance-map records (§8.1), included in `splat_bytes`.
+    pub directional_bytes: usize,
+    /// Splat targets on glossy surfaces (the ones with directional records).
+    pub glossy_targets: usize,
     pub photons_per_second: f64,
     /// Splat time of the last step, milliseconds.
     pub last_splat_ms: f64,
@@ -382,6 +390,12 @@ impl Worker {
                 s.height = height.clamp(8, 4096);
                 p.view = true;
             }
+            Command::SetRadianceMap(m) => {
+                if s.radiance_map != m {
+                    s.radiance_map = m;
+                    p.view = true;
+                }
+            }
             Command::SetDirect(d) => {
                 if s.direct != d {
                     s.direct = d;
@@ -461,6 +475,7 @@ impl Worker {
                 (s.width, s.height, s.spp)
             };
             r.settings.bandwidth = s.bandwidth;
+            r.settings.radiance_map = s.radiance_map;
             if let Err(e) = r.set_view(self.camera.clone(), w, h, spp) {
                 self.emit(Event::Error(e));
                 return;
@@ -543,6 +558,8 @@ impl Worker {
             folded_batches: r.folded_batches(),
             stored_batches: r.stored_batches(),
             splat_bytes: r.splat_memory_bytes(),
+            directional_bytes: r.directional_memory().0,
+            glossy_targets: r.directional_memory().1,
             photons_per_second: r.photons_traced as f64 / elapsed.max(1e-9),
             last_splat_ms: self.last_splat_ms,
             eye_samples: r.eye_samples().len(),

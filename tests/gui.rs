@@ -341,3 +341,54 @@ fn reference_view_mode_path_traces_the_view() {
     assert!((m_ref.x / m_rs.x - 1.0).abs() < 0.5, "{m_ref} vs {m_rs}");
     h.get_by_label_contains("reference");
 }
+
+/// The glossy radiance-map mode (§8.1) reaches the worker, re-splats the stored rays without
+/// tracing (paused), changes the icosahedron, and the stats report the directional memory.
+#[test]
+fn radiance_map_mode_switches_and_reports_memory() {
+    let mut h = harness(tmp("radiance_map"));
+    run_until(&mut h, 60, "the first image", |a| {
+        a.frame().is_some_and(|f| f.stats.batches >= 2) && a.shown().is_some()
+    });
+    pause(&mut h);
+    h.step();
+    let f = h.state().frame().unwrap().clone();
+    assert!(
+        f.stats.glossy_targets > 0,
+        "CORNELL BOX I has a glossy icosahedron"
+    );
+    assert!(f.stats.directional_bytes >= f.stats.glossy_targets * 48 * 4);
+    let before = h.state().shown().unwrap().rgba.clone();
+    let photons = f.stats.photons_traced;
+    for (label, floats) in [
+        ("histogram (20 strata)", 60usize),
+        ("diffuse (irradiance only)", 0),
+    ] {
+        let generation = h.state().frame().unwrap().generation;
+        h.get_by_role_and_label(Role::ComboBox, "Glossy radiance map")
+            .click();
+        h.run_steps(3);
+        h.get_by_label(label).click();
+        run_until(&mut h, 60, label, |a| {
+            a.frame().is_some_and(|f| {
+                f.generation > generation
+                    && !f.stats.resplat_pending
+                    && f.settings.radiance_map.label() == label
+            })
+        });
+        h.step();
+        let f = h.state().frame().unwrap();
+        assert_eq!(f.stats.photons_traced, photons, "switching must not trace");
+        if floats == 0 {
+            assert_eq!(f.stats.directional_bytes, 0);
+        } else {
+            assert!(f.stats.directional_bytes >= f.stats.glossy_targets * floats * 4);
+        }
+    }
+    let after = &h.state().shown().unwrap().rgba;
+    let changed = before.iter().zip(after).filter(|(a, b)| a != b).count();
+    assert!(
+        changed > 0,
+        "the matte icosahedron looks the same as the glossy one"
+    );
+}
