@@ -163,6 +163,10 @@ struct BenchArgs {
     runs: u32,
     #[arg(long)]
     threads: Option<usize>,
+    /// A path-traced EXR of builtin:glossy at 500×500 (`raysplat render builtin:glossy
+    /// --method pt --spp 1024 --width 500 --height 500`): the glossy rows report relMSE to it.
+    #[arg(long)]
+    glossy_reference: Option<PathBuf>,
 }
 
 pub fn main() -> i32 {
@@ -651,6 +655,7 @@ fn bench(args: BenchArgs) -> Result<(), String> {
             }),
         );
     }
+    glossy_bench(&args, &mut rows)?;
     for (name, ms) in preview_bench()? {
         println!("{name:<24} {ms:8.0} ms");
         rows.insert(name.to_string(), json!({ "ms": ms }));
@@ -673,6 +678,68 @@ fn bench(args: BenchArgs) -> Result<(), String> {
         let bytes = serde_json::to_vec_pretty(&doc).map_err(|e| e.to_string())?;
         raysplat::film::write_atomic(path, &bytes)?;
         eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// §8.1 on the glossy Cornell box (500×500×4, M = 200,000, direct photons so that every
+/// glossy reflection goes through the radiance map): splat and resolve time and directional
+/// memory of the diffuse, SH and histogram modes, and relMSE to a path-traced reference.
+fn glossy_bench(args: &BenchArgs, rows: &mut serde_json::Map<String, serde_json::Value>) -> Result<(), String> {
+    let scene = Arc::new(Scene::builtin(BuiltinScene::CornellGlossy));
+    let reference = match &args.glossy_reference {
+        Some(p) => {
+            let (w, h, px) = raysplat::film::read_exr(p)?;
+            if (w, h) != (500, 500) {
+                return Err(format!("{}: the glossy reference must be 500×500", p.display()));
+            }
+            Some(px)
+        }
+        None => None,
+    };
+    for mode in DirectionalMode::ALL {
+        let settings = RenderSettings {
+            direct: DirectMode::Photons,
+            radiance_map: mode,
+            ..RenderSettings::default()
+        };
+        let mut best: Option<(raysplat::render::Timings, f64)> = None;
+        let mut memory = (0, 0);
+        for _ in 0..args.runs.max(1) {
+            let mut r = Renderer::new(scene.clone(), settings.clone())?;
+            r.run_batch();
+            let film = r.film();
+            let err = reference
+                .as_ref()
+                .map_or(f64::NAN, |px| raysplat::film::rel_mse(&film.rgb, px));
+            let t = r.timings;
+            memory = r.directional_memory();
+            if best.is_none_or(|b| t.t_splat + t.t_resolve < b.0.t_splat + b.0.t_resolve) {
+                best = Some((t, err));
+            }
+        }
+        let (t, err) = best.expect("at least one run");
+        let name = format!("glossy_{}", serde_json::to_value(mode).map_err(|e| e.to_string())?.as_str().unwrap_or("?"));
+        println!(
+            "{name:<16} T_S {:.3}  resolve {:.3}  ΣT {:.3} s  directional {:.1} MB ({} glossy targets)  relMSE {:.4}",
+            t.t_splat,
+            t.t_resolve,
+            t.total(),
+            memory.0 as f64 / 1e6,
+            memory.1,
+            err
+        );
+        rows.insert(
+            name,
+            json!({
+                "t_splat": t.t_splat,
+                "t_resolve": t.t_resolve,
+                "t_total": t.total(),
+                "directional_bytes": memory.0,
+                "glossy_targets": memory.1,
+                "rel_mse": if err.is_finite() { json!(err) } else { json!(null) },
+            }),
+        );
     }
     Ok(())
 }
