@@ -742,6 +742,20 @@ impl App {
             ui.label(format!("{}×{}", f.film.width, f.film.height));
             ui.separator();
             ui.label(format!("elapsed {:.1} s", s.elapsed_s));
+            if f.film.invalid_contributions > 0 {
+                ui.separator();
+                ui.label(
+                    RichText::new(format!(
+                        "{} NaN/Inf contributions dropped",
+                        f.film.invalid_contributions
+                    ))
+                    .color(egui::Color32::from_rgb(230, 160, 60)),
+                )
+                .on_hover_text(
+                    "Photon rays, light samples or pixels whose value was not finite were \
+                     left out of the image (the scene may hold extreme values).",
+                );
+            }
             if s.paused {
                 ui.separator();
                 ui.label(RichText::new("paused").strong());

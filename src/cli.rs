@@ -592,6 +592,7 @@ fn stats_json(r: &Renderer, film: &Film, t_load: f64) -> serde_json::Value {
         "glossy_targets": glossy_targets,
         "directional_bytes_per_glossy_target": dir_bytes as f64 / glossy_targets.max(1) as f64,
         "invalid_pixels": film.invalid_pixels(),
+        "invalid_contributions": film.invalid_contributions,
         "method": r.settings.method,
         "pm": r.pm_stats,
         "threads": rayon::current_num_threads(),
@@ -685,13 +686,19 @@ fn bench(args: BenchArgs) -> Result<(), String> {
 /// §8.1 on the glossy Cornell box (500×500×4, M = 200,000, direct photons so that every
 /// glossy reflection goes through the radiance map): splat and resolve time and directional
 /// memory of the diffuse, SH and histogram modes, and relMSE to a path-traced reference.
-fn glossy_bench(args: &BenchArgs, rows: &mut serde_json::Map<String, serde_json::Value>) -> Result<(), String> {
+fn glossy_bench(
+    args: &BenchArgs,
+    rows: &mut serde_json::Map<String, serde_json::Value>,
+) -> Result<(), String> {
     let scene = Arc::new(Scene::builtin(BuiltinScene::CornellGlossy));
     let reference = match &args.glossy_reference {
         Some(p) => {
             let (w, h, px) = raysplat::film::read_exr(p)?;
             if (w, h) != (500, 500) {
-                return Err(format!("{}: the glossy reference must be 500×500", p.display()));
+                return Err(format!(
+                    "{}: the glossy reference must be 500×500",
+                    p.display()
+                ));
             }
             Some(px)
         }
@@ -719,7 +726,13 @@ fn glossy_bench(args: &BenchArgs, rows: &mut serde_json::Map<String, serde_json:
             }
         }
         let (t, err) = best.expect("at least one run");
-        let name = format!("glossy_{}", serde_json::to_value(mode).map_err(|e| e.to_string())?.as_str().unwrap_or("?"));
+        let name = format!(
+            "glossy_{}",
+            serde_json::to_value(mode)
+                .map_err(|e| e.to_string())?
+                .as_str()
+                .unwrap_or("?")
+        );
         println!(
             "{name:<16} T_S {:.3}  resolve {:.3}  ΣT {:.3} s  directional {:.1} MB ({} glossy targets)  relMSE {:.4}",
             t.t_splat,

@@ -8,11 +8,12 @@ use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Reflected direct radiance towards the eye at every sample (BSDF applied, eye weight not).
-pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) -> Vec<Vec3> {
+/// Reflected direct radiance towards the eye at every sample (BSDF applied, eye weight not),
+/// and the number of samples whose estimate was NaN or infinite (set to zero, not used).
+pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) -> (Vec<Vec3>, u64) {
     let samples = samples.max(1);
     let eps = scene.ray_epsilon();
-    (0..eye.len())
+    let radiance: Vec<Vec3> = (0..eye.len())
         .into_par_iter()
         .map(|i| {
             let mut rng = Rng::new(seed, 0x2000_0000_0000 + i as u64);
@@ -39,5 +40,14 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
             }
             sum / samples as f32
         })
-        .collect()
+        .collect();
+    let invalid = radiance.iter().filter(|l| !l.is_finite()).count() as u64;
+    if invalid == 0 {
+        return (radiance, 0);
+    }
+    let radiance = radiance
+        .into_iter()
+        .map(|l| if l.is_finite() { l } else { Vec3::ZERO })
+        .collect();
+    (radiance, invalid)
 }

@@ -28,6 +28,10 @@ pub struct Film {
     pub harmonic_distance: Vec<f32>,
     /// Accepted splats per batch.
     pub splats: Vec<f32>,
+    /// Contributions dropped on the way to this film because they were NaN or infinite
+    /// (photon rays, light samples, eye-sample resolves, pixels), like Mitsuba's
+    /// `warn_invalid`: counted, never written.
+    pub invalid_contributions: u64,
 }
 
 impl Film {
@@ -43,6 +47,7 @@ impl Film {
             kernel_weight: vec![0.0; n],
             harmonic_distance: vec![0.0; n],
             splats: vec![0.0; n],
+            invalid_contributions: 0,
         }
     }
 

@@ -73,6 +73,21 @@ pub struct PhotonRay {
     pub end_normal: Vec3,
 }
 
+impl PhotonRay {
+    /// Every number finite (power non-negative): a ray that may be splatted.
+    pub fn is_valid(&self) -> bool {
+        self.origin.is_finite()
+            && self.dir.is_finite()
+            && self.length.is_finite()
+            && self.power.is_finite()
+            && self.power.min_element() >= 0.0
+            && self.origin_normal.is_finite()
+            && self.end_normal.is_finite()
+            && self.pdf_start.is_finite()
+            && self.pdf_end.is_finite()
+    }
+}
+
 /// User bandwidth parameters (§6, eq. 8).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BandwidthParams {
@@ -202,6 +217,9 @@ pub struct PhotonBatch {
     pub traced: u64,
     /// Rays stored per class.
     pub stored: [u64; 3],
+    /// Photon paths cut short and rays dropped because a power, direction, length or p̃ was
+    /// NaN or infinite (counted, never splatted).
+    pub invalid: u64,
 }
 
 /// Settings of the light pass.
@@ -237,6 +255,7 @@ fn trace_photon(
     seed: u64,
     keep: [bool; 3],
     out: &mut Vec<TaggedRay>,
+    invalid: &mut u64,
 ) -> bool {
     let mut rng = Rng::new(seed, photon);
     let Some(e) = scene.lights.sample_emission(&mut rng) else {
@@ -254,7 +273,11 @@ fn trace_photon(
     let mut dir_density = e.pdf;
     let mut any_diffuse = false;
     for bounce in 0..MAX_PATH_SEGMENTS {
-        if !power.is_finite() || power.max_element() <= 0.0 {
+        if !power.is_finite() {
+            *invalid += 1;
+            break;
+        }
+        if power.max_element() <= 0.0 {
             break;
         }
         let hit = scene.intersect(origin, dir, f32::INFINITY);
@@ -361,9 +384,18 @@ pub fn pilot(scene: &Scene, seed: u64) -> Pilot {
         .into_par_iter()
         .map(|c| {
             let mut out = Vec::new();
+            let mut invalid = 0;
             for id in c * 512..(c + 1) * 512 {
-                trace_photon(scene, id, seed ^ 0x005e_ed0f_9110, [true; 3], &mut out);
+                trace_photon(
+                    scene,
+                    id,
+                    seed ^ 0x005e_ed0f_9110,
+                    [true; 3],
+                    &mut out,
+                    &mut invalid,
+                );
             }
+            out.retain(|r| r.ray.is_valid());
             out
         })
         .collect();
@@ -421,9 +453,23 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
             .into_par_iter()
             .map(|c0| {
                 let mut out = Vec::with_capacity(chunk as usize * 2);
+                let mut invalid = 0u64;
                 for id in c0..(c0 + chunk).min(end) {
-                    trace_photon(scene, s.first_photon + id, s.seed, want, &mut out);
+                    trace_photon(
+                        scene,
+                        s.first_photon + id,
+                        s.seed,
+                        want,
+                        &mut out,
+                        &mut invalid,
+                    );
                 }
+                (out, invalid)
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .map(|(out, invalid)| {
+                batch.invalid += invalid;
                 out
             })
             .collect();
@@ -458,6 +504,10 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
         if keep[c] && local < batch.emitted[c] {
             let mut ray = r.ray;
             ray.power /= batch.emitted[c] as f32;
+            if !ray.is_valid() {
+                batch.invalid += 1;
+                continue;
+            }
             batch.stored[c] += 1;
             batch.rays.push(ray);
         }
@@ -474,6 +524,48 @@ mod tests {
             mean_length: 0.5,
             vertex_pdfs: pdfs,
             scene_diagonal: 10.0,
+        }
+    }
+
+    #[test]
+    fn rays_with_non_finite_numbers_are_invalid() {
+        let good = PhotonRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::Y,
+            length: 1.0,
+            power: Vec3::ONE,
+            origin_normal: Vec3::Y,
+            pdf_start: 0.0,
+            pdf_end: 1.0,
+            bounce: 0,
+            class: PhotonClass::Direct,
+            lands: true,
+            end_normal: -Vec3::Y,
+        };
+        assert!(good.is_valid());
+        for bad in [
+            PhotonRay {
+                power: Vec3::new(1.0, f32::INFINITY, 0.0),
+                ..good
+            },
+            PhotonRay {
+                power: Vec3::new(-1.0, 0.0, 0.0),
+                ..good
+            },
+            PhotonRay {
+                length: f32::NAN,
+                ..good
+            },
+            PhotonRay {
+                pdf_end: f32::INFINITY,
+                ..good
+            },
+            PhotonRay {
+                dir: Vec3::new(f32::NAN, 0.0, 0.0),
+                ..good
+            },
+        ] {
+            assert!(!bad.is_valid(), "{bad:?}");
         }
     }
 

@@ -294,6 +294,8 @@ pub struct RadianceMap {
     /// Outgoing radiance towards the eye from splatted light, the eye samples' BSDFs applied.
     pub radiance: Vec<Vec3>,
     pub info: Vec<SplatInfo>,
+    /// Eye-sample contributions dropped because they were NaN or infinite.
+    pub invalid: u64,
 }
 
 impl RadianceMap {
@@ -304,6 +306,7 @@ impl RadianceMap {
             height,
             radiance: vec![Vec3::ZERO; n],
             info: vec![SplatInfo::default(); n],
+            invalid: 0,
         }
     }
 
@@ -321,6 +324,7 @@ impl RadianceMap {
     ) {
         self.radiance.fill(Vec3::ZERO);
         self.info.fill(SplatInfo::default());
+        self.invalid = 0;
         if batches == 0 {
             return;
         }
@@ -343,7 +347,12 @@ impl RadianceMap {
                     None => ks * FRAC_1_PI * e,
                 };
             }
-            self.radiance[px] += w * out;
+            let out = w * out;
+            if !out.is_finite() {
+                self.invalid += 1;
+                continue;
+            }
+            self.radiance[px] += out;
             let info = &mut self.info[px];
             let share = w.max_element();
             let wsum = get(Channel::Weight);
@@ -409,5 +418,44 @@ fn glossy_radiance(
             }
             sum
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eye::EyeSample;
+    use crate::scene::{BuiltinScene, Scene};
+
+    /// A NaN or infinite accumulator never reaches a pixel: the sample is dropped and counted.
+    #[test]
+    fn resolve_drops_and_counts_invalid_contributions() {
+        let scene = Scene::builtin(BuiltinScene::CornellClassic);
+        let mut eye = EyeSamples::default();
+        for (i, pixel) in [0u32, 0, 1].into_iter().enumerate() {
+            let s = EyeSample {
+                position: Vec3::ZERO,
+                normal: Vec3::Y,
+                wo: Vec3::Y,
+                material: 0,
+                pixel,
+                weight: Vec3::splat(0.5),
+                albedo: Vec3::splat(0.5),
+                specular: Vec3::ZERO,
+            };
+            eye.push_sample(&s, i as u32);
+        }
+        let mut acc = Accumulators::new(8);
+        for slot in 0..3 {
+            acc.set(Channel::R, slot, 1.0);
+        }
+        acc.set(Channel::G, 1, f32::INFINITY);
+        acc.set(Channel::B, 2, f32::NAN);
+        let mut map = RadianceMap::new(2, 1);
+        map.resolve_from(&scene, &eye, &[0, 1, 2], &acc, 1);
+        assert_eq!(map.invalid, 2);
+        assert!(map.radiance.iter().all(|r| r.is_finite()));
+        // The valid sample of pixel 0 still counts.
+        assert!(map.radiance[0].x > 0.0);
     }
 }

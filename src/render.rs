@@ -139,6 +139,8 @@ struct EyeSide {
     emitted: Vec<Vec3>,
     /// Per pixel: NEE direct light (eye weights applied).
     direct: Vec<Vec3>,
+    /// Eye samples whose NEE estimate was NaN or infinite (dropped).
+    invalid_direct: u64,
     /// Accumulators for indirect and caustic photons, and for direct photons when splatted.
     acc_indirect: Accumulators,
     acc_direct: Accumulators,
@@ -161,6 +163,8 @@ pub struct Renderer {
     m_total: [u64; 3],
     /// Photons traced (depends on thread count: the last wave may trace beyond the budget).
     pub photons_traced: u64,
+    /// Photon paths and rays dropped for NaN or infinite values, over all batches.
+    pub invalid_photon_rays: u64,
     /// Photons whose rays were kept; the next batch's photon indices start here.
     photons_used: u64,
     /// Keep at most this many photon rays; older batches are folded (see `fold_over_budget`).
@@ -202,6 +206,7 @@ impl Renderer {
             folded: 0,
             m_total: [0; 3],
             photons_traced: 0,
+            invalid_photon_rays: 0,
             photons_used: 0,
             max_stored_rays: usize::MAX,
             counters: SplatCounters::default(),
@@ -356,6 +361,7 @@ impl Renderer {
             },
         );
         self.photons_traced += batch.traced;
+        self.invalid_photon_rays += batch.invalid;
         self.photons_used += batch.emitted.iter().copied().max().unwrap_or(0);
         for c in 0..3 {
             self.m_total[c] += batch.stored[c];
@@ -502,9 +508,14 @@ impl Renderer {
                 *d += *s;
             }
         }
+        film.invalid_contributions += map.invalid + side.invalid_direct + self.invalid_photon_rays;
         for (i, (d, e)) in direct.iter().zip(&side.emitted).enumerate() {
-            let d = *d + *e;
-            let ind = map.radiance[i];
+            let (mut d, mut ind) = (*d + *e, map.radiance[i]);
+            // The last guard: nothing non-finite reaches the film.
+            if !(d + ind).is_finite() {
+                film.invalid_contributions += 1;
+                (d, ind) = (Vec3::ZERO, Vec3::ZERO);
+            }
             let info = &map.info[i];
             film.direct[i] = d;
             film.indirect[i] = ind;
@@ -548,8 +559,10 @@ fn eye_side(
 
     let t = Instant::now();
     let mut direct = vec![Vec3::ZERO; (settings.width * settings.height) as usize];
+    let mut invalid_direct = 0;
     if settings.direct == DirectMode::Nee {
-        let per_sample = direct_light(scene, &eye, settings.nee_samples, settings.seed);
+        let (per_sample, invalid) = direct_light(scene, &eye, settings.nee_samples, settings.seed);
+        invalid_direct = invalid;
         for (i, l) in per_sample.iter().enumerate() {
             direct[eye.pixel[i] as usize] += eye.weight[i] * *l;
         }
@@ -569,6 +582,7 @@ fn eye_side(
         tree,
         emitted,
         direct,
+        invalid_direct,
         acc_indirect,
         acc_direct,
     })

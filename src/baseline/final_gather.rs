@@ -84,6 +84,7 @@ pub fn render_fg(
     let t = Instant::now();
     let mut image = emitted;
     for (i, l) in direct_light(scene, &eye, s.nee_samples, s.seed)
+        .0
         .iter()
         .enumerate()
     {

@@ -92,6 +92,7 @@ impl PathTracer {
         for (o, s) in f.rgb.iter_mut().zip(&self.sum) {
             *o = *s * inv;
         }
+        f.invalid_contributions = self.invalid;
         f
     }
 }

@@ -86,6 +86,17 @@ fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<Scene
         cameras: Vec::new(),
         warnings,
     };
+    for m in document.materials() {
+        if let Some(s) = m.emissive_strength()
+            && !(s.is_finite() && s >= 0.0)
+        {
+            parts.warnings.push(format!(
+                "material {} ({}): emissive strength {s} ignored, it does not emit",
+                m.index().map_or("default".into(), |i| i.to_string()),
+                m.name().unwrap_or("unnamed")
+            ));
+        }
+    }
     // The default material for primitives without one (glTF spec: white, metallic 1 — we use
     // a plain light-grey Lambertian, the usual choice of viewers).
     let default_material = parts.materials.len() as u32;
@@ -337,8 +348,12 @@ fn add_mesh(
                 positions[b as usize],
                 positions[c as usize],
             );
-            let cross = (pb - pa).cross(pc - pa);
-            if cross.length_squared().is_nan() || cross.length_squared() <= 0.0 {
+            // Edges scaled to unit size first, so that huge coordinates cannot overflow the
+            // cross product into an infinite (and then NaN) normal.
+            let (e1, e2) = (pb - pa, pc - pa);
+            let scale = e1.abs().max_element().max(e2.abs().max_element());
+            let cross = (e1 / scale).cross(e2 / scale);
+            if !(scale.is_finite() && cross.length_squared() > 0.0) {
                 stats.degenerate += 1;
                 continue;
             }
@@ -403,9 +418,11 @@ fn convert_material(m: &gltf::Material, textures: &[Texture]) -> Material {
             metallic,
         }
     };
+    // A negative or non-finite strength is not light: the material does not emit (and the
+    // loader says so).
     let strength = m
         .emissive_strength()
-        .filter(|s| s.is_finite() && *s >= 0.0)
+        .map(|s| if s.is_finite() && s >= 0.0 { s } else { 0.0 })
         .unwrap_or(1.0);
     let ef = m.emissive_factor();
     let emission = Vec3::new(ef[0], ef[1], ef[2]) * strength;

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod chi2;
+pub mod glb;
 
 use glam::Vec3;
 use raysplat::scene::{GlbBuilder, Scene};

@@ -1,0 +1,79 @@
+//! Taking GLB files apart and putting them back together, to make malformed ones on purpose.
+#![allow(dead_code)]
+
+use glam::Vec3;
+use raysplat::scene::GlbBuilder;
+use serde_json::{Value, json};
+
+/// (JSON chunk, BIN chunk) of a GLB file.
+pub fn split(glb: &[u8]) -> (Value, Vec<u8>) {
+    let u32_at = |i: usize| u32::from_le_bytes(glb[i..i + 4].try_into().unwrap()) as usize;
+    let json_len = u32_at(12);
+    let json: Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    let bin_at = 20 + json_len;
+    let bin = if glb.len() > bin_at + 8 {
+        let len = u32_at(bin_at);
+        glb[bin_at + 8..bin_at + 8 + len].to_vec()
+    } else {
+        Vec::new()
+    };
+    (json, bin)
+}
+
+/// A GLB file from a JSON value and a BIN chunk (padded as the format asks).
+pub fn join(json: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut j = serde_json::to_vec(json).unwrap();
+    while j.len() % 4 != 0 {
+        j.push(b' ');
+    }
+    let mut b = bin.to_vec();
+    while b.len() % 4 != 0 {
+        b.push(0);
+    }
+    let total = 12 + 8 + j.len() + if b.is_empty() { 0 } else { 8 + b.len() };
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&j);
+    if !b.is_empty() {
+        out.extend_from_slice(&(b.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&b);
+    }
+    out
+}
+
+/// A small valid scene: a floor (mesh 0), a downward area light (mesh 1) and a camera.
+pub fn small_scene() -> Vec<u8> {
+    let mut g = GlbBuilder::default();
+    let m = super::white(&mut g);
+    super::plane(&mut g, 1.0, m);
+    let light = g.material(json!({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 10.0}}}));
+    let h = 0.2;
+    let p = [
+        Vec3::new(-h, 1.0, -h),
+        Vec3::new(h, 1.0, -h),
+        Vec3::new(h, 1.0, h),
+        Vec3::new(-h, 1.0, h),
+    ];
+    g.mesh("light", &p, &[-Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
+    g.camera("top", Vec3::new(0.0, 2.0, 0.01), Vec3::ZERO, 0.8);
+    g.to_glb()
+}
+
+/// Overwrite the f32 at `offset` of the BIN chunk.
+pub fn put_f32(bin: &mut [u8], offset: usize, v: f32) {
+    bin[offset..offset + 4].copy_from_slice(&v.to_le_bytes());
+}
+
+/// Byte offset in the BIN chunk of the accessor `a`'s first element.
+pub fn accessor_offset(json: &Value, a: usize) -> usize {
+    let acc = &json["accessors"][a];
+    let view = &json["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
+    view["byteOffset"].as_u64().unwrap_or(0) as usize
+        + acc["byteOffset"].as_u64().unwrap_or(0) as usize
+}
