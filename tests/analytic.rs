@@ -7,6 +7,7 @@ use glam::Vec3;
 use raysplat::photon::{
     ClassBudgets, D_TILDE_FRACTION, LightPassSettings, PhotonClass, light_pass,
 };
+use raysplat::radiance_map::DirectionalMode;
 use raysplat::render::{DirectMode, RenderSettings, Renderer};
 use raysplat::sampling::Rng;
 use raysplat::scene::Scene;
@@ -300,7 +301,7 @@ fn small_settings() -> RenderSettings {
 #[test]
 fn same_seed_same_image_on_any_thread_count() {
     let scene = Arc::new(Scene::default_scene());
-    let render = |threads: usize, direct: DirectMode| {
+    let render = |threads: usize, direct: DirectMode, map: DirectionalMode| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
@@ -310,6 +311,7 @@ fn same_seed_same_image_on_any_thread_count() {
                 scene.clone(),
                 RenderSettings {
                     direct,
+                    radiance_map: map,
                     ..small_settings()
                 },
             )
@@ -320,9 +322,14 @@ fn same_seed_same_image_on_any_thread_count() {
         })
     };
     for direct in [DirectMode::Nee, DirectMode::Photons] {
-        let a = render(1, direct);
-        let b = render(3, direct);
-        assert!(a == b, "{direct:?}: images differ between 1 and 3 threads");
+        for map in DirectionalMode::ALL {
+            let a = render(1, direct, map);
+            let b = render(3, direct, map);
+            assert!(
+                a == b,
+                "{direct:?} {map:?}: images differ between 1 and 3 threads"
+            );
+        }
     }
 }
 

@@ -354,3 +354,93 @@ fn a_million_triangles_load_and_render() {
     assert_eq!(film.invalid_pixels(), 0);
     assert!(film.mean().x > 0.0);
 }
+
+/// A reader never sees a partial file under the final name: while a large file replaces a
+/// small one, every read finds the whole old content or the whole new content.
+#[test]
+fn atomic_writes_never_expose_a_partial_file() {
+    use raysplat::film::write_atomic;
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("atomic");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("image.exr");
+    let old = vec![b'a'; 1 << 20];
+    write_atomic(&path, &old).unwrap();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let reader = {
+        let (path, done) = (path.clone(), done.clone());
+        std::thread::spawn(move || {
+            let mut reads = 0u32;
+            while !done.load(std::sync::atomic::Ordering::SeqCst) || reads < 10 {
+                let b = std::fs::read(&path).unwrap();
+                let whole_old = b.len() == 1 << 20 && b.iter().all(|&c| c == b'a');
+                let whole_new = b.len() == 8 << 20 && b.iter().all(|&c| c == b'b');
+                assert!(whole_old || whole_new, "partial file: {} bytes", b.len());
+                reads += 1;
+            }
+            reads
+        })
+    };
+    for _ in 0..5 {
+        write_atomic(&path, &vec![b'b'; 8 << 20]).unwrap();
+        write_atomic(&path, &old).unwrap();
+    }
+    write_atomic(&path, &vec![b'b'; 8 << 20]).unwrap();
+    done.store(true, std::sync::atomic::Ordering::SeqCst);
+    assert!(reader.join().unwrap() >= 10);
+    // Nothing but the file itself is left in the folder.
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+}
+
+/// A failing write (the folder is missing, or is a file, or the name is taken by a folder)
+/// gives a message and leaves no file and no temporary behind.
+#[test]
+fn failing_writes_say_why_and_leave_nothing_behind() {
+    use raysplat::film::write_atomic;
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("failing");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("a_file");
+    std::fs::write(&file, b"x").unwrap();
+    let taken = dir.join("taken.png");
+    std::fs::create_dir_all(taken.join("inside")).unwrap();
+    for target in [
+        dir.join("missing").join("out.exr"),
+        file.join("out.exr"),
+        taken.clone(),
+    ] {
+        let e = write_atomic(&target, b"data").unwrap_err();
+        assert!(e.contains("cannot write"), "{e}");
+    }
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["a_file", "taken.png"], "temporaries left behind");
+    assert!(taken.join("inside").is_dir());
+    // A read-only folder: refused with a message (root ignores permission bits, so only
+    // checked where they apply).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let ro = dir.join("read_only");
+        std::fs::create_dir_all(&ro).unwrap();
+        std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+        let probe = ro.join("probe");
+        let writable = std::fs::write(&probe, b"x").is_ok();
+        let _ = std::fs::remove_file(&probe);
+        if !writable {
+            let e = write_atomic(&ro.join("out.png"), b"data").unwrap_err();
+            assert!(e.contains("cannot write"), "{e}");
+            assert_eq!(std::fs::read_dir(&ro).unwrap().count(), 0);
+        } else {
+            eprintln!("running as root: permission bits are not enforced, read-only case skipped");
+        }
+        std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+}

@@ -77,18 +77,95 @@ fn scene_files() -> (PathBuf, PathBuf) {
     (good, bad)
 }
 
+/// The ray store never holds more than the largest budget set plus one batch (the newest is
+/// always kept): budgets in the storm are at most 52,000 rays, batches at most 5,500 photons'
+/// rays (M is the number of stored rays per batch).
+const STORM_RAY_LIMIT: usize = 52_000 + 5_500;
+
+/// Check a frame against the invariants of the storm: finite image, bounded ray store.
+fn check_frame(f: &Frame) {
+    assert_eq!(
+        f.film.invalid_pixels(),
+        0,
+        "NaN/Inf pixels in frame {}",
+        f.seq
+    );
+    assert!(
+        f.stats.photon_rays <= STORM_RAY_LIMIT,
+        "frame {}: {} stored rays over the budget",
+        f.seq,
+        f.stats.photon_rays
+    );
+}
+
+/// Thousands of seeded random commands (sliders, camera moves, pause/resume, resolution, spp,
+/// direct mode, radiance-map mode, ray budget, loads of good, truncated and missing files,
+/// restarts) interleaved with snapshots of the frames (into a good folder and a missing one):
+/// no panic, no deadlock (watchdog), frames keep coming through the storm, never a NaN pixel,
+/// the ray store within its budget, every snapshot either complete or refused with a message.
 #[test]
-fn a_thousand_random_commands_neither_panic_nor_deadlock() {
-    let _watchdog = Watchdog::new(240);
+fn thousands_of_random_commands_neither_panic_nor_deadlock() {
+    use raysplat::film::display::{ToneMap, ViewMode, display};
+    use raysplat::film::snapshot::{SnapshotMeta, write_snapshot};
+    let _watchdog = Watchdog::new(400);
     let (good, bad) = scene_files();
+    let snap_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("storm-snapshots");
+    let _ = std::fs::remove_dir_all(&snap_dir);
+    std::fs::create_dir_all(&snap_dir).unwrap();
     let scene = Arc::new(Scene::default_scene());
     let base_camera = scene.cameras[0].clone();
-    let session = Session::spawn(scene, None, small_config(), None);
+    let config = SessionConfig {
+        max_stored_rays: 50_000,
+        ..small_config()
+    };
+    let session = Session::spawn(scene, None, config, None);
     wait(&session, 30, |f| f.stats.batches >= 1);
     let mut rng = Rng::new(2024, 0);
-    for i in 0..1000 {
+    let (mut frames_seen, mut snapshots) = (0u64, 0u32);
+    let mut last_seq = 0;
+    for i in 0..5000 {
         let u = rng.next_f32();
-        let c = match (rng.next_f32() * 13.0) as u32 {
+        // Frames keep coming during the storm: every 250 commands wait for a new one, check
+        // it and snapshot it; check whatever other frame is ready in between.
+        let checkpoint = i % 250 == 249;
+        let frame = if checkpoint {
+            Some(wait(&session, 60, |f| f.seq > last_seq))
+        } else {
+            session.try_frame()
+        };
+        if let Some(f) = frame {
+            last_seq = last_seq.max(f.seq);
+            check_frame(&f);
+            frames_seen += 1;
+            if checkpoint {
+                let shown = display(&f.film, ViewMode::Final, 0.0, ToneMap::Aces);
+                let meta = SnapshotMeta {
+                    scene_name: f.scene_name.clone(),
+                    scene_path: f.scene_path.clone(),
+                    camera: f.camera.clone(),
+                    settings: f.settings.clone(),
+                    photons_traced: f.stats.photons_traced,
+                    photon_rays: f.stats.photon_rays,
+                    batches: f.stats.batches,
+                    elapsed_s: f.stats.elapsed_s,
+                    view_mode: ViewMode::Final,
+                    exposure: 0.0,
+                    tone_map: ToneMap::Aces,
+                    program_version: "test".into(),
+                    created: "now".into(),
+                };
+                let files = write_snapshot(&snap_dir, &shown, &f.film, &meta)
+                    .unwrap_or_else(|e| panic!("snapshot into a good folder failed: {e}"));
+                snapshots += 1;
+                for p in [&files.png, &files.exr, &files.json] {
+                    assert!(std::fs::metadata(p).unwrap().len() > 0, "{}", p.display());
+                }
+                let missing = snap_dir.join("missing");
+                let e = write_snapshot(&missing, &shown, &f.film, &meta).unwrap_err();
+                assert!(e.contains("does not exist"), "{e}");
+            }
+        }
+        let c = match (rng.next_f32() * 14.0) as u32 {
             0..=2 => Command::SetBandwidth(BandwidthParams {
                 smoothness_c: 0.1 + 2.0 * u,
                 sensitivity_s: (rng.next_f32()).max(0.01),
@@ -116,6 +193,9 @@ fn a_thousand_random_commands_neither_panic_nor_deadlock() {
                 DirectMode::Photons
             }),
             11 => Command::SetRayBudget(2_000 + (u * 50_000.0) as usize),
+            12 => Command::SetRadianceMap(
+                raysplat::radiance_map::DirectionalMode::ALL[(u * 2.99) as usize],
+            ),
             _ => match (u * 4.0) as u32 {
                 0 => Command::LoadScene(good.clone()),
                 1 => Command::LoadScene(bad.clone()),
@@ -134,8 +214,20 @@ fn a_thousand_random_commands_neither_panic_nor_deadlock() {
     // The worker keeps publishing after the storm, with new batches.
     let f = wait(&session, 120, |_| true);
     let g = wait(&session, 60, |g| g.seq > f.seq + 2 && g.stats.batches > 0);
-    assert!(g.film.invalid_pixels() == 0);
+    check_frame(&g);
     assert!(session.is_alive());
+    assert!(
+        frames_seen >= 20 && snapshots == 20,
+        "{frames_seen} frames, {snapshots} snapshots"
+    );
+    // No temporary or partial files are left beside the snapshots.
+    for e in std::fs::read_dir(&snap_dir).unwrap() {
+        let name = e.unwrap().file_name().to_string_lossy().into_owned();
+        assert!(
+            name.ends_with(".png") || name.ends_with(".exr") || name.ends_with(".json"),
+            "stray file {name}"
+        );
+    }
     let events = session.try_events();
     assert!(
         events.iter().any(|e| matches!(e, Event::LoadFailed(_))),
