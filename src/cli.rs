@@ -461,8 +461,8 @@ fn compare(args: CompareArgs) -> Result<(), String> {
     };
     let mut rows = serde_json::Map::new();
     println!(
-        "{:<6} {:>8} {:>8} {:>8} {:>8} {:>10} {:>10}",
-        "method", "T_E", "T_L", "T_S", "ΣT", "RMSE", "relMSE"
+        "{:<6} {:>8} {:>8} {:>8} {:>8} {:>10} {:>10} {:>8}",
+        "method", "T_E", "T_L", "T_S", "ΣT", "RMSE", "relMSE", "bias"
     );
     for &m in &args.methods {
         let r = render_method(&scene, m, &settings, budget)?;
@@ -474,18 +474,20 @@ fn compare(args: CompareArgs) -> Result<(), String> {
             t_total: t.total(),
             rmse: rmse(&r.film.rgb, &reference),
             relmse: raysplat::film::rel_mse(&r.film.rgb, &reference),
+            mean_bias: raysplat::baseline::compare::mean_bias(&r.film.rgb, &reference),
             photons: r.photons,
             passes: r.passes,
         };
         println!(
-            "{:<6} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.5} {:>10.5}",
+            "{:<6} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.5} {:>10.5} {:>+7.2}%",
             m.name(),
             row.t_eye,
             row.t_light,
             row.t_splat,
             row.t_total,
             row.rmse,
-            row.relmse
+            row.relmse,
+            row.mean_bias * 100.0
         );
         r.film
             .write_exr(&args.out_dir.join(format!("{}.exr", m.name())))?;

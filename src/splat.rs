@@ -39,45 +39,50 @@ const KEPT_DH_MAX: f32 = 8.0;
 /// is narrower than at the hit, so the near half of the footprint shrinks. In units of h_end
 /// and the coordinate X′ across the ray, the mass is ∫∫ K_r(√(X′² + Y²)) dX′ dY with
 /// r = 1 + dh·tan θ·X′ before the hit (X′ < 0) and, after it, r = 1 inside the hemisphere
-/// (X′/cos θ)² + Y² < 1. Tabulated once (32 × 24 entries, 256² midpoint cells each).
+/// (X′/cos θ)² + Y² < 1. Tabulated once (32 × 24 entries, 160² midpoint cells each, rows
+/// in parallel: about 30 ms).
 pub fn kept_fraction(cos_theta: f32, dh: f32) -> f32 {
     static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
     let table = TABLE.get_or_init(|| {
-        let n = 256;
-        let mut t = vec![0.0f32; (KEPT_COS_STEPS + 1) * (KEPT_DH_STEPS + 1)];
-        for ci in 0..=KEPT_COS_STEPS {
-            let c = (ci as f64 / KEPT_COS_STEPS as f64).max(0.02);
-            let tan = (1.0 - c * c).sqrt() / c;
-            for ui in 0..=KEPT_DH_STEPS {
-                let u = ui as f64 / KEPT_DH_STEPS as f64
-                    * (KEPT_DH_MAX as f64 / (1.0 + KEPT_DH_MAX as f64));
-                let dh = u / (1.0 - u);
-                let mut sum = 0.0f64;
-                for ix in 0..n {
-                    let x = -1.0 + (ix as f64 + 0.5) * 2.0 / n as f64;
-                    let r = if x < 0.0 {
-                        (1.0 + dh * tan * x).max(0.0)
-                    } else {
-                        1.0
-                    };
-                    if r <= 0.0 {
-                        continue;
-                    }
-                    for iy in 0..n {
-                        let y = -1.0 + (iy as f64 + 0.5) * 2.0 / n as f64;
-                        if x >= 0.0 && (x / c).powi(2) + y * y >= 1.0 {
+        let n = 160;
+        let rows: Vec<Vec<f32>> = (0..=KEPT_COS_STEPS)
+            .into_par_iter()
+            .map(|ci| {
+                let mut row = vec![0.0f32; KEPT_DH_STEPS + 1];
+                let c = (ci as f64 / KEPT_COS_STEPS as f64).max(0.02);
+                let tan = (1.0 - c * c).sqrt() / c;
+                for (ui, cell) in row.iter_mut().enumerate() {
+                    let u = ui as f64 / KEPT_DH_STEPS as f64
+                        * (KEPT_DH_MAX as f64 / (1.0 + KEPT_DH_MAX as f64));
+                    let dh = u / (1.0 - u);
+                    let mut sum = 0.0f64;
+                    for ix in 0..n {
+                        let x = -1.0 + (ix as f64 + 0.5) * 2.0 / n as f64;
+                        let r = if x < 0.0 {
+                            (1.0 + dh * tan * x).max(0.0)
+                        } else {
+                            1.0
+                        };
+                        if r <= 0.0 {
                             continue;
                         }
-                        let d2 = (x * x + y * y) / (r * r);
-                        if d2 < 1.0 {
-                            sum += 2.0 / (std::f64::consts::PI * r * r) * (1.0 - d2);
+                        for iy in 0..n {
+                            let y = -1.0 + (iy as f64 + 0.5) * 2.0 / n as f64;
+                            if x >= 0.0 && (x / c).powi(2) + y * y >= 1.0 {
+                                continue;
+                            }
+                            let d2 = (x * x + y * y) / (r * r);
+                            if d2 < 1.0 {
+                                sum += 2.0 / (std::f64::consts::PI * r * r) * (1.0 - d2);
+                            }
                         }
                     }
+                    *cell = (sum * (2.0 / n as f64).powi(2)) as f32;
                 }
-                t[ci * (KEPT_DH_STEPS + 1) + ui] = (sum * (2.0 / n as f64).powi(2)) as f32;
-            }
-        }
-        t
+                row
+            })
+            .collect();
+        rows.concat()
     });
     let x = cos_theta.clamp(0.0, 1.0) * KEPT_COS_STEPS as f32;
     let i = (x as usize).min(KEPT_COS_STEPS - 1);
@@ -107,20 +112,59 @@ pub struct SplatRay {
     pub end_plane: f32,
     pub bounds_min: Vec3A,
     pub bounds_max: Vec3A,
-    /// The incident direction (−dir) in the radiance map's basis (§8.1), computed once per
-    /// ray: Y_k(−dir) in SH mode; the filter taps (stratum, weight) in histogram mode.
+}
+
+/// A ray's incident direction (−dir) in the radiance map's basis (§8.1), computed once per
+/// ray: Y_k(−dir) in SH mode; the filter taps (weights in `basis[..8]`, strata in `taps`) in
+/// histogram mode. Kept apart from [`SplatRay`], which every subtree streams through, since
+/// only splats onto glossy targets read it.
+#[derive(Clone, Copy, Debug)]
+pub struct RayDirection {
     pub basis: [f32; SH_COEFFS],
     pub taps: [u8; FILTER_TAPS],
+    /// Non-zero taps (histogram mode).
+    pub tap_count: u8,
+}
+
+impl RayDirection {
+    pub fn new(dir: Vec3, mode: DirectionalMode) -> Self {
+        let mut basis = [0.0; SH_COEFFS];
+        let mut taps = [0u8; FILTER_TAPS];
+        let mut tap_count = 0;
+        match mode {
+            DirectionalMode::Diffuse => {}
+            DirectionalMode::Sh => basis = sh_basis(-dir),
+            DirectionalMode::Histogram => {
+                let t = filter_taps(-dir);
+                taps = t.stratum;
+                basis[..FILTER_TAPS].copy_from_slice(&t.weight);
+                tap_count = t.weight.iter().filter(|&&w| w > 0.0).count() as u8;
+            }
+        }
+        Self {
+            basis,
+            taps,
+            tap_count,
+        }
+    }
+}
+
+/// Rays ready to splat, with their directions when the radiance map keeps them.
+#[derive(Clone, Debug, Default)]
+pub struct SplatBatch {
+    pub rays: Vec<SplatRay>,
+    /// One per ray in SH and histogram modes; empty in diffuse mode.
+    pub directions: Vec<RayDirection>,
 }
 
 impl SplatRay {
-    pub fn new(ray: &PhotonRay, bw: &Bandwidth, mode: DirectionalMode) -> Self {
+    pub fn new(ray: &PhotonRay, bw: &Bandwidth) -> Self {
         let (h0, dh) = bw.cone(ray);
-        Self::with_cone(ray, h0, dh, mode)
+        Self::with_cone(ray, h0, dh)
     }
 
     /// The ray with a given cone: radius h0 at its origin, growing by dh per unit length (§6).
-    pub fn with_cone(ray: &PhotonRay, h0: f32, dh: f32, mode: DirectionalMode) -> Self {
+    pub fn with_cone(ray: &PhotonRay, h0: f32, dh: f32) -> Self {
         let cone = Cone {
             origin: ray.origin.into(),
             dir: ray.dir.into(),
@@ -137,20 +181,7 @@ impl SplatRay {
             // Never more than 4×: at grazing incidence on a steep cone the kept mass tends to 0.
             1.0 / kept_fraction(cos_hit, dh).max(0.25)
         };
-        let mut basis = [0.0; SH_COEFFS];
-        let mut taps = [0u8; FILTER_TAPS];
-        match mode {
-            DirectionalMode::Diffuse => {}
-            DirectionalMode::Sh => basis = sh_basis(-ray.dir),
-            DirectionalMode::Histogram => {
-                let t = filter_taps(-ray.dir);
-                taps = t.stratum;
-                basis[..FILTER_TAPS].copy_from_slice(&t.weight);
-            }
-        }
         Self {
-            basis,
-            taps,
             cone,
             power: ray.power,
             origin_normal: ray.origin_normal.into(),
@@ -170,11 +201,18 @@ pub fn prepare(
     bandwidths: &[Bandwidth; 3],
     classes: [bool; 3],
     mode: DirectionalMode,
-) -> Vec<SplatRay> {
-    rays.par_iter()
-        .filter(|r| classes[r.class as usize])
-        .map(|r| SplatRay::new(r, &bandwidths[r.class as usize], mode))
-        .collect()
+) -> SplatBatch {
+    let selected = || rays.par_iter().filter(|r| classes[r.class as usize]);
+    SplatBatch {
+        rays: selected()
+            .map(|r| SplatRay::new(r, &bandwidths[r.class as usize]))
+            .collect(),
+        directions: if mode == DirectionalMode::Diffuse {
+            Vec::new()
+        } else {
+            selected().map(|r| RayDirection::new(r.dir, mode)).collect()
+        },
+    }
 }
 
 /// Counters of one splat pass.
@@ -247,11 +285,19 @@ pub fn test_sample(ray: &SplatRay, p: Vec3, n: Vec3) -> LaneResult {
     }
 }
 
-/// Splat `rays` into `acc` (slot order). Parallel over the tree's subtrees, each owning a
+/// Splat `batch` into `acc` (slot order). Parallel over the tree's subtrees, each owning a
 /// disjoint range of slots.
-pub fn splat(tree: &SplatTree, rays: &[SplatRay], acc: &mut Accumulators) -> SplatCounters {
+pub fn splat(tree: &SplatTree, batch: &SplatBatch, acc: &mut Accumulators) -> SplatCounters {
     assert_eq!(acc.len(), tree.slots());
     let mode = acc.mode;
+    // Without directions (diffuse mode, or rays prepared without them) nothing directional is
+    // deposited.
+    let mode = if batch.directions.len() == batch.rays.len() {
+        mode
+    } else {
+        DirectionalMode::Diffuse
+    };
+    let (rays, dirs) = (&batch.rays[..], &batch.directions[..]);
     let views = acc.split(
         tree.subtrees
             .iter()
@@ -260,7 +306,7 @@ pub fn splat(tree: &SplatTree, rays: &[SplatRay], acc: &mut Accumulators) -> Spl
     tree.subtrees
         .par_iter()
         .zip(views)
-        .map(|(st, view)| splat_subtree(tree, st, rays, view, mode))
+        .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode))
         .reduce(SplatCounters::default, |mut a, b| {
             a += b;
             a
@@ -271,6 +317,7 @@ fn splat_subtree(
     tree: &SplatTree,
     st: &Subtree,
     rays: &[SplatRay],
+    dirs: &[RayDirection],
     acc: AccView,
     mode: DirectionalMode,
 ) -> SplatCounters {
@@ -278,10 +325,10 @@ fn splat_subtree(
     {
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { splat_subtree_avx2(tree, st, rays, acc, mode) };
+            return unsafe { splat_subtree_avx2(tree, st, rays, dirs, acc, mode) };
         }
     }
-    splat_subtree_impl(tree, st, rays, acc, mode)
+    splat_subtree_impl(tree, st, rays, dirs, acc, mode)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -290,10 +337,11 @@ fn splat_subtree_avx2(
     tree: &SplatTree,
     st: &Subtree,
     rays: &[SplatRay],
+    dirs: &[RayDirection],
     acc: AccView,
     mode: DirectionalMode,
 ) -> SplatCounters {
-    splat_subtree_impl(tree, st, rays, acc, mode)
+    splat_subtree_impl(tree, st, rays, dirs, acc, mode)
 }
 
 #[inline(always)]
@@ -301,6 +349,7 @@ fn splat_subtree_impl(
     tree: &SplatTree,
     st: &Subtree,
     rays: &[SplatRay],
+    dirs: &[RayDirection],
     acc: AccView,
     mode: DirectionalMode,
 ) -> SplatCounters {
@@ -308,7 +357,7 @@ fn splat_subtree_impl(
     let base = st.first as usize / LANES;
     // Reused for every ray of this subtree: no allocation per photon.
     let mut leaves = Vec::with_capacity(4096);
-    for ray in rays {
+    for (ri, ray) in rays.iter().enumerate() {
         if ray.bounds_max.cmplt(st.min).any() || ray.bounds_min.cmpgt(st.max).any() {
             continue;
         }
@@ -325,10 +374,14 @@ fn splat_subtree_impl(
                     let (w, accepted) =
                         splat_lanes(ray, &tree.points.chunks[k], &mut acc.chunks[k - base]);
                     c.accepted += accepted as u64;
-                    if accepted > 0 && acc.chunk_has_record[k - base] {
+                    if accepted > 0
+                        && mode != DirectionalMode::Diffuse
+                        && acc.chunk_has_record[k - base]
+                    {
                         let lane0 = (k - base) * LANES;
                         deposit_directional(
-                            ray,
+                            ray.power,
+                            &dirs[ri],
                             &w,
                             &acc.slot_record[lane0..lane0 + LANES],
                             acc.first_record,
@@ -348,7 +401,8 @@ fn splat_subtree_impl(
 /// (§8.1): in SH mode projected onto the basis, in histogram mode into the filter's strata.
 #[inline(always)]
 fn deposit_directional(
-    ray: &SplatRay,
+    power: Vec3,
+    dir: &RayDirection,
     w: &[f32; LANES],
     lane_record: &[u32],
     first_record: u32,
@@ -363,21 +417,21 @@ fn deposit_directional(
         }
         let at = (r - first_record) as usize * f;
         let rec = &mut records[at..at + f];
-        let p = ray.power * w[l];
+        let p = power * w[l];
         match mode {
             DirectionalMode::Diffuse => {}
             DirectionalMode::Sh => {
                 for (c, pc) in [p.x, p.y, p.z].into_iter().enumerate() {
                     let dst = &mut rec[c * SH_COEFFS..(c + 1) * SH_COEFFS];
-                    for (d, b) in dst.iter_mut().zip(&ray.basis) {
+                    for (d, b) in dst.iter_mut().zip(&dir.basis) {
                         *d += pc * b;
                     }
                 }
             }
             DirectionalMode::Histogram => {
-                for t in 0..FILTER_TAPS {
-                    let wt = ray.basis[t];
-                    let s = ray.taps[t] as usize * 3;
+                for t in 0..dir.tap_count as usize {
+                    let wt = dir.basis[t];
+                    let s = dir.taps[t] as usize * 3;
                     rec[s] += wt * p.x;
                     rec[s + 1] += wt * p.y;
                     rec[s + 2] += wt * p.z;
@@ -485,8 +539,7 @@ mod tests {
                     lands: true,
                     end_normal: Vec3::Y,
                 };
-                let sr =
-                    SplatRay::with_cone(&ray, h0, (h_end - h0) / len, DirectionalMode::Diffuse);
+                let sr = SplatRay::with_cone(&ray, h0, (h_end - h0) / len);
                 let n = 800;
                 let ext = 1.5 * h_end / th.cos().max(0.2);
                 let step = 2.0 * ext / n as f32;
@@ -527,8 +580,6 @@ mod tests {
             end_plane: -1.0,
             bounds_min: Vec3A::splat(-1.0),
             bounds_max: Vec3A::splat(1.0),
-            basis: [0.0; SH_COEFFS],
-            taps: [0; FILTER_TAPS],
         };
         // A sample on the floor 3 cm off the axis, facing up: K(0.03)·cos 0.
         let r = test_sample(&bw_ray, Vec3::new(0.03, -1.0, 0.0), Vec3::Y);

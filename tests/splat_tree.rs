@@ -4,10 +4,10 @@
 
 use glam::{Vec3, Vec3A};
 use proptest::prelude::*;
-use raysplat::directional::{FILTER_TAPS, SH_COEFFS, sh_basis};
+use raysplat::directional::SH_COEFFS;
 use raysplat::radiance_map::{Accumulators, Channel, DirectionalMode};
 use raysplat::sampling::{Rng, uniform_sphere};
-use raysplat::splat::{SplatRay, splat, test_sample};
+use raysplat::splat::{RayDirection, SplatBatch, SplatRay, splat, test_sample};
 use raysplat::splat_tree::{Cone, SplatTree};
 
 /// Random splat targets: a mix of planes (coherent normals, so cull nodes appear), a sphere
@@ -83,8 +83,6 @@ fn rays(seed: u64, n: usize, radius: f32, grow: f32) -> Vec<SplatRay> {
                 end_plane: if i % 4 == 0 { 0.0 } else { -length },
                 bounds_min,
                 bounds_max,
-                basis: sh_basis(-dir),
-                taps: [0; FILTER_TAPS],
             }
         })
         .collect()
@@ -97,12 +95,19 @@ fn check(seed: u64, n_targets: usize, n_rays: usize, radius: f32, grow: f32) {
     // Every third target glossy, so that subtrees own differing numbers of records.
     let glossy: Vec<bool> = (0..p.len()).map(|t| t % 3 == 1).collect();
     let mut acc = Accumulators::for_tree(&tree, &glossy, DirectionalMode::Sh);
-    splat(&tree, &rays, &mut acc);
+    let batch = SplatBatch {
+        directions: rays
+            .iter()
+            .map(|r| RayDirection::new(r.cone.dir.into(), DirectionalMode::Sh))
+            .collect(),
+        rays: rays.clone(),
+    };
+    splat(&tree, &batch, &mut acc);
     for (t, (&pos, &n)) in p.iter().zip(&nrm).enumerate() {
         let slot = tree.target_slot[t] as usize;
         let (mut count, mut weight) = (0u32, 0.0f64);
         let mut sh = [0.0f64; 3 * SH_COEFFS];
-        for ray in &rays {
+        for (ray, dir) in rays.iter().zip(&batch.directions) {
             let r = test_sample(ray, pos, n);
             if r.feasible {
                 count += 1;
@@ -110,7 +115,7 @@ fn check(seed: u64, n_targets: usize, n_rays: usize, radius: f32, grow: f32) {
                 let pw = ray.power * r.weight;
                 for (c, pc) in [pw.x, pw.y, pw.z].into_iter().enumerate() {
                     for k in 0..SH_COEFFS {
-                        sh[c * SH_COEFFS + k] += (pc * ray.basis[k]) as f64;
+                        sh[c * SH_COEFFS + k] += (pc * dir.basis[k]) as f64;
                     }
                 }
             }

@@ -138,6 +138,17 @@ pub fn render_method(
 }
 
 /// Root mean squared error over pixels and channels.
+/// Mean luminance of `image` over that of `reference`, minus 1.
+pub fn mean_bias(image: &[Vec3], reference: &[Vec3]) -> f64 {
+    let lum = |v: &[Vec3]| {
+        v.iter()
+            .map(|c| crate::sampling::luminance(*c) as f64)
+            .sum::<f64>()
+    };
+    let r = lum(reference);
+    if r > 0.0 { lum(image) / r - 1.0 } else { 0.0 }
+}
+
 pub fn rmse(image: &[Vec3], reference: &[Vec3]) -> f64 {
     let sum: f64 = image
         .iter()
@@ -200,6 +211,9 @@ pub struct CompareRow {
     pub t_total: f64,
     pub rmse: f64,
     pub relmse: f64,
+    /// Image mean over reference mean, minus 1 (luminance): the method's overall bias.
+    #[serde(default)]
+    pub mean_bias: f64,
     pub photons: u64,
     pub passes: u64,
 }
