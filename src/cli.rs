@@ -131,6 +131,22 @@ struct RenderArgs {
     /// (16 spherical-harmonic coefficients per channel) or histogram (20 strata).
     #[arg(long, value_enum, default_value_t = DirectionalMode::Sh)]
     radiance_map: DirectionalMode,
+    /// ε, the radiance cache error (§8.3): records are valid up to ε × their harmonic mean
+    /// distance. Used by --method rc, and by rs with --cache.
+    #[arg(long, default_value_t = 0.5)]
+    cache_error: f32,
+    /// Every pixel is covered by at least this many cache records.
+    #[arg(long, default_value_t = 4)]
+    min_records: u32,
+    /// rs: resolve the full radiance map through the radiance cache (as the previewer does).
+    #[arg(long)]
+    cache: bool,
+    /// Filter the indirect light in image space within continuous regions (§8.2).
+    #[arg(long)]
+    filter: bool,
+    /// Scale of the filter's box radius (1 = as the splat statistics ask).
+    #[arg(long, default_value_t = 1.0)]
+    filter_strength: f32,
 }
 
 #[derive(Args)]
@@ -234,6 +250,15 @@ impl RenderArgs {
             pm_caustic_k: self.pm_caustic_k,
             fg_rays: self.fg_rays,
             radiance_map: self.radiance_map,
+            cache: raysplat::cache::CacheParams {
+                error: self.cache_error,
+                min_records: self.min_records.max(1),
+            },
+            cache_on: self.cache,
+            filter: raysplat::filter::FilterParams {
+                enabled: self.filter,
+                strength: self.filter_strength,
+            },
             ..RenderSettings::default()
         })
     }
@@ -300,7 +325,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    if !matches!(args.method, Method::Rs | Method::Pm) {
+    if !matches!(args.method, Method::Rs | Method::Rc | Method::Pm) {
         return render_other(&args, &settings, &scene, t_load);
     }
     let progress = ProgressBar::new(match args.time_budget {
@@ -590,6 +615,8 @@ fn stats_json(r: &Renderer, film: &Film, t_load: f64) -> serde_json::Value {
         "accepted_pairs": r.counters.accepted,
         "peak_rss_mb": peak_rss_mb(),
         "radiance_map": r.settings.radiance_map,
+        "cache_records": r.cache.as_ref().map(|c| c.records.len()),
+        "cache_records_per_pass": r.cache.as_ref().map(|c| c.per_pass.clone()),
         "directional_bytes": dir_bytes,
         "glossy_targets": glossy_targets,
         "directional_bytes_per_glossy_target": dir_bytes as f64 / glossy_targets.max(1) as f64,

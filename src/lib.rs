@@ -8,10 +8,12 @@
 pub mod app;
 pub mod baseline;
 pub mod bsdf;
+pub mod cache;
 pub mod direct;
 pub mod directional;
 pub mod eye;
 pub mod film;
+pub mod filter;
 pub mod photon;
 pub mod radiance_map;
 pub mod render;

@@ -206,6 +206,31 @@ impl Accumulators {
         self.records.fill(0.0);
     }
 
+    /// Zeroed accumulators of the same layout.
+    pub fn zeroed(&self) -> Self {
+        Self {
+            chunks: vec![AccumChunk::default(); self.chunks.len()],
+            mode: self.mode,
+            slot_record: self.slot_record.clone(),
+            chunk_has_record: self.chunk_has_record.clone(),
+            records: vec![0.0; self.records.len()],
+        }
+    }
+
+    /// Add the sums of `other` (same layout).
+    pub fn add(&mut self, other: &Accumulators) {
+        for (a, b) in self.chunks.iter_mut().zip(&other.chunks) {
+            for (ca, cb) in a.ch.iter_mut().zip(&b.ch) {
+                for (x, y) in ca.iter_mut().zip(cb) {
+                    *x += y;
+                }
+            }
+        }
+        for (x, y) in self.records.iter_mut().zip(&other.records) {
+            *x += y;
+        }
+    }
+
     #[inline]
     pub fn get(&self, c: Channel, slot: usize) -> f32 {
         self.chunks[slot / LANES].ch[c as usize][slot % LANES]
@@ -378,10 +403,45 @@ impl RadianceMap {
     }
 }
 
+impl RadianceMap {
+    /// Fold interpolated cache values (§8.3; already batch-averaged) into pixels, through each
+    /// eye sample's BSDF as [`RadianceMap::resolve_from`] does. SplatInfo is left as it was.
+    pub fn resolve_interpolated(
+        &mut self,
+        scene: &Scene,
+        eye: &EyeSamples,
+        values: &crate::cache::Interpolated,
+        mode: DirectionalMode,
+    ) {
+        self.radiance.fill(Vec3::ZERO);
+        self.invalid = 0;
+        let f = values.floats;
+        for i in 0..eye.len() {
+            let e = values.irradiance[i];
+            let mut out = eye.albedo[i] * FRAC_1_PI * e;
+            if eye.is_glossy(i) {
+                let ks = eye.specular[i];
+                out += match values.dir(i) {
+                    Some(rec) if f > 0 && mode != DirectionalMode::Diffuse => {
+                        ks * glossy_radiance(scene, eye, i, mode, rec)
+                    }
+                    _ => ks * FRAC_1_PI * e,
+                };
+            }
+            let out = eye.weight[i] * out;
+            if !out.is_finite() {
+                self.invalid += 1;
+                continue;
+            }
+            self.radiance[eye.pixel[i] as usize] += out;
+        }
+    }
+}
+
 /// ∫ lobe(ωo, ω)·(L cos θ)(ω) dω at glossy eye sample `i` from its directional record (before
 /// ks and the batch average), the lobe being the normalised Phong lobe around the mirror
 /// direction of ωo (§8.1).
-fn glossy_radiance(
+pub(crate) fn glossy_radiance(
     scene: &Scene,
     eye: &EyeSamples,
     i: usize,

@@ -10,16 +10,18 @@
 
 use crate::baseline::Method;
 use crate::baseline::photon_map::{PmStats, build_maps, estimate_targets};
+use crate::cache::{self, Cache, CacheParams, PixelGeometry, RecordValue};
 use crate::direct::direct_light;
 use crate::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
 use crate::film::Film;
+use crate::filter::FilterParams;
 use crate::photon::{
     Bandwidth, BandwidthParams, ClassBudgets, LightPassSettings, PhotonBatch, PhotonClass,
     PhotonRay, Pilot, light_pass, pilot,
 };
 use crate::radiance_map::{Accumulators, Channel, DirectionalMode, RadianceMap};
 use crate::scene::{Camera, Scene};
-use crate::splat::{SplatCounters, prepare, splat};
+use crate::splat::{SplatBatch, SplatCounters, prepare, splat};
 use crate::splat_tree::SplatTree;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -67,6 +69,15 @@ pub struct RenderSettings {
     /// Directional storage at glossy samples (§8.1).
     #[serde(default)]
     pub radiance_map: DirectionalMode,
+    /// Radiance cache parameters (§8.3): used by `--method rc`, and by rs when `cache_on`.
+    #[serde(default)]
+    pub cache: CacheParams,
+    /// rs: resolve the full radiance map through the cache (the previewer's ε slider).
+    #[serde(default)]
+    pub cache_on: bool,
+    /// Image-space filter of the indirect light (§8.2).
+    #[serde(default)]
+    pub filter: FilterParams,
 }
 
 impl Default for RenderSettings {
@@ -90,6 +101,9 @@ impl Default for RenderSettings {
             pm_caustic_k: 250,
             fg_rays: 64,
             radiance_map: DirectionalMode::Sh,
+            cache: CacheParams::default(),
+            cache_on: false,
+            filter: FilterParams::default(),
         }
     }
 }
@@ -175,6 +189,8 @@ pub struct Renderer {
     pm_dirty: bool,
     /// Gather statistics of the last photon-mapping estimate.
     pub pm_stats: Option<PmStats>,
+    /// The radiance cache of the last film (rc, or rs with `cache_on`).
+    pub cache: Option<Cache>,
 }
 
 impl Renderer {
@@ -214,6 +230,7 @@ impl Renderer {
             settings,
             pm_dirty: false,
             pm_stats: None,
+            cache: None,
         })
     }
 
@@ -404,8 +421,11 @@ impl Renderer {
         }
         let bw = self.bandwidths(m);
         let mode = self.settings.radiance_map;
-        let indirect = prepare(rays, &bw, [false, true, true], mode);
-        self.counters += splat(&self.side.tree, &indirect, &mut self.side.acc_indirect);
+        // Radiance caching splats indirect light onto its records when the film is made.
+        if self.settings.method != Method::Rc {
+            let indirect = prepare(rays, &bw, [false, true, true], mode);
+            self.counters += splat(&self.side.tree, &indirect, &mut self.side.acc_indirect);
+        }
         if self.splat_direct() {
             let direct = prepare(rays, &bw, [true, false, false], mode);
             self.counters += splat(&self.side.tree, &direct, &mut self.side.acc_direct);
@@ -452,6 +472,77 @@ impl Renderer {
         Ok(())
     }
 
+    /// The cache's record values read from the full radiance map (rs with `cache_on`): no
+    /// splatting, so ε can move freely (§8.3 in the previewer).
+    fn build_cache_from_map(&self, batches: u32) -> Cache {
+        let side = &self.side;
+        let (w, h) = (self.settings.width, self.settings.height);
+        let geo = PixelGeometry::new(&side.eye, w, h);
+        let acc = &side.acc_indirect;
+        let inv_b = 1.0 / batches.max(1) as f32;
+        cache::build(
+            &side.eye,
+            &geo,
+            &self.camera,
+            &self.settings.cache,
+            |samples| {
+                samples
+                    .iter()
+                    .map(|&i| {
+                        let slot =
+                            side.tree.target_slot[side.eye.target[i as usize] as usize] as usize;
+                        record_value(acc, slot, inv_b)
+                    })
+                    .collect()
+            },
+        )
+    }
+
+    /// `--method rc`: every pass splats the stored photon rays onto its new records only.
+    fn build_cache_by_splatting(&mut self) -> Cache {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let geo = PixelGeometry::new(&self.side.eye, w, h);
+        let mode = self.settings.radiance_map;
+        // Rays are prepared once for every pass.
+        let batches: Vec<SplatBatch> = self
+            .batches
+            .iter()
+            .map(|b| prepare(&b.rays, &self.bandwidths(b.m), [false, true, true], mode))
+            .collect();
+        let inv_b = 1.0 / batches.len().max(1) as f32;
+        let side = &self.side;
+        let diag = self.scene.diagonal();
+        let mut counters = SplatCounters::default();
+        let cache = cache::build(
+            &side.eye,
+            &geo,
+            &self.camera,
+            &self.settings.cache,
+            |samples| {
+                if samples.is_empty() {
+                    return Vec::new();
+                }
+                let targets: Vec<usize> = samples
+                    .iter()
+                    .map(|&i| side.eye.target[i as usize] as usize)
+                    .collect();
+                let pos: Vec<Vec3> = targets.iter().map(|&t| side.targets.position[t]).collect();
+                let nrm: Vec<Vec3> = targets.iter().map(|&t| side.targets.normal[t]).collect();
+                let glossy: Vec<bool> = targets.iter().map(|&t| side.targets.glossy[t]).collect();
+                let tree = SplatTree::build(&pos, &nrm, diag);
+                let mut acc = Accumulators::for_tree(&tree, &glossy, mode);
+                for batch in &batches {
+                    counters += splat(&tree, batch, &mut acc);
+                }
+                (0..samples.len())
+                    .map(|k| record_value(&acc, tree.target_slot[k] as usize, inv_b))
+                    .collect()
+            },
+        );
+        self.counters += counters;
+        cache
+    }
+
     /// Photon mapping: build the maps from every stored batch and estimate at every target.
     fn photon_map_estimate(&mut self) {
         let t = Instant::now();
@@ -483,16 +574,60 @@ impl Renderer {
         let (w, h) = (self.settings.width, self.settings.height);
         // Photon mapping holds its estimate already averaged over the batches.
         let b = if pm { 1 } else { self.batch_count() as u32 };
+        let rc = self.settings.method == Method::Rc;
+        let cached = rc || (self.settings.cache_on && !pm);
+        self.cache = None;
+        // The cache pass counts as splatting (T_S), not as resolving.
+        let mut cache_time = 0.0;
+        if cached {
+            let t = Instant::now();
+            self.cache = Some(if rc {
+                self.build_cache_by_splatting()
+            } else {
+                self.build_cache_from_map(b)
+            });
+            cache_time = t.elapsed().as_secs_f64();
+            self.timings.t_splat += cache_time;
+        }
         let side = &self.side;
         let scene = &self.scene;
         let mut map = RadianceMap::new(w, h);
-        map.resolve_from(
-            scene,
-            &side.eye,
-            &side.tree.target_slot,
-            &side.acc_indirect,
-            b,
-        );
+        if !rc {
+            map.resolve_from(
+                scene,
+                &side.eye,
+                &side.tree.target_slot,
+                &side.acc_indirect,
+                b,
+            );
+        }
+        let filter = self.settings.filter;
+        if self.cache.is_some() || filter.enabled {
+            let geo = PixelGeometry::new(&side.eye, w, h);
+            let mode = side.acc_indirect.mode;
+            let mut values = match &self.cache {
+                Some(c) => cache::interpolate(c, &side.eye, &geo, mode),
+                None => sample_values(&side.eye, &side.tree.target_slot, &side.acc_indirect, b),
+            };
+            if filter.enabled {
+                // Splat statistics exist only where every sample was splatted (not after rc).
+                let splats: Vec<f32> = if rc {
+                    vec![0.0; map.info.len()]
+                } else {
+                    map.info.iter().map(|i| i.splats).collect()
+                };
+                filter_values(
+                    &side.eye,
+                    &geo,
+                    &self.camera,
+                    &splats,
+                    b,
+                    filter,
+                    &mut values,
+                );
+            }
+            map.resolve_interpolated(scene, &side.eye, &values, mode);
+        }
         let mut film = Film::new(w, h);
         let mut direct = side.direct.clone();
         if self.settings.direct == DirectMode::Photons && !pm {
@@ -504,6 +639,7 @@ impl Renderer {
                 &side.acc_direct,
                 b,
             );
+            film.invalid_contributions += dmap.invalid;
             for (d, s) in direct.iter_mut().zip(&dmap.radiance) {
                 *d += *s;
             }
@@ -525,8 +661,127 @@ impl Renderer {
             film.harmonic_distance[i] = info.harmonic_mean_distance;
             film.splats[i] = info.splats;
         }
-        self.timings.t_resolve += t.elapsed().as_secs_f64();
+        self.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;
         film
+    }
+}
+
+/// Batch-averaged irradiance and directional floats of every eye sample's splat target, in the
+/// shape the cache's interpolation gives (for filtering without a cache).
+fn sample_values(
+    eye: &EyeSamples,
+    target_slot: &[u32],
+    acc: &Accumulators,
+    batches: u32,
+) -> cache::Interpolated {
+    let floats = acc.mode.record_floats();
+    let inv_b = 1.0 / batches.max(1) as f32;
+    let mut out = cache::Interpolated::zeroed(eye, floats);
+    for i in 0..eye.len() {
+        let slot = target_slot[eye.target[i] as usize] as usize;
+        out.irradiance[i] = Vec3::new(
+            acc.get(Channel::R, slot),
+            acc.get(Channel::G, slot),
+            acc.get(Channel::B, slot),
+        ) * inv_b;
+        if let (Some(r), Some(dst)) = (acc.record(slot), out.dir_mut(i)) {
+            for (o, v) in dst.iter_mut().zip(r) {
+                *o = v * inv_b;
+            }
+        }
+    }
+    out
+}
+
+/// The image-space filter (§8.2) over per-sample incident light: each pixel's first eye sample
+/// stands for the pixel in the discontinuity buffer; every channel (irradiance RGB, then each
+/// directional float) is filtered within continuous regions; samples of a pixel that lie on
+/// its first sample's surface take the filtered values, others keep theirs.
+#[allow(clippy::too_many_arguments)]
+fn filter_values(
+    eye: &EyeSamples,
+    geo: &PixelGeometry,
+    camera: &Camera,
+    splats: &[f32],
+    batches: u32,
+    params: FilterParams,
+    values: &mut cache::Interpolated,
+) {
+    use crate::filter::{Discontinuity, filter_channel, radii, segment};
+    let n = geo.first.len();
+    let (w, h) = (geo.width as usize, geo.height as usize);
+    let rep = |p: usize| (geo.first[p] != u32::MAX).then(|| geo.first[p] as usize);
+    let d = Discontinuity {
+        width: geo.width,
+        height: geo.height,
+        position: (0..n)
+            .map(|p| rep(p).map_or(Vec3::ZERO, |i| eye.position[i]))
+            .collect(),
+        normal: (0..n)
+            .map(|p| rep(p).map_or(Vec3::ZERO, |i| eye.normal[i]))
+            .collect(),
+        material: (0..n)
+            .map(|p| rep(p).map_or(u32::MAX, |i| eye.material[i]))
+            .collect(),
+        depth: (0..n)
+            .map(|p| rep(p).map_or(0.0, |i| (eye.position[i] - camera.position).length()))
+            .collect(),
+    };
+    let (labels, regions) = segment(&d);
+    let radius = radii(splats, batches, params.strength);
+    let floats = values.floats;
+    let mut channel = vec![0.0f32; n];
+    // Samples that follow their pixel's filtered value: on the first sample's surface.
+    let follows: Vec<bool> = (0..eye.len())
+        .map(|i| {
+            let f = geo.first[eye.pixel[i] as usize] as usize;
+            eye.target[i] == eye.target[f]
+                || (eye.material[i] == eye.material[f] && eye.normal[i].dot(eye.normal[f]) > 0.966)
+        })
+        .collect();
+    for c in 0..3 + floats {
+        let get = |i: usize| {
+            if c < 3 {
+                values.irradiance[i][c]
+            } else {
+                values.dir(i).map_or(0.0, |d| d[c - 3])
+            }
+        };
+        for (p, v) in channel.iter_mut().enumerate() {
+            *v = rep(p).map_or(0.0, get);
+        }
+        filter_channel(&labels, regions, w, h, &radius, &mut channel);
+        for i in 0..eye.len() {
+            if !follows[i] {
+                continue;
+            }
+            let v = channel[eye.pixel[i] as usize];
+            if c < 3 {
+                values.irradiance[i][c] = v;
+            } else if let Some(d) = values.dir_mut(i) {
+                d[c - 3] = v;
+            }
+        }
+    }
+}
+
+/// A cache record's value from the sums at `slot` (§8.3): batch-averaged irradiance, the
+/// harmonic mean distance (SplatInfo) and the directional record.
+fn record_value(acc: &Accumulators, slot: usize, inv_b: f32) -> RecordValue {
+    let wsum = acc.get(Channel::Weight, slot);
+    let inv_d = acc.get(Channel::WeightedInvDist, slot);
+    RecordValue {
+        irradiance: Vec3::new(
+            acc.get(Channel::R, slot),
+            acc.get(Channel::G, slot),
+            acc.get(Channel::B, slot),
+        ) * inv_b,
+        // Where no photon ray reached the record, its radius falls back to the clamp.
+        harmonic_distance: if inv_d > 0.0 { wsum / inv_d } else { 0.0 },
+        directional: acc
+            .record(slot)
+            .map(|r| r.iter().map(|v| v * inv_b).collect())
+            .unwrap_or_default(),
     }
 }
 

@@ -286,31 +286,77 @@ pub fn test_sample(ray: &SplatRay, p: Vec3, n: Vec3) -> LaneResult {
 }
 
 /// Splat `batch` into `acc` (slot order). Parallel over the tree's subtrees, each owning a
-/// disjoint range of slots.
+/// disjoint range of slots; a tree with too few subtrees to keep the threads busy (a radiance
+/// cache pass splats onto a few hundred records) is splatted in parallel over fixed chunks of
+/// rays instead, each into its own accumulators, summed in chunk order. Either way the result
+/// does not depend on the number of threads.
 pub fn splat(tree: &SplatTree, batch: &SplatBatch, acc: &mut Accumulators) -> SplatCounters {
     assert_eq!(acc.len(), tree.slots());
-    let mode = acc.mode;
     // Without directions (diffuse mode, or rays prepared without them) nothing directional is
     // deposited.
     let mode = if batch.directions.len() == batch.rays.len() {
-        mode
+        acc.mode
     } else {
         DirectionalMode::Diffuse
     };
     let (rays, dirs) = (&batch.rays[..], &batch.directions[..]);
+    const CHUNK: usize = 4096;
+    if tree.subtrees.len() < 4 && rays.len() > 2 * CHUNK && acc.len() <= 1 << 16 {
+        let parts: Vec<(Accumulators, SplatCounters)> = rays
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(|(k, chunk)| {
+                let mut local = acc.zeroed();
+                let d = if mode == DirectionalMode::Diffuse {
+                    &dirs[..0]
+                } else {
+                    &dirs[k * CHUNK..k * CHUNK + chunk.len()]
+                };
+                let c = splat_into(tree, chunk, d, &mut local, mode, false);
+                (local, c)
+            })
+            .collect();
+        let mut counters = SplatCounters::default();
+        for (part, c) in parts {
+            acc.add(&part);
+            counters += c;
+        }
+        return counters;
+    }
+    splat_into(tree, rays, dirs, acc, mode, true)
+}
+
+fn splat_into(
+    tree: &SplatTree,
+    rays: &[SplatRay],
+    dirs: &[RayDirection],
+    acc: &mut Accumulators,
+    mode: DirectionalMode,
+    parallel: bool,
+) -> SplatCounters {
     let views = acc.split(
         tree.subtrees
             .iter()
             .map(|s| (s.first as usize, s.len as usize)),
     );
-    tree.subtrees
-        .par_iter()
-        .zip(views)
-        .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode))
-        .reduce(SplatCounters::default, |mut a, b| {
-            a += b;
-            a
-        })
+    let sum = |a: SplatCounters, b: SplatCounters| {
+        let mut a = a;
+        a += b;
+        a
+    };
+    if parallel {
+        tree.subtrees
+            .par_iter()
+            .zip(views)
+            .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode))
+            .reduce(SplatCounters::default, sum)
+    } else {
+        tree.subtrees
+            .iter()
+            .zip(views)
+            .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode))
+            .fold(SplatCounters::default(), sum)
+    }
 }
 
 fn splat_subtree(

@@ -44,7 +44,7 @@ pub fn render_method(
     let start = Instant::now();
     let spent = |start: &Instant, b: f64| start.elapsed().as_secs_f64() >= b;
     match method {
-        Method::Rs | Method::Pm => {
+        Method::Rs | Method::Rc | Method::Pm => {
             let mut r = Renderer::new(
                 scene.clone(),
                 RenderSettings {

@@ -15,6 +15,9 @@ use serde::{Deserialize, Serialize};
 pub enum Method {
     /// Photon ray splatting (the paper).
     Rs,
+    /// Ray splatting with radiance caching (§8.3): photon rays are splatted onto sparse cache
+    /// records only, which are interpolated in image space.
+    Rc,
     /// Photon mapping with K-NN density estimation, visualised directly (Jensen).
     Pm,
     /// Unbiased path tracing with next-event estimation and MIS.
@@ -29,6 +32,7 @@ impl Method {
     pub fn name(self) -> &'static str {
         match self {
             Method::Rs => "rs",
+            Method::Rc => "rc",
             Method::Pm => "pm",
             Method::Pt => "pt",
             Method::RsFg => "rs-fg",
