@@ -281,20 +281,67 @@ pub fn build(
         cache.per_pass.push(new_samples.len());
     }
     widen_for_coverage(&mut cache, eye, geo, params.min_records);
+    // Samples still short of records (a small surface, few records in reach) become records
+    // themselves, one more pass, and the widening runs again.
+    let short = short_samples(&cache, eye, geo, params.min_records);
+    if !short.is_empty() {
+        let values = evaluate(&short);
+        for (&i, value) in short.iter().zip(values) {
+            let i = i as usize;
+            let p = eye.pixel[i];
+            let depth = (eye.position[i] - camera.position).length().max(1e-6);
+            let radius = eps * value.harmonic_distance;
+            let radius_px = (radius / (depth * pixel_angle)).clamp(MIN_RADIUS_PX, MAX_RADIUS_PX);
+            cache.records.push(Record {
+                sample: i as u32,
+                pixel: (p % geo.width, p / geo.width),
+                position: eye.position[i],
+                normal: eye.normal[i],
+                material: eye.material[i],
+                depth,
+                radius,
+                radius_px: if radius_px.is_finite() {
+                    radius_px
+                } else {
+                    MIN_RADIUS_PX
+                },
+                pass: LEVELS.len() as u8,
+                value,
+            });
+        }
+        cache.per_pass.push(short.len());
+        widen_for_coverage(&mut cache, eye, geo, params.min_records);
+    }
     cache
 }
 
-/// Give every pixel at least `min` compatible records (where its surface has that many): the
-/// nearest compatible records not yet covering it grow to reach it.
-fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, min: u32) {
-    let cov = pixel_coverage(&cache.records, eye, geo);
-    let w = geo.width as usize;
-    let short: Vec<usize> = (0..cov.len())
-        .filter(|&p| geo.first[p] != u32::MAX && cov[p] < min)
-        .collect();
-    if short.is_empty() {
-        return;
+/// Eye samples covered by fewer than `min` compatible records, at most one per pixel.
+fn short_samples(cache: &Cache, eye: &EyeSamples, geo: &PixelGeometry, min: u32) -> Vec<u32> {
+    let rows = rows_of(&cache.records, geo.height);
+    let w = geo.width;
+    let mut out: Vec<u32> = Vec::new();
+    for i in 0..eye.len() {
+        let p = eye.pixel[i];
+        let (x, y) = (p % w, p / w);
+        let n = rows[y as usize]
+            .iter()
+            .filter(|&&k| {
+                let r = &cache.records[k as usize];
+                tent(r, x, y) > 0.0
+                    && compatible(r, eye.position[i], eye.normal[i], eye.material[i])
+            })
+            .count() as u32;
+        if n < min && out.last().is_none_or(|&j| eye.pixel[j as usize] != p) {
+            out.push(i as u32);
+        }
     }
+    out
+}
+
+/// Give every eye sample at least `min` compatible records (where its surface has that
+/// many): the nearest compatible records not yet covering it grow to reach it.
+fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, min: u32) {
+    let w = geo.width as usize;
     // Records per coarse cell, to search outward from a pixel.
     let cell = 16usize;
     let (cw, ch) = (w.div_ceil(cell), (geo.height as usize).div_ceil(cell));
@@ -302,11 +349,22 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
     for (k, r) in cache.records.iter().enumerate() {
         grid[(r.pixel.1 as usize / cell) * cw + r.pixel.0 as usize / cell].push(k as u32);
     }
-    for p in short {
+    let mut rows = rows_of(&cache.records, geo.height);
+    for i in 0..eye.len() {
+        let p = eye.pixel[i] as usize;
         let (x, y) = ((p % w) as u32, (p / w) as u32);
-        let s = geo.first[p] as usize;
-        let (ps, ns, ms) = (eye.position[s], eye.normal[s], eye.material[s]);
-        let mut need = min - cov[p];
+        let (ps, ns, ms) = (eye.position[i], eye.normal[i], eye.material[i]);
+        let covering = rows[y as usize]
+            .iter()
+            .filter(|&&k| {
+                let r = &cache.records[k as usize];
+                tent(r, x, y) > 0.0 && compatible(r, ps, ns, ms)
+            })
+            .count() as u32;
+        if covering >= min {
+            continue;
+        }
+        let mut need = min - covering;
         let (cx, cy) = (x as usize / cell, y as usize / cell);
         let mut found: Vec<(f32, u32)> = Vec::new();
         for ring in 0..cw.max(ch) {
@@ -327,7 +385,7 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
                     }
                 }
             }
-            // Enough candidates, and the next ring is farther than the farthest needed.
+            // Enough candidates, and one more ring searched for nearer ones.
             if found.len() >= need as usize && ring >= 1 {
                 break;
             }
@@ -338,7 +396,21 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
                 break;
             }
             let r = &mut cache.records[k as usize];
-            r.radius_px = r.radius_px.max(d + 1.0);
+            let grown = r.radius_px.max(d + 1.0);
+            // Keep the row index in step with the grown disc.
+            let (y_old0, y_old1) = (
+                (r.pixel.1 as f32 - r.radius_px - 1.0).max(0.0) as usize,
+                ((r.pixel.1 as f32 + r.radius_px + 1.0) as usize).min(geo.height as usize - 1),
+            );
+            r.radius_px = grown;
+            let y_new0 = (r.pixel.1 as f32 - r.radius_px - 1.0).max(0.0) as usize;
+            let y_new1 =
+                ((r.pixel.1 as f32 + r.radius_px + 1.0) as usize).min(geo.height as usize - 1);
+            for (yy, row) in rows.iter_mut().enumerate().take(y_new1 + 1).skip(y_new0) {
+                if yy < y_old0 || yy > y_old1 {
+                    row.push(k);
+                }
+            }
             need -= 1;
         }
     }

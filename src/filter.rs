@@ -139,16 +139,17 @@ impl Sat {
     }
 }
 
-/// Per-pixel box radius from the splat statistics: r = strength · √(64 / splats), where
-/// `splats` is the number of photon-ray splats a pixel's estimate averages (per batch times
-/// batches); clamped to [0, MAX_RADIUS]. Pixels without statistics get DEFAULT_RADIUS.
+/// Per-pixel box radius from the splat statistics: the relative noise of a kernel estimate
+/// over n splats is about 1/√n, so r = strength · 40/√n (n: photon-ray splats the pixel's
+/// estimate averages, per batch times batches; 40 puts a pixel of 100 splats at a 4-pixel
+/// box); clamped to [0, MAX_RADIUS]. Pixels without statistics get DEFAULT_RADIUS.
 pub fn radii(splats: &[f32], batches: u32, strength: f32) -> Vec<f32> {
     splats
         .iter()
         .map(|&s| {
             let n = s * batches.max(1) as f32;
             let r = if n > 0.0 {
-                (64.0 / n).sqrt()
+                40.0 / n.sqrt()
             } else {
                 DEFAULT_RADIUS
             };
