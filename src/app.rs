@@ -1,9 +1,11 @@
 //! The previewer window (egui/eframe): shows the worker's frames and sends it commands.
 //! It only draws and sends messages; all rendering happens on the `session` worker.
 
+use crate::cache::CacheParams;
 use crate::film::display::{DisplayImage, ToneMap, ViewMode, display};
 use crate::film::false_colour;
 use crate::film::snapshot::{SnapshotFiles, SnapshotMeta, utc_now, write_snapshot};
+use crate::filter::FilterParams;
 use crate::photon::BandwidthParams;
 use crate::radiance_map::DirectionalMode;
 use crate::render::DirectMode;
@@ -29,6 +31,11 @@ pub struct UiSettings {
     pub direct: DirectMode,
     /// Directional storage at glossy surfaces (§8.1).
     pub radiance_map: DirectionalMode,
+    /// Resolve through the radiance cache (§8.3).
+    pub cache_on: bool,
+    pub cache: CacheParams,
+    /// Image-space filter of the indirect light (§8.2).
+    pub filter: FilterParams,
     pub view_mode: ViewMode,
     pub exposure: f32,
     pub tone_map: ToneMap,
@@ -48,6 +55,9 @@ impl Default for UiSettings {
             height: s.settings.height,
             direct: s.settings.direct,
             radiance_map: s.settings.radiance_map,
+            cache_on: false,
+            cache: CacheParams::default(),
+            filter: FilterParams::default(),
             view_mode: ViewMode::Final,
             exposure: 0.0,
             tone_map: ToneMap::Aces,
@@ -379,12 +389,23 @@ impl App {
             (Some(r), true) => r,
             _ => &f.film,
         };
-        let img = display(
+        let mut img = display(
             film,
             self.settings.view_mode,
             self.settings.exposure,
             self.settings.tone_map,
         );
+        if self.settings.view_mode == ViewMode::CacheRecords {
+            if f.cache_records.is_empty() && !self.settings.cache_on {
+                self.settings.cache_on = true;
+                self.session.send(Command::SetCache {
+                    on: true,
+                    params: self.settings.cache,
+                });
+            }
+            // Records are in the film's pixels (the cache runs at the frame's resolution).
+            img.draw_records(&f.cache_records, 7.0);
+        }
         let color = egui::ColorImage::from_rgba_unmultiplied(
             [img.width as usize, img.height as usize],
             &img.rgba,
@@ -522,6 +543,62 @@ impl App {
                     f.stats.folded_batches, f.stats.photon_rays
                 ),
             );
+        }
+
+        ui.separator();
+        ui.heading("Radiance cache (§8.3)");
+        let (mut on, mut cp) = (self.settings.cache_on, self.settings.cache);
+        ui.checkbox(&mut on, "Resolve through the radiance cache")
+            .on_hover_text(
+                "Interpolate the indirect light from sparse cache records in image space. \
+                 Moving ε re-runs the cache over the current radiance map (no re-trace, no \
+                 re-splat).",
+            );
+        ui.add_enabled_ui(on, |ui| {
+            param_slider(
+                ui,
+                &mut cp.error,
+                0.05..=2.0,
+                "ε",
+                "cache error: records are valid up to ε × their harmonic mean distance; \
+                 smaller ε, more records, more detail",
+                CacheParams::default().error,
+            );
+            ui.horizontal(|ui| {
+                ui.label("Min. records per pixel");
+                ui.add(egui::DragValue::new(&mut cp.min_records).range(1..=16));
+            });
+        });
+        if (on, cp) != (self.settings.cache_on, self.settings.cache) {
+            self.settings.cache_on = on;
+            self.settings.cache = cp;
+            self.session.send(Command::SetCache { on, params: cp });
+        }
+        if let Some(f) = &self.frame
+            && f.stats.cache_records > 0
+        {
+            ui.label(format!("{} cache records", f.stats.cache_records));
+        }
+        ui.heading("Image filter (§8.2)");
+        let mut fp = self.settings.filter;
+        ui.checkbox(&mut fp.enabled, "Filter the indirect light")
+            .on_hover_text(
+                "Box-filter the incident light within continuous surfaces (depth, normal and \
+                 material discontinuities stop it); the box grows where fewer splats landed.",
+            );
+        ui.add_enabled_ui(fp.enabled, |ui| {
+            param_slider(
+                ui,
+                &mut fp.strength,
+                0.0..=4.0,
+                "strength",
+                "scales every pixel's filter box",
+                FilterParams::default().strength,
+            );
+        });
+        if fp != self.settings.filter {
+            self.settings.filter = fp;
+            self.session.send(Command::SetFilter(fp));
         }
 
         ui.separator();
@@ -932,6 +1009,9 @@ fn session_config(s: &UiSettings) -> SessionConfig {
     c.settings.height = s.height;
     c.settings.direct = s.direct;
     c.settings.radiance_map = s.radiance_map;
+    c.settings.cache_on = s.cache_on;
+    c.settings.cache = s.cache;
+    c.settings.filter = s.filter;
     c.max_stored_rays = s.ray_budget;
     c
 }

@@ -7,7 +7,9 @@
 //! arrive together are coalesced and applied once, at the batch boundary.
 
 use crate::baseline::pt::{PathTracer, PtSettings};
+use crate::cache::CacheParams;
 use crate::film::Film;
+use crate::filter::FilterParams;
 use crate::photon::BandwidthParams;
 use crate::radiance_map::DirectionalMode;
 use crate::render::{DirectMode, RenderSettings, Renderer, Step};
@@ -36,6 +38,15 @@ pub enum Command {
     /// Directional storage at glossy samples (§8.1): new accumulators, then a re-splat of
     /// the stored rays (no re-trace).
     SetRadianceMap(DirectionalMode),
+    /// Resolve the radiance map through the radiance cache (§8.3) with these parameters: the
+    /// cache pass re-runs over the current map, no re-trace and no re-splat.
+    SetCache {
+        on: bool,
+        params: CacheParams,
+    },
+    /// The image-space filter of the indirect light (§8.2); applied when the next frame is
+    /// resolved.
+    SetFilter(FilterParams),
     /// A new view; `interactive` views render at reduced resolution until a final one arrives.
     SetCamera {
         camera: Camera,
@@ -89,6 +100,8 @@ pub struct SessionStats {
     pub directional_bytes: usize,
     /// Splat targets on glossy surfaces (the ones with directional records).
     pub glossy_targets: usize,
+    /// Radiance cache records of this frame (0 when the cache is off).
+    pub cache_records: usize,
     pub photons_per_second: f64,
     /// Splat time of the last step, milliseconds.
     pub last_splat_ms: f64,
@@ -116,6 +129,8 @@ pub struct Frame {
     pub settings: RenderSettings,
     /// Rendered at reduced resolution (while the camera moves, and for the first frame).
     pub interactive: bool,
+    /// The radiance cache's records: pixel x, y, radius (pixels), pass (Fig. 8b).
+    pub cache_records: Vec<[f32; 4]>,
     pub stats: SessionStats,
     /// The path-traced reference of the same view, while the reference mode is on.
     pub reference: Option<Film>,
@@ -390,6 +405,20 @@ impl Worker {
                 s.height = height.clamp(8, 4096);
                 p.view = true;
             }
+            Command::SetCache { on, params } => {
+                s.cache_on = on;
+                s.cache = params;
+                if let Some(r) = self.renderer.as_mut() {
+                    r.settings.cache_on = on;
+                    r.settings.cache = params;
+                }
+            }
+            Command::SetFilter(f) => {
+                s.filter = f;
+                if let Some(r) = self.renderer.as_mut() {
+                    r.settings.filter = f;
+                }
+            }
             Command::SetRadianceMap(m) => {
                 if s.radiance_map != m {
                     s.radiance_map = m;
@@ -560,6 +589,7 @@ impl Worker {
             splat_bytes: r.splat_memory_bytes(),
             directional_bytes: r.directional_memory().0,
             glossy_targets: r.directional_memory().1,
+            cache_records: r.cache.as_ref().map_or(0, |c| c.records.len()),
             photons_per_second: r.photons_traced as f64 / elapsed.max(1e-9),
             last_splat_ms: self.last_splat_ms,
             eye_samples: r.eye_samples().len(),
@@ -579,6 +609,19 @@ impl Worker {
             camera: r.camera.clone(),
             settings: r.settings.clone(),
             interactive: self.interactive || self.coarse_start,
+            cache_records: r.cache.as_ref().map_or_else(Vec::new, |c| {
+                c.records
+                    .iter()
+                    .map(|k| {
+                        [
+                            k.pixel.0 as f32,
+                            k.pixel.1 as f32,
+                            k.radius_px,
+                            k.pass as f32,
+                        ]
+                    })
+                    .collect()
+            }),
             stats,
             reference: self.reference.as_ref().map(|p| p.film()),
         };

@@ -392,3 +392,58 @@ fn radiance_map_mode_switches_and_reports_memory() {
         "the matte icosahedron looks the same as the glossy one"
     );
 }
+
+/// The radiance cache in the window (§8.3): turning it on and moving ε re-runs the cache over
+/// the current radiance map without tracing (paused) — a smaller ε gives more records — and
+/// the records view mode draws them; the filter toggle reaches the worker.
+#[test]
+fn epsilon_slider_reruns_the_cache_live() {
+    let mut h = harness(tmp("cache"));
+    run_until(&mut h, 60, "the first image", |a| {
+        a.frame().is_some_and(|f| f.stats.batches >= 2) && a.shown().is_some()
+    });
+    pause(&mut h);
+    let photons = h.state().frame().unwrap().stats.photons_traced;
+    h.get_by_label("Resolve through the radiance cache").click();
+    run_until(&mut h, 60, "a cached frame", |a| {
+        a.frame()
+            .is_some_and(|f| f.settings.cache_on && f.stats.cache_records > 0)
+    });
+    let coarse = h.state().frame().unwrap().stats.cache_records;
+    h.get_by_role_and_label(Role::Slider, "ε")
+        .set_value_accesskit(0.1);
+    run_until(&mut h, 60, "a frame with ε = 0.1", |a| {
+        a.frame().is_some_and(|f| {
+            (f.settings.cache.error - 0.1).abs() < 1e-6 && f.stats.cache_records > 0
+        })
+    });
+    let f = h.state().frame().unwrap().clone();
+    assert!(
+        f.stats.cache_records > coarse,
+        "{} records at ε 0.1, {coarse} at 0.5",
+        f.stats.cache_records
+    );
+    assert_eq!(f.stats.photons_traced, photons, "moving ε must not trace");
+    assert_eq!(f.cache_records.len(), f.stats.cache_records);
+    // The records view mode draws the records over the image.
+    h.run_steps(2);
+    let count_white = |rgba: &[u8]| {
+        rgba.chunks_exact(4)
+            .filter(|p| p[..3] == [255, 255, 255])
+            .count()
+    };
+    let before = count_white(&h.state().shown().unwrap().rgba);
+    h.get_by_role_and_label(Role::ComboBox, "View").click();
+    h.run_steps(3);
+    h.get_by_label("Cache records (radii)").click();
+    h.run_steps(3);
+    let white = count_white(&h.state().shown().unwrap().rgba);
+    assert!(
+        white > before + f.stats.cache_records.min(200) / 2,
+        "record centres not drawn: {white} white pixels, {before} before"
+    );
+    h.get_by_label("Filter the indirect light").click();
+    run_until(&mut h, 60, "a filtered frame", |a| {
+        a.frame().is_some_and(|f| f.settings.filter.enabled)
+    });
+}

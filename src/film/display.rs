@@ -18,10 +18,12 @@ pub enum ViewMode {
     HarmonicDistance,
     /// The built-in path tracer's image of the same view, refining progressively.
     Reference,
+    /// The image with the radiance cache's records drawn as circles of their radii (Fig. 8b).
+    CacheRecords,
 }
 
 impl ViewMode {
-    pub const ALL: [ViewMode; 7] = [
+    pub const ALL: [ViewMode; 8] = [
         ViewMode::Final,
         ViewMode::DirectOnly,
         ViewMode::IndirectOnly,
@@ -29,6 +31,7 @@ impl ViewMode {
         ViewMode::KernelDensity,
         ViewMode::HarmonicDistance,
         ViewMode::Reference,
+        ViewMode::CacheRecords,
     ];
 
     pub fn label(self) -> &'static str {
@@ -40,6 +43,7 @@ impl ViewMode {
             ViewMode::KernelDensity => "Kernel-weight density",
             ViewMode::HarmonicDistance => "Harmonic mean distance",
             ViewMode::Reference => "Reference (path traced)",
+            ViewMode::CacheRecords => "Cache records (radii)",
         }
     }
 
@@ -107,6 +111,33 @@ pub struct DisplayImage {
 }
 
 impl DisplayImage {
+    /// Draw each record (pixel x, y, radius in pixels) as a dot and a circle of its radius,
+    /// coloured by the pass that made it, coarse (blue) to fine (red) (Fig. 8b).
+    pub fn draw_records(&mut self, records: &[[f32; 4]], passes: f32) {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let mut put = |x: i64, y: i64, c: [u8; 3]| {
+            if x >= 0 && y >= 0 && x < w && y < h {
+                let i = 4 * (y * w + x) as usize;
+                self.rgba[i..i + 3].copy_from_slice(&c);
+            }
+        };
+        for &[x, y, r, pass] in records {
+            let c = false_colour(1.0 - pass / passes.max(1.0));
+            let steps = (r * 6.3).ceil().max(8.0) as usize;
+            for k in 0..steps {
+                let a = k as f32 / steps as f32 * std::f32::consts::TAU;
+                put(
+                    (x + r * a.cos()).round() as i64,
+                    (y + r * a.sin()).round() as i64,
+                    c,
+                );
+            }
+            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (-1, 0), (0, -1)] {
+                put(x as i64 + dx, y as i64 + dy, [255, 255, 255]);
+            }
+        }
+    }
+
     pub fn rgb(&self) -> Vec<u8> {
         self.rgba
             .chunks_exact(4)
