@@ -183,6 +183,10 @@ struct BenchArgs {
     /// --method pt --spp 1024 --width 500 --height 500`): the glossy rows report relMSE to it.
     #[arg(long)]
     glossy_reference: Option<PathBuf>,
+    /// A path-traced EXR of CORNELL BOX I at 500×500 (`raysplat render --method pt --spp 512`):
+    /// the Table 2 rows report relMSE to it.
+    #[arg(long)]
+    cornell_reference: Option<PathBuf>,
 }
 
 pub fn main() -> i32 {
@@ -641,34 +645,60 @@ fn bench(args: BenchArgs) -> Result<(), String> {
     set_threads(args.threads)?;
     let scene = Arc::new(Scene::default_scene());
     let mut rows = serde_json::Map::new();
-    for (name, direct) in [
-        ("cornell1_rs", DirectMode::Photons),
-        ("cornell1_rs_nee", DirectMode::Nee),
+    let reference = match &args.cornell_reference {
+        Some(p) => Some(raysplat::film::read_exr(p)?.2),
+        None => None,
+    };
+    // Table 2's RC row: C = 0.6, S = 0.3, ε = 0.7.
+    let rc = |direct| RenderSettings {
+        method: Method::Rc,
+        bandwidth: BandwidthParams {
+            smoothness_c: 0.6,
+            sensitivity_s: 0.3,
+            max_bandwidth_r: 0.2,
+        },
+        cache: raysplat::cache::CacheParams {
+            error: 0.7,
+            ..Default::default()
+        },
+        ..cornell1_settings(direct)
+    };
+    for (name, settings) in [
+        ("cornell1_rs", cornell1_settings(DirectMode::Photons)),
+        ("cornell1_rs_nee", cornell1_settings(DirectMode::Nee)),
+        ("cornell1_rc", rc(DirectMode::Photons)),
+        ("cornell1_rc_nee", rc(DirectMode::Nee)),
     ] {
-        let mut best: Option<(raysplat::render::Timings, u64, u64)> = None;
+        let mut best: Option<(raysplat::render::Timings, u64, u64, f64, usize)> = None;
         for _ in 0..args.runs.max(1) {
-            let mut r = Renderer::new(scene.clone(), cornell1_settings(direct))?;
+            let mut r = Renderer::new(scene.clone(), settings.clone())?;
             r.run_batch();
             let film = r.film();
             if film.invalid_pixels() > 0 {
                 return Err(format!("{name}: the image has NaN or infinite pixels"));
             }
+            let err = reference
+                .as_ref()
+                .map_or(f64::NAN, |px| raysplat::film::rel_mse(&film.rgb, px));
+            let records = r.cache.as_ref().map_or(0, |c| c.records.len());
             let t = r.timings;
             if best.is_none_or(|b| t.total() < b.0.total()) {
-                best = Some((t, r.counters.tested, r.counters.accepted));
+                best = Some((t, r.counters.tested, r.counters.accepted, err, records));
             }
         }
-        let (t, tested, accepted) = best.expect("at least one run");
+        let (t, tested, accepted, err, records) = best.expect("at least one run");
         let ratio = accepted as f64 / tested.max(1) as f64;
         println!(
-            "{name:<16} T_E {:.3}  T_D {:.3}  T_L {:.3}  T_S {:.3}  ΣT {:.3} s  peak {:.0} MB  accepted/tested {:.2}",
+            "{name:<16} T_E {:.3}  T_D {:.3}  T_L {:.3}  T_S {:.3}  ΣT {:.3} s  peak {:.0} MB  accepted/tested {:.2}  relMSE {:.4}{}",
             t.t_eye,
             t.t_direct,
             t.t_light,
             t.t_splat + t.t_resolve,
             t.total(),
             peak_rss_mb(),
-            ratio
+            ratio,
+            err,
+            if records > 0 { format!("  {records} records") } else { String::new() }
         );
         rows.insert(
             name.to_string(),
@@ -682,6 +712,8 @@ fn bench(args: BenchArgs) -> Result<(), String> {
                 "tested_pairs": tested,
                 "accepted_pairs": accepted,
                 "accepted_ratio": ratio,
+                "rel_mse": if err.is_finite() { json!(err) } else { json!(null) },
+                "cache_records": records,
             }),
         );
     }

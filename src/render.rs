@@ -421,11 +421,15 @@ impl Renderer {
         }
         let bw = self.bandwidths(m);
         let mode = self.settings.radiance_map;
-        // Radiance caching splats indirect light onto its records when the film is made.
-        if self.settings.method != Method::Rc {
-            let indirect = prepare(rays, &bw, [false, true, true], mode);
-            self.counters += splat(&self.side.tree, &indirect, &mut self.side.acc_indirect);
-        }
+        // Radiance caching splats indirect-diffuse light onto its records when the film is
+        // made; caustics, sharp by nature, are splatted onto every target as in rs.
+        let classes = if self.settings.method == Method::Rc {
+            [false, false, true]
+        } else {
+            [false, true, true]
+        };
+        let indirect = prepare(rays, &bw, classes, mode);
+        self.counters += splat(&self.side.tree, &indirect, &mut self.side.acc_indirect);
         if self.splat_direct() {
             let direct = prepare(rays, &bw, [true, false, false], mode);
             self.counters += splat(&self.side.tree, &direct, &mut self.side.acc_direct);
@@ -507,7 +511,7 @@ impl Renderer {
         let batches: Vec<SplatBatch> = self
             .batches
             .iter()
-            .map(|b| prepare(&b.rays, &self.bandwidths(b.m), [false, true, true], mode))
+            .map(|b| prepare(&b.rays, &self.bandwidths(b.m), [false, true, false], mode))
             .collect();
         let inv_b = 1.0 / batches.len().max(1) as f32;
         let side = &self.side;
@@ -592,15 +596,15 @@ impl Renderer {
         let side = &self.side;
         let scene = &self.scene;
         let mut map = RadianceMap::new(w, h);
-        if !rc {
-            map.resolve_from(
-                scene,
-                &side.eye,
-                &side.tree.target_slot,
-                &side.acc_indirect,
-                b,
-            );
-        }
+        // rs: everything splatted; rc: the caustics (its indirect-diffuse light is cached).
+        map.resolve_from(
+            scene,
+            &side.eye,
+            &side.tree.target_slot,
+            &side.acc_indirect,
+            b,
+        );
+        let caustics = rc.then(|| map.radiance.clone());
         let filter = self.settings.filter;
         if self.cache.is_some() || filter.enabled {
             let geo = PixelGeometry::new(&side.eye, w, h);
@@ -627,6 +631,11 @@ impl Renderer {
                 );
             }
             map.resolve_interpolated(scene, &side.eye, &values, mode);
+            if let Some(c) = caustics {
+                for (m, c) in map.radiance.iter_mut().zip(c) {
+                    *m += c;
+                }
+            }
         }
         let mut film = Film::new(w, h);
         let mut direct = side.direct.clone();
