@@ -698,7 +698,11 @@ fn bench(args: BenchArgs) -> Result<(), String> {
             peak_rss_mb(),
             ratio,
             err,
-            if records > 0 { format!("  {records} records") } else { String::new() }
+            if records > 0 {
+                format!("  {records} records")
+            } else {
+                String::new()
+            }
         );
         rows.insert(
             name.to_string(),
