@@ -42,9 +42,14 @@ const LEVELS: [u32; 7] = [64, 32, 16, 8, 4, 2, 1];
 /// overlap their neighbours.
 const MIN_RADIUS_PX: f32 = 1.5;
 const MAX_RADIUS_PX: f32 = 64.0;
-/// Compatibility: normals within 25°, plane distance within 5% of the record's depth.
-const COMPAT_COS: f32 = 0.906;
+/// Compatibility: plane distance within 5% of the record's depth; normals within the angle
+/// Ward's error metric allows for ε: √(1 − n·nᵢ) < ε, i.e. n·nᵢ > 1 − ε² (kept in [0.5, 0.995]).
 const COMPAT_PLANE: f32 = 0.05;
+
+/// The smallest n·nᵢ a record of cache error `eps` accepts.
+pub fn normal_tolerance(eps: f32) -> f32 {
+    (1.0 - eps * eps).clamp(0.5, 0.995)
+}
 
 /// What the evaluator returns for one record.
 #[derive(Clone, Debug, Default)]
@@ -75,14 +80,17 @@ pub struct Record {
     pub radius_px: f32,
     /// The pass (index into the grid levels) that created it.
     pub pass: u8,
+    /// Smallest n·nᵢ of the eye samples it serves ([`normal_tolerance`]).
+    pub cos_min: f32,
     pub value: RecordValue,
 }
 
-/// The per-pixel geometry the cache works with: each pixel's first eye sample.
+/// The per-pixel geometry the cache works with: each pixel's first primary eye sample.
 pub struct PixelGeometry {
     pub width: u32,
     pub height: u32,
-    /// First eye sample of each pixel, or u32::MAX where the pixel has none.
+    /// First eye sample of each pixel seen directly from the camera, or u32::MAX where the
+    /// pixel has none (only specular chains, or nothing).
     pub first: Vec<u32>,
     /// The eye samples of pixel p are start[p]..start[p + 1] (samples are in pixel order).
     pub start: Vec<u32>,
@@ -94,7 +102,9 @@ impl PixelGeometry {
         let mut first = vec![u32::MAX; n];
         let mut start = vec![0u32; n + 1];
         for i in (0..eye.len()).rev() {
-            first[eye.pixel[i] as usize] = i as u32;
+            if eye.primary[i] {
+                first[eye.pixel[i] as usize] = i as u32;
+            }
             start[eye.pixel[i] as usize + 1] += 1;
         }
         for p in 0..n {
@@ -109,12 +119,15 @@ impl PixelGeometry {
     }
 }
 
-/// The cache: its records and, per eye sample, the interpolation result.
+/// The cache: its records, and the eye samples valued on their own.
 #[derive(Clone, Debug, Default)]
 pub struct Cache {
     pub records: Vec<Record>,
     /// Records created per pass.
     pub per_pass: Vec<usize>,
+    /// Eye samples reached through specular chains: image-space neighbours say nothing about
+    /// them, so each is valued on its own (full splat accuracy), not interpolated.
+    pub own: Vec<(u32, RecordValue)>,
 }
 
 /// Interpolated incident light per eye sample.
@@ -172,7 +185,7 @@ impl Interpolated {
 #[inline]
 fn compatible(r: &Record, p: Vec3, n: Vec3, material: u32) -> bool {
     material == r.material
-        && n.dot(r.normal) >= COMPAT_COS
+        && n.dot(r.normal) >= r.cos_min
         && ((p - r.position).dot(r.normal)).abs() <= COMPAT_PLANE * r.depth
 }
 
@@ -224,10 +237,12 @@ fn pixel_coverage(records: &[Record], eye: &EyeSamples, geo: &PixelGeometry) -> 
     cov
 }
 
-/// Build the cache for `eye` seen through `camera`: passes over grids of spacing 32 … 1 px; in
+/// Build the cache for `eye` seen through `camera`: passes over grids of spacing 64 … 1 px; in
 /// each, every grid pixel covered by fewer than `min_records` compatible records gets one, and
-/// `evaluate` supplies the new records' values (indices are eye samples). Finally any pixel
-/// still short of records widens its nearest compatible records until it is covered.
+/// `evaluate` supplies the new records' values (indices are eye samples). Then any pixel still
+/// short of records widens its nearest compatible records (within 64 px) until it is covered,
+/// and pixels still short after that become records themselves. Eye samples reached through
+/// specular chains are valued on their own (`Cache::own`).
 pub fn build(
     eye: &EyeSamples,
     geo: &PixelGeometry,
@@ -238,6 +253,13 @@ pub fn build(
     let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / geo.height as f32;
     let mut cache = Cache::default();
     let eps = params.error.max(1e-3);
+    let own: Vec<u32> = (0..eye.len() as u32)
+        .filter(|&i| !eye.primary[i as usize])
+        .collect();
+    if !own.is_empty() {
+        let values = evaluate(&own);
+        cache.own = own.into_iter().zip(values).collect();
+    }
     for (pass, &s) in LEVELS.iter().enumerate() {
         let cov = if cache.records.is_empty() {
             vec![0; geo.first.len()]
@@ -275,13 +297,14 @@ pub fn build(
                     MIN_RADIUS_PX
                 },
                 pass: pass as u8,
+                cos_min: normal_tolerance(eps),
                 value,
             });
         }
         cache.per_pass.push(new_samples.len());
     }
     widen_for_coverage(&mut cache, eye, geo, params.min_records);
-    // Samples still short of records (a small surface, few records in reach) become records
+    // Pixels still short of records (a small surface, few records in reach) become records
     // themselves, one more pass, and the widening runs again.
     let short = short_samples(&cache, eye, geo, params.min_records);
     if !short.is_empty() {
@@ -306,6 +329,7 @@ pub fn build(
                     MIN_RADIUS_PX
                 },
                 pass: LEVELS.len() as u8,
+                cos_min: normal_tolerance(eps),
                 value,
             });
         }
@@ -315,31 +339,17 @@ pub fn build(
     cache
 }
 
-/// Eye samples covered by fewer than `min` compatible records, at most one per pixel.
+/// First primary eye samples of the pixels covered by fewer than `min` compatible records.
 fn short_samples(cache: &Cache, eye: &EyeSamples, geo: &PixelGeometry, min: u32) -> Vec<u32> {
-    let rows = rows_of(&cache.records, geo.height);
-    let w = geo.width;
-    let mut out: Vec<u32> = Vec::new();
-    for i in 0..eye.len() {
-        let p = eye.pixel[i];
-        let (x, y) = (p % w, p / w);
-        let n = rows[y as usize]
-            .iter()
-            .filter(|&&k| {
-                let r = &cache.records[k as usize];
-                tent(r, x, y) > 0.0
-                    && compatible(r, eye.position[i], eye.normal[i], eye.material[i])
-            })
-            .count() as u32;
-        if n < min && out.last().is_none_or(|&j| eye.pixel[j as usize] != p) {
-            out.push(i as u32);
-        }
-    }
-    out
+    let coverage = pixel_coverage(&cache.records, eye, geo);
+    (0..geo.first.len())
+        .filter(|&p| geo.first[p] != u32::MAX && coverage[p] < min)
+        .map(|p| geo.first[p])
+        .collect()
 }
 
-/// Give every eye sample at least `min` compatible records (where its surface has that
-/// many): the nearest compatible records not yet covering it grow to reach it.
+/// Give every pixel (its first eye sample) at least `min` compatible records: the nearest
+/// compatible records within MAX_RADIUS_PX not yet covering it grow to reach it.
 fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, min: u32) {
     let w = geo.width as usize;
     // Records per coarse cell, to search outward from a pixel.
@@ -349,11 +359,16 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
     for (k, r) in cache.records.iter().enumerate() {
         grid[(r.pixel.1 as usize / cell) * cw + r.pixel.0 as usize / cell].push(k as u32);
     }
+    let coverage = pixel_coverage(&cache.records, eye, geo);
     let mut rows = rows_of(&cache.records, geo.height);
-    for i in 0..eye.len() {
-        let p = eye.pixel[i] as usize;
+    for p in 0..geo.first.len() {
+        if geo.first[p] == u32::MAX || coverage[p] >= min {
+            continue;
+        }
+        let i = geo.first[p] as usize;
         let (x, y) = ((p % w) as u32, (p / w) as u32);
         let (ps, ns, ms) = (eye.position[i], eye.normal[i], eye.material[i]);
+        // Records grown for earlier pixels may cover this one now.
         let covering = rows[y as usize]
             .iter()
             .filter(|&&k| {
@@ -367,7 +382,10 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
         let mut need = min - covering;
         let (cx, cy) = (x as usize / cell, y as usize / cell);
         let mut found: Vec<(f32, u32)> = Vec::new();
-        for ring in 0..cw.max(ch) {
+        // Only records within MAX_RADIUS_PX may grow to reach the sample: samples farther
+        // from enough compatible records become records themselves (the fix-up pass).
+        let max_ring = (MAX_RADIUS_PX as usize).div_ceil(cell) + 1;
+        for ring in 0..=max_ring.min(cw.max(ch)) {
             let (x0, x1) = (cx.saturating_sub(ring), (cx + ring).min(cw - 1));
             let (y0, y1) = (cy.saturating_sub(ring), (cy + ring).min(ch - 1));
             for gy in y0..=y1 {
@@ -380,7 +398,10 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
                         if tent(r, x, y) <= 0.0 && compatible(r, ps, ns, ms) {
                             let dx = x as f32 - r.pixel.0 as f32;
                             let dy = y as f32 - r.pixel.1 as f32;
-                            found.push(((dx * dx + dy * dy).sqrt(), k));
+                            let d = (dx * dx + dy * dy).sqrt();
+                            if d < MAX_RADIUS_PX {
+                                found.push((d, k));
+                            }
                         }
                     }
                 }
@@ -477,7 +498,10 @@ pub fn interpolate(
             for i in s0..s1 {
                 let x = eye.pixel[i] as usize - y * w;
                 let t = tent(r, x as u32, y as u32);
-                if t <= 0.0 || !compatible(r, eye.position[i], eye.normal[i], eye.material[i]) {
+                if t <= 0.0
+                    || !eye.primary[i]
+                    || !compatible(r, eye.position[i], eye.normal[i], eye.material[i])
+                {
                     continue;
                 }
                 let j = i - a;
@@ -506,6 +530,15 @@ pub fn interpolate(
             }
         }
     });
+    for (i, v) in &cache.own {
+        let i = *i as usize;
+        out.irradiance[i] = v.irradiance;
+        if let Some(d) = out.dir_mut(i)
+            && v.directional.len() == d.len()
+        {
+            d.copy_from_slice(&v.directional);
+        }
+    }
     out
 }
 
@@ -536,6 +569,7 @@ mod tests {
                     weight: Vec3::ONE,
                     albedo: Vec3::splat(0.5),
                     specular: Vec3::ZERO,
+                    primary: true,
                 };
                 let n = eye.len() as u32;
                 eye.push_sample(&s, n);

@@ -48,6 +48,8 @@ pub struct EyeSamples {
     pub albedo: Vec<Vec3>,
     /// Glossy-lobe reflectance ks (zero for Lambertian samples).
     pub specular: Vec<Vec3>,
+    /// Seen directly from the camera (no specular bounce on the way).
+    pub primary: Vec<bool>,
     /// The splat target whose splatted irradiance this sample uses.
     pub target: Vec<u32>,
 }
@@ -84,7 +86,7 @@ impl EyeSamples {
 
     /// Bytes held by the sample arrays.
     pub fn memory_bytes(&self) -> usize {
-        self.len() * (6 * 12 + 3 * 4)
+        self.len() * (6 * 12 + 3 * 4 + 1)
     }
 
     /// True when the sample's BSDF has a glossy lobe.
@@ -120,6 +122,7 @@ impl EyeSamples {
         self.weight.push(s.weight);
         self.albedo.push(s.albedo);
         self.specular.push(s.specular);
+        self.primary.push(s.primary);
     }
 }
 
@@ -135,6 +138,8 @@ pub struct EyeSample {
     pub weight: Vec3,
     pub albedo: Vec3,
     pub specular: Vec3,
+    /// Seen directly from the camera (no specular bounce on the way).
+    pub primary: bool,
 }
 
 #[derive(Clone, Copy)]
@@ -222,6 +227,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
         v.reserve_exact(total);
     }
     samples.material.reserve_exact(total);
+    samples.primary.reserve_exact(total);
     samples.pixel.reserve_exact(total);
     samples.target.reserve_exact(total);
     let mut emitted = Vec::with_capacity((s.width * s.height) as usize);
@@ -320,6 +326,7 @@ fn trace_chain(
                     weight: w,
                     albedo,
                     specular,
+                    primary: depth == 0,
                 },
                 path_length,
                 target: 0,

@@ -336,11 +336,15 @@ mod tests {
 
     #[test]
     fn radius_follows_the_splat_count() {
-        let r = radii(&[64.0, 16.0, 1.0, 0.0], 1, 1.0);
+        let r = radii(&[1600.0, 100.0, 25.0, 0.0], 1, 1.0);
+        assert!((r[0] - 1.0).abs() < 1e-5, "{r:?}");
         assert!(
-            (r[0] - 1.0).abs() < 1e-6 && (r[1] - 2.0).abs() < 1e-6 && (r[2] - 8.0).abs() < 1e-6
+            (r[1] - 4.0).abs() < 1e-5 && (r[2] - 8.0).abs() < 1e-5,
+            "{r:?}"
         );
         assert_eq!(r[3], DEFAULT_RADIUS);
-        assert_eq!(radii(&[0.01], 1, 1.0)[0], MAX_RADIUS as f32);
+        assert_eq!(radii(&[1.0], 1, 1.0)[0], MAX_RADIUS as f32);
+        // More batches, smaller boxes.
+        assert!((radii(&[100.0], 4, 1.0)[0] - 2.0).abs() < 1e-5);
     }
 }

@@ -502,6 +502,7 @@ mod tests {
                 weight: Vec3::splat(0.5),
                 albedo: Vec3::splat(0.5),
                 specular: Vec3::ZERO,
+                primary: true,
             };
             eye.push_sample(&s, i as u32);
         }

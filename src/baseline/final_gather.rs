@@ -286,6 +286,7 @@ fn gather_from(
                 _ => scene.albedo(&hit),
             },
             specular: Vec3::ZERO,
+            primary: false,
         });
     }
 }
