@@ -350,6 +350,7 @@ fn short_samples(cache: &Cache, eye: &EyeSamples, geo: &PixelGeometry, min: u32)
 
 /// Give every pixel (its first eye sample) at least `min` compatible records: the nearest
 /// compatible records within MAX_RADIUS_PX not yet covering it grow to reach it.
+#[allow(clippy::needless_range_loop)] // p addresses the pixel arrays and the image
 fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, min: u32) {
     let w = geo.width as usize;
     // Records per coarse cell, to search outward from a pixel.
