@@ -740,12 +740,17 @@ fn filter_values(
     let radius = radii(splats, batches, params.strength);
     let floats = values.floats;
     let mut channel = vec![0.0f32; n];
-    // Samples that follow their pixel's filtered value: on the first sample's surface.
+    // Samples that follow their pixel's filtered value: on its first primary sample's surface
+    // (pixels seen only through specular chains have none and are not filtered).
     let follows: Vec<bool> = (0..eye.len())
         .map(|i| {
-            let f = geo.first[eye.pixel[i] as usize] as usize;
+            let Some(f) = rep(eye.pixel[i] as usize) else {
+                return false;
+            };
             eye.target[i] == eye.target[f]
-                || (eye.material[i] == eye.material[f] && eye.normal[i].dot(eye.normal[f]) > 0.966)
+                || (eye.primary[i]
+                    && eye.material[i] == eye.material[f]
+                    && eye.normal[i].dot(eye.normal[f]) > 0.966)
         })
         .collect();
     for c in 0..3 + floats {

@@ -181,6 +181,9 @@ impl Session {
         config: SessionConfig,
         notify: Option<Notify>,
     ) -> Self {
+        // Build the splat's kept-fraction table (≈ 30 ms, docs/deviations.md §23) beside the
+        // first eye pass rather than in front of the first splat.
+        std::thread::spawn(|| crate::splat::kept_fraction(1.0, 0.0));
         let (cmd_tx, cmd_rx) = unbounded();
         let (frame_tx, frame_rx) = bounded(1);
         let (event_tx, event_rx) = unbounded();

@@ -39,14 +39,14 @@ const KEPT_DH_MAX: f32 = 8.0;
 /// is narrower than at the hit, so the near half of the footprint shrinks. In units of h_end
 /// and the coordinate X′ across the ray, the mass is ∫∫ K_r(√(X′² + Y²)) dX′ dY with
 /// r = 1 + dh·tan θ·X′ before the hit (X′ < 0) and, after it, r = 1 inside the hemisphere
-/// (X′/cos θ)² + Y² < 1. Tabulated once (32 × 24 entries, 160² midpoint cells each, rows
-/// in parallel: about 30 ms).
+/// (X′/cos θ)² + Y² < 1. Tabulated once (32 × 24 entries, 128² midpoint cells each, about
+/// 30 ms). Sequential on purpose: a rayon job inside `OnceLock::get_or_init` can deadlock when
+/// pool threads that need the table block on the lock.
 pub fn kept_fraction(cos_theta: f32, dh: f32) -> f32 {
     static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
     let table = TABLE.get_or_init(|| {
-        let n = 160;
+        let n = 128;
         let rows: Vec<Vec<f32>> = (0..=KEPT_COS_STEPS)
-            .into_par_iter()
             .map(|ci| {
                 let mut row = vec![0.0f32; KEPT_DH_STEPS + 1];
                 let c = (ci as f64 / KEPT_COS_STEPS as f64).max(0.02);

@@ -99,7 +99,7 @@ fn check_frame(f: &Frame) {
 }
 
 /// Thousands of seeded random commands (sliders, camera moves, pause/resume, resolution, spp,
-/// direct mode, radiance-map mode, ray budget, loads of good, truncated and missing files,
+/// direct mode, radiance-map mode, radiance cache and ε, image filter, ray budget, loads of good, truncated and missing files,
 /// restarts) interleaved with snapshots of the frames (into a good folder and a missing one):
 /// no panic, no deadlock (watchdog), frames keep coming through the storm, never a NaN pixel,
 /// the ray store within its budget, every snapshot either complete or refused with a message.
@@ -165,7 +165,7 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
                 assert!(e.contains("does not exist"), "{e}");
             }
         }
-        let c = match (rng.next_f32() * 14.0) as u32 {
+        let c = match (rng.next_f32() * 16.0) as u32 {
             0..=2 => Command::SetBandwidth(BandwidthParams {
                 smoothness_c: 0.1 + 2.0 * u,
                 sensitivity_s: (rng.next_f32()).max(0.01),
@@ -196,6 +196,17 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
             12 => Command::SetRadianceMap(
                 raysplat::radiance_map::DirectionalMode::ALL[(u * 2.99) as usize],
             ),
+            13 => Command::SetCache {
+                on: rng.next_f32() < 0.6,
+                params: raysplat::cache::CacheParams {
+                    error: 0.05 + 2.0 * u,
+                    min_records: 1 + (rng.next_f32() * 7.0) as u32,
+                },
+            },
+            14 => Command::SetFilter(raysplat::filter::FilterParams {
+                enabled: rng.next_f32() < 0.6,
+                strength: 3.0 * u,
+            }),
             _ => match (u * 4.0) as u32 {
                 0 => Command::LoadScene(good.clone()),
                 1 => Command::LoadScene(bad.clone()),
