@@ -130,3 +130,34 @@ fn the_filter_reduces_noise() {
     );
     assert!(((m1 - m0) / m0).abs().max_element() < 0.02, "{m0} vs {m1}");
 }
+
+/// Regression (found by the GUI test): pixels seen only through specular chains (the glass
+/// sphere of CORNELL BOX I) have no primary sample; the cache, the filter and rc must handle
+/// them — no panic, no NaN, and the sphere is not black.
+#[test]
+fn cache_and_filter_handle_specular_chains() {
+    let scene = Arc::new(Scene::default_scene());
+    for (method, cache_on) in [(Method::Rc, false), (Method::Rs, true), (Method::Rs, false)] {
+        let s = RenderSettings {
+            width: 48,
+            height: 48,
+            spp: 1,
+            photons: 20_000,
+            cache_on,
+            filter: FilterParams {
+                enabled: true,
+                strength: 2.0,
+            },
+            ..settings(method)
+        };
+        let mut r = render(&scene, s, 1);
+        let f = r.film();
+        assert_eq!(f.invalid_pixels(), 0, "{method:?} cache {cache_on}");
+        assert!(f.mean().max_element() > 0.0);
+        let own = r.cache.as_ref().map_or(1, |c| c.own.len());
+        assert!(
+            own > 0,
+            "{method:?}: no sample behind the glass was valued on its own"
+        );
+    }
+}
