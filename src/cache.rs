@@ -253,6 +253,30 @@ pub fn build(
     let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / geo.height as f32;
     let mut cache = Cache::default();
     let eps = params.error.max(1e-3);
+    // A record at eye sample i: world radius ε·R (R the harmonic mean distance), projected.
+    let place = |i: usize, pass: u8, value: RecordValue| {
+        let p = eye.pixel[i];
+        let depth = (eye.position[i] - camera.position).length().max(1e-6);
+        let radius = eps * value.harmonic_distance;
+        let radius_px = (radius / (depth * pixel_angle)).clamp(MIN_RADIUS_PX, MAX_RADIUS_PX);
+        Record {
+            sample: i as u32,
+            pixel: (p % geo.width, p / geo.width),
+            position: eye.position[i],
+            normal: eye.normal[i],
+            material: eye.material[i],
+            depth,
+            radius,
+            radius_px: if radius_px.is_finite() {
+                radius_px
+            } else {
+                MIN_RADIUS_PX
+            },
+            pass,
+            cos_min: normal_tolerance(eps),
+            value,
+        }
+    };
     let own: Vec<u32> = (0..eye.len() as u32)
         .filter(|&i| !eye.primary[i as usize])
         .collect();
@@ -267,39 +291,17 @@ pub fn build(
             pixel_coverage(&cache.records, eye, geo)
         };
         let mut new_samples = Vec::new();
-        let mut new_pixels = Vec::new();
         for y in (s / 2..geo.height).step_by(s as usize) {
             for x in (s / 2..geo.width).step_by(s as usize) {
                 let p = (y * geo.width + x) as usize;
                 if geo.first[p] != u32::MAX && cov[p] < params.min_records {
                     new_samples.push(geo.first[p]);
-                    new_pixels.push((x, y));
                 }
             }
         }
         let values = evaluate(&new_samples);
-        for ((&i, &pixel), value) in new_samples.iter().zip(&new_pixels).zip(values) {
-            let i = i as usize;
-            let depth = (eye.position[i] - camera.position).length().max(1e-6);
-            let radius = eps * value.harmonic_distance;
-            let radius_px = (radius / (depth * pixel_angle)).clamp(MIN_RADIUS_PX, MAX_RADIUS_PX);
-            cache.records.push(Record {
-                sample: i as u32,
-                pixel,
-                position: eye.position[i],
-                normal: eye.normal[i],
-                material: eye.material[i],
-                depth,
-                radius,
-                radius_px: if radius_px.is_finite() {
-                    radius_px
-                } else {
-                    MIN_RADIUS_PX
-                },
-                pass: pass as u8,
-                cos_min: normal_tolerance(eps),
-                value,
-            });
+        for (&i, value) in new_samples.iter().zip(values) {
+            cache.records.push(place(i as usize, pass as u8, value));
         }
         cache.per_pass.push(new_samples.len());
     }
@@ -310,28 +312,9 @@ pub fn build(
     if !short.is_empty() {
         let values = evaluate(&short);
         for (&i, value) in short.iter().zip(values) {
-            let i = i as usize;
-            let p = eye.pixel[i];
-            let depth = (eye.position[i] - camera.position).length().max(1e-6);
-            let radius = eps * value.harmonic_distance;
-            let radius_px = (radius / (depth * pixel_angle)).clamp(MIN_RADIUS_PX, MAX_RADIUS_PX);
-            cache.records.push(Record {
-                sample: i as u32,
-                pixel: (p % geo.width, p / geo.width),
-                position: eye.position[i],
-                normal: eye.normal[i],
-                material: eye.material[i],
-                depth,
-                radius,
-                radius_px: if radius_px.is_finite() {
-                    radius_px
-                } else {
-                    MIN_RADIUS_PX
-                },
-                pass: LEVELS.len() as u8,
-                cos_min: normal_tolerance(eps),
-                value,
-            });
+            cache
+                .records
+                .push(place(i as usize, LEVELS.len() as u8, value));
         }
         cache.per_pass.push(short.len());
         widen_for_coverage(&mut cache, eye, geo, params.min_records);
