@@ -292,7 +292,9 @@ fn trace_photon(
         }
         // eq. 7: p̃(x1|x0) = p_e/D(x0,x1); p̃(x_{i+1}|x_i) = p̃(x_i|x_{i−1})·p_s⊥/D(x_i,x_{i+1})
         let prev = if bounce == 0 { 1.0 } else { pdf_here };
-        let pdf_next = prev * dir_density / clamped_sq_distance(length, d_tilde);
+        // Long specular chains multiply p̃ past f32's range; it saturates (its bandwidth is
+        // h_min either way) rather than becoming infinite.
+        let pdf_next = (prev * dir_density / clamped_sq_distance(length, d_tilde)).min(f32::MAX);
         let class = if bounce == 0 {
             PhotonClass::Direct
         } else if any_diffuse {
