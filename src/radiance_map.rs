@@ -46,31 +46,6 @@ impl DirectionalMode {
         }
     }
 
-    /// Add `power` arriving from direction `incident` (pointing away from the surface) to a
-    /// record: projected onto the SH basis, or spread over the strata by the filter (§8.1).
-    pub fn deposit(self, rec: &mut [f32], incident: Vec3, power: Vec3) {
-        match self {
-            DirectionalMode::Diffuse => {}
-            DirectionalMode::Sh => {
-                let y = sh_basis(incident);
-                for (c, pc) in [power.x, power.y, power.z].into_iter().enumerate() {
-                    for (d, b) in rec[c * SH_COEFFS..(c + 1) * SH_COEFFS].iter_mut().zip(&y) {
-                        *d += pc * b;
-                    }
-                }
-            }
-            DirectionalMode::Histogram => {
-                let t = crate::directional::filter_taps(incident);
-                for (&s, &w) in t.stratum.iter().zip(&t.weight) {
-                    let i = s as usize * 3;
-                    rec[i] += w * power.x;
-                    rec[i + 1] += w * power.y;
-                    rec[i + 2] += w * power.z;
-                }
-            }
-        }
-    }
-
     pub fn label(self) -> &'static str {
         match self {
             DirectionalMode::Diffuse => "diffuse (irradiance only)",
@@ -363,16 +338,7 @@ impl RadianceMap {
             let px = eye.pixel[i] as usize;
             let w = eye.weight[i];
             let e = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B)) * inv_b;
-            let mut out = eye.albedo[i] * FRAC_1_PI * e;
-            if eye.is_glossy(i) {
-                let ks = eye.specular[i];
-                out += match acc.record(slot) {
-                    Some(rec) => ks * glossy_radiance(scene, eye, i, acc.mode, rec) * inv_b,
-                    // No directional record: the lobe's reflectance is treated as matte.
-                    None => ks * FRAC_1_PI * e,
-                };
-            }
-            let out = w * out;
+            let out = w * shade(scene, eye, i, e, acc.record(slot), inv_b, acc.mode);
             if !out.is_finite() {
                 self.invalid += 1;
                 continue;
@@ -415,20 +381,9 @@ impl RadianceMap {
     ) {
         self.radiance.fill(Vec3::ZERO);
         self.invalid = 0;
-        let f = values.floats;
         for i in 0..eye.len() {
             let e = values.irradiance[i];
-            let mut out = eye.albedo[i] * FRAC_1_PI * e;
-            if eye.is_glossy(i) {
-                let ks = eye.specular[i];
-                out += match values.dir(i) {
-                    Some(rec) if f > 0 && mode != DirectionalMode::Diffuse => {
-                        ks * glossy_radiance(scene, eye, i, mode, rec)
-                    }
-                    _ => ks * FRAC_1_PI * e,
-                };
-            }
-            let out = eye.weight[i] * out;
+            let out = eye.weight[i] * shade(scene, eye, i, e, values.dir(i), 1.0, mode);
             if !out.is_finite() {
                 self.invalid += 1;
                 continue;
@@ -436,6 +391,31 @@ impl RadianceMap {
             self.radiance[eye.pixel[i] as usize] += out;
         }
     }
+}
+
+/// Radiance eye sample `i` reflects towards the eye (before its path weight) from irradiance
+/// `e` and, on a glossy surface, its directional record scaled by `rec_scale`:
+/// kd/π·E + ks·(lobe ⋆ record); without a record the lobe's reflectance is treated as matte.
+#[inline]
+fn shade(
+    scene: &Scene,
+    eye: &EyeSamples,
+    i: usize,
+    e: Vec3,
+    rec: Option<&[f32]>,
+    rec_scale: f32,
+    mode: DirectionalMode,
+) -> Vec3 {
+    let diffuse = eye.albedo[i] * FRAC_1_PI * e;
+    if !eye.is_glossy(i) {
+        return diffuse;
+    }
+    let ks = eye.specular[i];
+    diffuse
+        + match rec {
+            Some(rec) => ks * glossy_radiance(scene, eye, i, mode, rec) * rec_scale,
+            None => ks * FRAC_1_PI * e,
+        }
 }
 
 /// ∫ lobe(ωo, ω)·(L cos θ)(ω) dω at glossy eye sample `i` from its directional record (before

@@ -581,6 +581,7 @@ impl Worker {
             return;
         };
         let film = r.film();
+        let (directional_bytes, glossy_targets) = r.directional_memory();
         let elapsed = self.started.elapsed().as_secs_f64();
         let stats = SessionStats {
             photons_traced: r.photons_traced,
@@ -590,8 +591,8 @@ impl Worker {
             folded_batches: r.folded_batches(),
             stored_batches: r.stored_batches(),
             splat_bytes: r.splat_memory_bytes(),
-            directional_bytes: r.directional_memory().0,
-            glossy_targets: r.directional_memory().1,
+            directional_bytes,
+            glossy_targets,
             cache_records: r.cache.as_ref().map_or(0, |c| c.records.len()),
             photons_per_second: r.photons_traced as f64 / elapsed.max(1e-9),
             last_splat_ms: self.last_splat_ms,

@@ -149,6 +149,33 @@ impl RayDirection {
     }
 }
 
+impl RayDirection {
+    /// Add `power` arriving along this direction to a directional record (§8.1): projected
+    /// onto the SH basis, or spread over the filter's strata.
+    #[inline(always)]
+    pub fn deposit(&self, rec: &mut [f32], power: Vec3, mode: DirectionalMode) {
+        match mode {
+            DirectionalMode::Diffuse => {}
+            DirectionalMode::Sh => {
+                for (c, pc) in [power.x, power.y, power.z].into_iter().enumerate() {
+                    let dst = &mut rec[c * SH_COEFFS..(c + 1) * SH_COEFFS];
+                    for (d, b) in dst.iter_mut().zip(&self.basis) {
+                        *d += pc * b;
+                    }
+                }
+            }
+            DirectionalMode::Histogram => {
+                for t in 0..self.tap_count as usize {
+                    let (wt, s) = (self.basis[t], self.taps[t] as usize * 3);
+                    rec[s] += wt * power.x;
+                    rec[s + 1] += wt * power.y;
+                    rec[s + 2] += wt * power.z;
+                }
+            }
+        }
+    }
+}
+
 /// Rays ready to splat, with their directions when the radiance map keeps them.
 #[derive(Clone, Debug, Default)]
 pub struct SplatBatch {
@@ -300,19 +327,23 @@ pub fn splat(tree: &SplatTree, batch: &SplatBatch, acc: &mut Accumulators) -> Sp
         DirectionalMode::Diffuse
     };
     let (rays, dirs) = (&batch.rays[..], &batch.directions[..]);
-    const CHUNK: usize = 4096;
-    if tree.subtrees.len() < 4 && rays.len() > 2 * CHUNK && acc.len() <= 1 << 16 {
+    // At most 8 parts, each with its own zeroed accumulators: the part size follows the ray
+    // count only, never the thread count, so the sums do not depend on the threads.
+    const MIN_CHUNK: usize = 4096;
+    if tree.subtrees.len() < 4 && rays.len() > 2 * MIN_CHUNK && acc.len() <= 1 << 16 {
+        let chunk = rays.len().div_ceil(8).max(MIN_CHUNK);
         let parts: Vec<(Accumulators, SplatCounters)> = rays
-            .par_chunks(CHUNK)
+            .par_chunks(chunk)
             .enumerate()
-            .map(|(k, chunk)| {
+            .map(|(k, part)| {
+                let chunk_len = chunk;
                 let mut local = acc.zeroed();
                 let d = if mode == DirectionalMode::Diffuse {
                     &dirs[..0]
                 } else {
-                    &dirs[k * CHUNK..k * CHUNK + chunk.len()]
+                    &dirs[k * chunk_len..k * chunk_len + part.len()]
                 };
-                let c = splat_into(tree, chunk, d, &mut local, mode, false);
+                let c = splat_into(tree, part, d, &mut local, mode, false);
                 (local, c)
             })
             .collect();
@@ -462,28 +493,7 @@ fn deposit_directional(
             continue;
         }
         let at = (r - first_record) as usize * f;
-        let rec = &mut records[at..at + f];
-        let p = power * w[l];
-        match mode {
-            DirectionalMode::Diffuse => {}
-            DirectionalMode::Sh => {
-                for (c, pc) in [p.x, p.y, p.z].into_iter().enumerate() {
-                    let dst = &mut rec[c * SH_COEFFS..(c + 1) * SH_COEFFS];
-                    for (d, b) in dst.iter_mut().zip(&dir.basis) {
-                        *d += pc * b;
-                    }
-                }
-            }
-            DirectionalMode::Histogram => {
-                for t in 0..dir.tap_count as usize {
-                    let wt = dir.basis[t];
-                    let s = dir.taps[t] as usize * 3;
-                    rec[s] += wt * p.x;
-                    rec[s + 1] += wt * p.y;
-                    rec[s + 2] += wt * p.z;
-                }
-            }
-        }
+        dir.deposit(&mut records[at..at + f], power * w[l], mode);
     }
 }
 

@@ -237,7 +237,11 @@ pub fn estimate_targets(
                 if directional && e.found > 0 {
                     let area = std::f32::consts::PI * e.radius * e.radius;
                     for ph in map.gathered(heap) {
-                        mode.deposit(&mut rec[..floats], -ph.dir, ph.power / area);
+                        crate::splat::RayDirection::new(ph.dir, mode).deposit(
+                            &mut rec[..floats],
+                            ph.power / area,
+                            mode,
+                        );
                     }
                 }
                 e
