@@ -525,7 +525,7 @@ impl App {
             &mut b.max_bandwidth_r,
             0.01..=1.0,
             "R",
-            "max bandwidth (× scene diagonal)",
+            "bandwidth range: h within [R·h̄, h̄/R]",
             defaults.max_bandwidth_r,
         );
         if b != self.settings.bandwidth {
@@ -799,6 +799,13 @@ impl App {
             ui.label(format!("{:.0} photons/s", s.photons_per_second));
             ui.separator();
             ui.label(format!("splat {:.0} ms/batch", s.last_splat_ms));
+            ui.separator();
+            ui.label(format!(
+                "at h_min {:.1}% / h_max {:.1}%",
+                100.0 * s.indirect_at_h_min,
+                100.0 * s.indirect_at_h_max
+            ))
+            .on_hover_text("indirect photon rays whose bandwidth sits at eq. 8's bounds");
             ui.separator();
             ui.label(format!(
                 "eye samples {} ({} splat targets, {:.1} MB with tree and accumulators)",

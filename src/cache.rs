@@ -547,6 +547,8 @@ mod tests {
                 let s = EyeSample {
                     position: camera.position + d * t,
                     normal: Vec3::Z,
+                    geo_normal: Vec3::Z,
+                    offset: 0.0,
                     wo: -d,
                     material: 0,
                     pixel: y * w + x,

@@ -82,7 +82,7 @@ struct RenderArgs {
     /// S: bandwidth sensitivity in (0, 1] (eq. 8).
     #[arg(long, default_value_t = 0.4)]
     s: f32,
-    /// R: maximum bandwidth as a fraction of the scene diagonal.
+    /// R in (0, 1]: bandwidth range; every h lies within [R·h̄, h̄/R] of the typical bandwidth.
     #[arg(long, default_value_t = 0.2)]
     r: f32,
     #[arg(long, default_value_t = 1)]
@@ -220,8 +220,14 @@ impl RenderArgs {
         if !positive(self.s) || self.s > 1.0 {
             return Err(format!("--s must be in (0, 1], got {}", self.s));
         }
-        if !positive(self.c) || !positive(self.r) {
-            return Err("--c and --r must be positive".into());
+        if !positive(self.c) {
+            return Err(format!("--c must be positive, got {}", self.c));
+        }
+        if !positive(self.r) || self.r > 1.0 {
+            return Err(format!(
+                "--r must be in (0, 1] (every bandwidth within [R·h̄, h̄/R] of the typical one), got {}",
+                self.r
+            ));
         }
         let [f0, f1, f2] = self.fractions[..] else {
             return Err(format!(
@@ -366,7 +372,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
     print_table(&r);
     write_outputs(&args, &film)?;
     if let Some(path) = &args.stats {
-        let j = stats_json(&r, &film, t_load);
+        let j = stats_json(&mut r, &film, t_load);
         let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
         raysplat::film::write_atomic(path, &bytes)?;
         eprintln!("wrote {}", path.display());
@@ -590,8 +596,16 @@ fn truncate(s: &str, n: usize) -> String {
     s.chars().take(n).collect()
 }
 
-fn stats_json(r: &Renderer, film: &Film, t_load: f64) -> serde_json::Value {
+fn stats_json(r: &mut Renderer, film: &Film, t_load: f64) -> serde_json::Value {
     let t = r.timings;
+    let clamps = r.bandwidth_clamps();
+    let class_clamps = |c: usize| {
+        json!({
+            "rays": clamps[c].rays,
+            "at_h_min": clamps[c].fraction_min(),
+            "at_h_max": clamps[c].fraction_max(),
+        })
+    };
     let per_class = r.photon_rays_per_class();
     let (dir_bytes, glossy_targets) = r.directional_memory();
     json!({
@@ -611,6 +625,12 @@ fn stats_json(r: &Renderer, film: &Film, t_load: f64) -> serde_json::Value {
         "photon_rays_indirect": per_class[1],
         "photon_rays_caustic": per_class[2],
         "photon_ray_bytes": r.photon_memory_bytes(),
+        "pilot_mean_length": r.pilot().mean_length,
+        "bandwidth_clamps": {
+            "direct": class_clamps(0),
+            "indirect": class_clamps(1),
+            "caustic": class_clamps(2),
+        },
         "eye_samples": r.eye_samples().len(),
         "splat_targets": r.tree().samples,
         "splat_tree_nodes": r.tree().nodes.len(),

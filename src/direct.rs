@@ -12,7 +12,6 @@ use rayon::prelude::*;
 /// and the number of samples whose estimate was NaN or infinite (set to zero, not used).
 pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) -> (Vec<Vec3>, u64) {
     let samples = samples.max(1);
-    let eps = scene.ray_epsilon();
     let radiance: Vec<Vec3> = (0..eye.len())
         .into_par_iter()
         .map(|i| {
@@ -31,9 +30,11 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
                 if cos <= 0.0 || !ls.value.is_finite() {
                     continue;
                 }
-                let origin = p + n * eps + ls.wi * eps;
-                let tmax = ls.distance * (1.0 - 1e-4) - 2.0 * eps;
-                if tmax > 0.0 && scene.occluded(origin, ls.wi, tmax) {
+                // Off the surface by the hit point's own error bound (never by a fraction of
+                // the scene's size), on the light's side of the geometric surface.
+                let origin =
+                    crate::scene::offset_ray_origin(p, eye.geo_normal[i], eye.offset[i], ls.wi);
+                if !scene.light_visible(origin, &ls) {
                     continue;
                 }
                 sum += bsdf.eval(wo, ls.wi, n) * ls.value * cos;

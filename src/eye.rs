@@ -38,6 +38,10 @@ pub struct EyeSamples {
     pub position: Vec<Vec3>,
     /// Shading normal, flipped to face the viewer.
     pub normal: Vec<Vec3>,
+    /// Geometric normal, facing the viewer (rays leave the surface on its side).
+    pub geo_normal: Vec<Vec3>,
+    /// Error bound of `position` along `geo_normal` ([`crate::scene::Hit::offset`]).
+    pub offset: Vec<f32>,
     /// Unit direction towards the viewer (the previous vertex of the eye path).
     pub wo: Vec<Vec3>,
     pub material: Vec<u32>,
@@ -86,7 +90,7 @@ impl EyeSamples {
 
     /// Bytes held by the sample arrays.
     pub fn memory_bytes(&self) -> usize {
-        self.len() * (6 * 12 + 3 * 4 + 1)
+        self.len() * (7 * 12 + 4 * 4 + 1)
     }
 
     /// True when the sample's BSDF has a glossy lobe.
@@ -116,6 +120,8 @@ impl EyeSamples {
         self.target.push(target);
         self.position.push(s.position);
         self.normal.push(s.normal);
+        self.geo_normal.push(s.geo_normal);
+        self.offset.push(s.offset);
         self.wo.push(s.wo);
         self.material.push(s.material);
         self.pixel.push(s.pixel);
@@ -132,6 +138,9 @@ impl EyeSamples {
 pub struct EyeSample {
     pub position: Vec3,
     pub normal: Vec3,
+    /// Geometric normal facing the viewer, and the position's error bound along it.
+    pub geo_normal: Vec3,
+    pub offset: f32,
     pub wo: Vec3,
     pub material: u32,
     pub pixel: u32,
@@ -219,6 +228,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     for v in [
         &mut samples.position,
         &mut samples.normal,
+        &mut samples.geo_normal,
         &mut samples.wo,
         &mut samples.weight,
         &mut samples.albedo,
@@ -227,6 +237,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
         v.reserve_exact(total);
     }
     samples.material.reserve_exact(total);
+    samples.offset.reserve_exact(total);
     samples.primary.reserve_exact(total);
     samples.pixel.reserve_exact(total);
     samples.target.reserve_exact(total);
@@ -311,15 +322,17 @@ fn trace_chain(
         };
         if let Some((albedo, specular)) = surface {
             // Face the viewer: flip both normals to the side the ray came from.
-            let n = if hit.geo_normal.dot(wo) >= 0.0 {
-                hit.normal
+            let (n, ng) = if hit.geo_normal.dot(wo) >= 0.0 {
+                (hit.normal, hit.geo_normal)
             } else {
-                -hit.normal
+                (-hit.normal, -hit.geo_normal)
             };
             out.push(RawSample {
                 sample: EyeSample {
                     position: hit.position,
                     normal: n,
+                    geo_normal: ng,
+                    offset: hit.offset,
                     wo,
                     material: hit.material,
                     pixel,

@@ -17,14 +17,15 @@ use serde::{Deserialize, Serialize};
 pub const MU_C_FACTOR: f32 = 0.2;
 /// m0 = ⁶√(10⁵) = 10^(5/6) ≈ 6.8 (§6; DESIGN.md on the garbled root).
 pub const M0: f32 = 6.812_921;
-/// The clamp distance D̃ of eq. 7 as a fraction of the scene diagonal (the paper leaves it
-/// scene-dependent without a value; see docs/deviations.md).
-pub const D_TILDE_FRACTION: f32 = 0.05;
+/// The clamp distance D̃ of eq. 7 as a fraction of the pilot's ⟨D⟩ (the paper leaves it
+/// scene-dependent without a value; docs/deviations.md §3). A fraction of the light's own
+/// length scale, never of the bounding box, so far-away geometry cannot change it.
+pub const D_TILDE_FRACTION: f32 = 0.1;
 /// Stand-in solid-angle density of a specular bounce for eq. 7 (a delta has none): about
 /// that of a lobe 6° wide, so caustic paths get the small bandwidths §6 describes.
 pub const SPECULAR_PDF: f32 = 100.0;
-/// The lower bandwidth bound as a fraction of the mean bandwidth at the current M.
-pub const H_MIN_FRACTION: f32 = 0.1;
+/// R is kept in [R_MIN, 1] (R = 1: one bandwidth for every ray).
+pub const R_MIN: f32 = 1e-3;
 /// Photon paths end after this many segments whatever Russian roulette says.
 pub const MAX_PATH_SEGMENTS: u32 = 32;
 /// Photons traced per pilot phase (§6).
@@ -60,6 +61,10 @@ pub struct PhotonRay {
     pub power: Vec3,
     /// Normal of the surface at the origin on the side the ray leaves (zero for point lights).
     pub origin_normal: Vec3,
+    /// |ω·n_s| / |ω·n_g| at the end vertex (1 if it escapes): converts the ray's flux through
+    /// the geometric surface into the shading-normal cosine that the path tracer and the
+    /// splat kernel use, for photon mapping's density estimate (Veach 1997, §5.3).
+    pub end_shading_ratio: f32,
     /// p̃(x_i | x_{i−1}) (unused for bounce 0, where h(x_0) = 0).
     pub pdf_start: f32,
     /// p̃(x_{i+1} | x_i), eq. 7.
@@ -74,6 +79,19 @@ pub struct PhotonRay {
 }
 
 impl PhotonRay {
+    /// The ray hits nothing (it was clipped where it leaves the scene's bounds).
+    #[inline]
+    pub fn escapes(&self) -> bool {
+        self.end_normal == Vec3::ZERO
+    }
+
+    /// The ray ends on a mirror or glass surface: it splats nothing beyond its end, since the
+    /// photon goes on from there (docs/deviations.md §23).
+    #[inline]
+    pub fn ends_specular(&self) -> bool {
+        !self.lands && !self.escapes()
+    }
+
     /// Every number finite (power non-negative): a ray that may be splatted.
     pub fn is_valid(&self) -> bool {
         self.origin.is_finite()
@@ -82,6 +100,7 @@ impl PhotonRay {
             && self.power.is_finite()
             && self.power.min_element() >= 0.0
             && self.origin_normal.is_finite()
+            && self.end_shading_ratio.is_finite()
             && self.end_normal.is_finite()
             && self.pdf_start.is_finite()
             && self.pdf_end.is_finite()
@@ -95,7 +114,8 @@ pub struct BandwidthParams {
     pub smoothness_c: f32,
     /// S ∈ (0, 1], sensitivity.
     pub sensitivity_s: f32,
-    /// R, maximum bandwidth as a fraction of the scene diagonal.
+    /// R ∈ (0, 1], the bandwidth range: every h lies within [R·h̄, h̄/R] of the typical
+    /// bandwidth h̄ = C·(M/10⁵)^(−1/6)·μC (§6's bounds "from μC and R"; docs/deviations.md §5).
     pub max_bandwidth_r: f32,
 }
 
@@ -110,13 +130,21 @@ impl Default for BandwidthParams {
 }
 
 /// Statistics of the pilot phase (§6).
-#[derive(Clone, Debug)]
+///
+/// Both statistics are weighted by the share of power a segment's end vertex sends on (the
+/// Russian-roulette survival probability): segments that escape the scene or end on a black
+/// surface carry no light further and say nothing about the scale of the lighting, so a black
+/// ground plane far away, or an open side, cannot change the bandwidths (docs/deviations.md §2).
+#[derive(Clone, Copy, Debug)]
 pub struct Pilot {
-    /// ⟨D⟩: mean photon-segment length (a length, so that μC = a·⟨D⟩ is one; DESIGN.md).
+    /// ⟨D⟩: weighted mean photon-segment length (a length, so that μC = a·⟨D⟩ is one;
+    /// DESIGN.md). Eq. 7's lengths are measured in this unit.
     pub mean_length: f32,
-    /// p̃ at every pilot vertex that gets a bandwidth (i > 0), kept so ⟨r⟩ can follow S.
-    pub vertex_pdfs: Vec<f32>,
-    pub scene_diagonal: f32,
+    /// Weighted mean of ln p̃ (dimensionless, eq. 7) over the pilot's vertices: the geometric
+    /// mean of r = p̃^(−S/2) for any S is exp(−S/2 · this).
+    pub mean_log_pdf: f64,
+    /// Pilot vertices that entered the statistics.
+    pub vertices: usize,
 }
 
 impl Pilot {
@@ -125,18 +153,35 @@ impl Pilot {
         MU_C_FACTOR * self.mean_length
     }
 
-    /// ⟨r⟩, r = 1/√(p̃^S) (§6).
+    /// The units of eq. 7 for the light pass.
+    pub fn units(&self) -> PathUnits {
+        PathUnits {
+            length: self.mean_length,
+        }
+    }
+
+    /// ⟨r⟩, r = 1/√(p̃^S) (§6), as a geometric mean: p̃ spans many orders of magnitude over
+    /// bounces, and an arithmetic mean is then set by a few deep vertices
+    /// (docs/deviations.md §5).
     pub fn mean_r(&self, s: f32) -> f32 {
-        if self.vertex_pdfs.is_empty() {
+        if self.vertices == 0 {
             return 1.0;
         }
-        let sum: f64 = self
-            .vertex_pdfs
-            .iter()
-            .map(|&p| (p as f64).powf(-0.5 * s as f64))
-            .sum();
-        (sum / self.vertex_pdfs.len() as f64) as f32
+        ((-0.5 * s as f64 * self.mean_log_pdf).exp() as f32).clamp(f32::MIN_POSITIVE, f32::MAX)
     }
+}
+
+/// The length unit of eq. 7 (the pilot's ⟨D⟩): p̃ is computed with lengths in this unit and
+/// area densities per unit², so it has no units and a scene scaled by any factor gets the
+/// same p̃, the same bandwidths relative to its size, and the same image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathUnits {
+    pub length: f32,
+}
+
+impl PathUnits {
+    /// Units for the pilot's first look at a scene, before ⟨D⟩ is known (p̃ unused then).
+    const PROVISIONAL: PathUnits = PathUnits { length: 1.0 };
 }
 
 /// Eq. 8 evaluated for one parameter set and class size; cheap per-vertex evaluation.
@@ -155,14 +200,15 @@ impl Bandwidth {
         let mu_c = pilot.mu_c();
         let w = M0 * mu_c / mean_r; // w = m0·μC/⟨r⟩ (§6)
         let scale = params.smoothness_c * m.powf(-1.0 / 6.0) * w; // eq. 8: C/⁶√M · w
-        // Mean bandwidth at this M is C·(M/10⁵)^(−1/6)·μC; bounds from μC and R (§6).
-        let mean_h = params.smoothness_c * (m / 1e5).powf(-1.0 / 6.0) * mu_c;
-        let h_max = (params.max_bandwidth_r * pilot.scene_diagonal).max(1e-9);
+        // The typical bandwidth at this M, C·(M/10⁵)^(−1/6)·μC (the geometric mean of eq. 8
+        // over the pilot); the bounds "from μC and R" (§6) keep h within a factor 1/R of it.
+        let typical = (params.smoothness_c * (m / 1e5).powf(-1.0 / 6.0) * mu_c).max(1e-30);
+        let r = params.max_bandwidth_r.clamp(R_MIN, 1.0);
         Self {
             scale,
             half_s: 0.5 * params.sensitivity_s,
-            h_min: (H_MIN_FRACTION * mean_h).min(h_max),
-            h_max,
+            h_min: typical * r,
+            h_max: typical / r,
         }
     }
 
@@ -173,6 +219,8 @@ impl Bandwidth {
     }
 
     /// (h0, dh) of a ray (§6): h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i))/|x_{i+1} − x_i|.
+    /// A ray that escapes has no end vertex: it keeps its start bandwidth (a cylinder) up to
+    /// where it leaves the scene, so the bounding box only clips it.
     #[inline]
     pub fn cone(&self, ray: &PhotonRay) -> (f32, f32) {
         let hi = if ray.bounce == 0 {
@@ -180,9 +228,58 @@ impl Bandwidth {
         } else {
             self.h(ray.pdf_start)
         };
+        if ray.escapes() {
+            return (hi, 0.0);
+        }
         let hj = self.h(ray.pdf_end);
         let dh = (hj - hi).max(0.0) / ray.length.max(1e-12);
         (hi.min(hj), dh)
+    }
+}
+
+/// Rays of one class whose cone sits at a bandwidth bound: `at_min` start at h_min (h0 =
+/// h_min), `at_max` end at h_max. A healthy eq. 8 leaves few at either (docs/deviations.md §5).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ClampCounts {
+    pub rays: u64,
+    pub at_min: u64,
+    pub at_max: u64,
+}
+
+impl ClampCounts {
+    /// Count the rays of `class` in `rays` under the bandwidth `bw`.
+    pub fn count(rays: &[PhotonRay], bw: &Bandwidth, class: PhotonClass) -> Self {
+        rays.par_iter()
+            .filter(|r| r.class == class)
+            .fold(Self::default, |mut c, r| {
+                let (h0, dh) = bw.cone(r);
+                c.rays += 1;
+                // h(x_0) = 0 is eq. 8's own start, not a clamp.
+                c.at_min += (r.bounce > 0 && h0 <= bw.h_min) as u64;
+                c.at_max += (h0 + dh * r.length >= bw.h_max) as u64;
+                c
+            })
+            .reduce(Self::default, |a, b| Self {
+                rays: a.rays + b.rays,
+                at_min: a.at_min + b.at_min,
+                at_max: a.at_max + b.at_max,
+            })
+    }
+
+    pub fn fraction_min(&self) -> f64 {
+        self.at_min as f64 / self.rays.max(1) as f64
+    }
+
+    pub fn fraction_max(&self) -> f64 {
+        self.at_max as f64 / self.rays.max(1) as f64
+    }
+}
+
+impl std::ops::AddAssign for ClampCounts {
+    fn add_assign(&mut self, o: Self) {
+        self.rays += o.rays;
+        self.at_min += o.at_min;
+        self.at_max += o.at_max;
     }
 }
 
@@ -233,6 +330,8 @@ pub struct LightPassSettings {
     /// Offset of this batch's photon indices (so batches use disjoint random streams); the next
     /// batch starts at `first_photon + max(emitted)`, which does not depend on thread count.
     pub first_photon: u64,
+    /// Eq. 7's length unit, from the pilot ([`Pilot::units`]).
+    pub units: PathUnits,
 }
 
 /// Segment under construction, with the index of the photon that made it.
@@ -240,6 +339,9 @@ pub struct LightPassSettings {
 struct TaggedRay {
     photon: u64,
     ray: PhotonRay,
+    /// Share of the power the end vertex sends on (the Russian-roulette survival
+    /// probability; 0 when the ray escapes or the path ends there): the pilot's weight.
+    onward: f32,
 }
 
 /// D(x, y) = max(D̃², ‖x − y‖²) (eq. 7).
@@ -254,6 +356,7 @@ fn trace_photon(
     photon: u64,
     seed: u64,
     keep: [bool; 3],
+    units: PathUnits,
     out: &mut Vec<TaggedRay>,
     invalid: &mut u64,
 ) -> bool {
@@ -261,16 +364,25 @@ fn trace_photon(
     let Some(e) = scene.lights.sample_emission(&mut rng) else {
         return false;
     };
-    let d_tilde = D_TILDE_FRACTION * scene.diagonal();
+    // Eq. 7 without units: lengths in ⟨D⟩, so D̃ is a fraction of it.
+    let inv_unit = 1.0 / units.length.max(f32::MIN_POSITIVE);
     // Leave the emitting surface on the side the photon goes, so it cannot hit its own light
     // (a two-sided panel lies in the plane of its origin: t = 0 would count as a hit).
-    let mut origin = e.origin + e.normal * scene.ray_epsilon();
+    let mut origin = if e.offset > 0.0 {
+        crate::scene::offset_ray_origin(e.origin, e.normal, e.offset, e.direction)
+    } else {
+        e.origin
+    };
     let mut dir = e.direction;
     let mut normal = e.normal;
     let mut power = e.power;
     // p̃ of the current vertex and the density factor of the next segment's direction.
     let mut pdf_here = 0.0f32;
-    let mut dir_density = e.pdf;
+    let mut dir_density = if e.pdf_per_area {
+        e.pdf * units.length * units.length
+    } else {
+        e.pdf
+    };
     let mut any_diffuse = false;
     for bounce in 0..MAX_PATH_SEGMENTS {
         if !power.is_finite() {
@@ -294,7 +406,9 @@ fn trace_photon(
         let prev = if bounce == 0 { 1.0 } else { pdf_here };
         // Long specular chains multiply p̃ past f32's range; it saturates (its bandwidth is
         // h_min either way) rather than becoming infinite.
-        let pdf_next = (prev * dir_density / clamped_sq_distance(length, d_tilde)).min(f32::MAX);
+        let pdf_next = (prev * dir_density
+            / clamped_sq_distance(length * inv_unit, D_TILDE_FRACTION))
+        .min(f32::MAX);
         let class = if bounce == 0 {
             PhotonClass::Direct
         } else if any_diffuse {
@@ -312,15 +426,26 @@ fn trace_photon(
                 -h.geo_normal
             }
         });
-        if keep[class as usize] {
+        let end_shading_ratio = hit.as_ref().map_or(1.0, |h| {
+            let cos_g = dir.dot(h.geo_normal).abs();
+            if cos_g > 0.0 {
+                dir.dot(h.normal).abs() / cos_g
+            } else {
+                0.0
+            }
+        });
+        let pushed = keep[class as usize];
+        if pushed {
             out.push(TaggedRay {
                 photon,
+                onward: 0.0,
                 ray: PhotonRay {
                     origin,
                     dir,
                     length,
                     power,
                     origin_normal: normal,
+                    end_shading_ratio,
                     pdf_start: pdf_here,
                     pdf_end: pdf_next,
                     bounce: bounce.min(255) as u8,
@@ -343,9 +468,24 @@ fn trace_photon(
         if !transmitted && cos_g_out * cos_g_in <= 0.0 {
             break;
         }
-        let mut new_power = power * s.weight;
+        // Shading normals make the BSDF non-symmetric: a photon (importance transport) needs
+        // Veach's adjoint factor |ωo·n_s||ωi·n_g| / (|ωo·n_g||ωi·n_s|) (Veach 1997, §5.3) on
+        // top of f·|ωi·n_s|/pdf, so that photons and the path tracer agree on smooth-shaded
+        // meshes. On a flat-shaded surface it is exactly 1.
+        let adjoint = {
+            let den = cos_g_in.abs() * s.wi.dot(hit.normal).abs();
+            if den > 0.0 {
+                wo.dot(hit.normal).abs() * cos_g_out.abs() / den
+            } else {
+                0.0
+            }
+        };
+        let mut new_power = power * s.weight * adjoint;
         // Russian roulette keeping the photon power roughly constant.
         let q = (new_power.max_element() / power.max_element()).min(1.0);
+        if pushed && let Some(last) = out.last_mut() {
+            last.onward = if q.is_finite() { q.max(0.0) } else { 0.0 };
+        }
         if rng.next_f32() >= q {
             break;
         }
@@ -366,7 +506,15 @@ fn trace_photon(
 }
 
 fn exit_distance(scene: &Scene, o: Vec3, d: Vec3) -> f32 {
-    let pad = Vec3::splat(1e-3 * scene.diagonal());
+    // A few ulps of the bounds' coordinates, so that a sample on the boundary is inside.
+    let pad = Vec3::splat(
+        8.0 * f32::EPSILON
+            * scene
+                .bounds_min
+                .abs()
+                .max(scene.bounds_max.abs())
+                .max_element(),
+    );
     crate::splat_tree::clip(
         o.into(),
         d.into(),
@@ -380,46 +528,69 @@ fn exit_distance(scene: &Scene, o: Vec3, d: Vec3) -> f32 {
 }
 
 /// The pilot shooting phase (§6): trace a few thousand photons, record segment lengths and
-/// vertex pdfs.
+/// vertex pdfs. It runs twice over the same photons: once for ⟨D⟩, once for eq. 7's p̃ in
+/// units of it.
 pub fn pilot(scene: &Scene, seed: u64) -> Pilot {
-    let chunks: Vec<Vec<TaggedRay>> = (0..PILOT_PHOTONS as u64 / 512)
-        .into_par_iter()
-        .map(|c| {
-            let mut out = Vec::new();
-            let mut invalid = 0;
-            for id in c * 512..(c + 1) * 512 {
-                trace_photon(
-                    scene,
-                    id,
-                    seed ^ 0x005e_ed0f_9110,
-                    [true; 3],
-                    &mut out,
-                    &mut invalid,
-                );
-            }
-            out.retain(|r| r.ray.is_valid());
-            out
-        })
-        .collect();
-    let mut len_sum = 0.0f64;
-    let mut n = 0usize;
-    let mut vertex_pdfs = Vec::new();
-    for r in chunks.iter().flatten() {
-        len_sum += r.ray.length as f64;
-        n += 1;
-        if r.ray.pdf_end.is_finite() && r.ray.pdf_end > 0.0 {
-            vertex_pdfs.push(r.ray.pdf_end);
+    let trace = |units: PathUnits| -> Vec<TaggedRay> {
+        (0..PILOT_PHOTONS as u64 / 512)
+            .into_par_iter()
+            .map(|c| {
+                let mut out = Vec::new();
+                let mut invalid = 0;
+                for id in c * 512..(c + 1) * 512 {
+                    trace_photon(
+                        scene,
+                        id,
+                        seed ^ 0x005e_ed0f_9110,
+                        [true; 3],
+                        units,
+                        &mut out,
+                        &mut invalid,
+                    );
+                }
+                out.retain(|r| r.ray.is_valid());
+                out
+            })
+            .flatten_iter()
+            .collect()
+    };
+    let first = trace(PathUnits::PROVISIONAL);
+    let (mut len_sum, mut w_sum) = (0.0f64, 0.0f64);
+    for r in &first {
+        let w = r.onward as f64;
+        len_sum += w * r.ray.length as f64;
+        w_sum += w;
+    }
+    let mean_length = if w_sum > 0.0 && len_sum > 0.0 {
+        (len_sum / w_sum) as f32
+    } else {
+        // No photon bounces anywhere (every surface black, or nothing to hit): the plain mean
+        // length of what was traced, or the scene's size as a last resort.
+        let n = first.len().max(1) as f64;
+        let plain = first.iter().map(|r| r.ray.length as f64).sum::<f64>() / n;
+        if plain > 0.0 {
+            plain as f32
+        } else {
+            0.1 * scene.diagonal()
+        }
+    };
+    let units = PathUnits {
+        length: mean_length,
+    };
+    let second = trace(units);
+    let (mut log_sum, mut w_sum, mut vertices) = (0.0f64, 0.0f64, 0usize);
+    for r in &second {
+        let p = r.ray.pdf_end;
+        if r.onward > 0.0 && p.is_finite() && p > 0.0 {
+            log_sum += r.onward as f64 * (p as f64).ln();
+            w_sum += r.onward as f64;
+            vertices += 1;
         }
     }
-    let mean_length = if n > 0 {
-        (len_sum / n as f64) as f32
-    } else {
-        0.1 * scene.diagonal()
-    };
     Pilot {
         mean_length,
-        vertex_pdfs,
-        scene_diagonal: scene.diagonal(),
+        mean_log_pdf: if w_sum > 0.0 { log_sum / w_sum } else { 0.0 },
+        vertices,
     }
 }
 
@@ -462,6 +633,7 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
                         s.first_photon + id,
                         s.seed,
                         want,
+                        s.units,
                         &mut out,
                         &mut invalid,
                     );
@@ -521,11 +693,13 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
 mod tests {
     use super::*;
 
+    /// A pilot whose vertices had these p̃ (equal weights).
     fn pilot(pdfs: Vec<f32>) -> Pilot {
+        let n = pdfs.len();
         Pilot {
             mean_length: 0.5,
-            vertex_pdfs: pdfs,
-            scene_diagonal: 10.0,
+            mean_log_pdf: pdfs.iter().map(|&p| (p as f64).ln()).sum::<f64>() / n.max(1) as f64,
+            vertices: n,
         }
     }
 
@@ -537,6 +711,7 @@ mod tests {
             length: 1.0,
             power: Vec3::ONE,
             origin_normal: Vec3::Y,
+            end_shading_ratio: 1.0,
             pdf_start: 0.0,
             pdf_end: 1.0,
             bounce: 0,
@@ -582,7 +757,7 @@ mod tests {
         let params = BandwidthParams {
             smoothness_c: 0.7,
             sensitivity_s: 0.6,
-            max_bandwidth_r: 1.0,
+            max_bandwidth_r: R_MIN,
         };
         let m = 50_000u64;
         let mean_r = p.mean_r(params.sensitivity_s);
@@ -597,16 +772,18 @@ mod tests {
 
     #[test]
     fn mean_bandwidth_is_mu_c_at_m_1e5_and_c_1() {
-        // m0 calibrates the mean (unclamped) bandwidth to μC at M = 10⁵, C = 1 (§6).
+        // m0 calibrates the typical (unclamped) bandwidth to μC at M = 10⁵, C = 1 (§6); with
+        // ⟨r⟩ a geometric mean, the geometric mean of h is μC.
         let pdfs: Vec<f32> = (1..200).map(|i| 0.05 * i as f32).collect();
         let p = pilot(pdfs.clone());
         let params = BandwidthParams {
             smoothness_c: 1.0,
             sensitivity_s: 0.4,
-            max_bandwidth_r: 100.0,
+            max_bandwidth_r: R_MIN,
         };
         let bw = Bandwidth::new(&params, &p, 100_000, p.mean_r(0.4));
-        let mean: f32 = pdfs.iter().map(|&x| bw.h(x)).sum::<f32>() / pdfs.len() as f32;
+        let mean = (pdfs.iter().map(|&x| (bw.h(x) as f64).ln()).sum::<f64>() / pdfs.len() as f64)
+            .exp() as f32;
         assert!(
             (mean - p.mu_c()).abs() < 1e-3 * p.mu_c(),
             "{mean} vs {}",
@@ -618,7 +795,7 @@ mod tests {
     fn bandwidth_falls_with_the_sixth_root_of_m() {
         let p = pilot(vec![1.0]);
         let params = BandwidthParams {
-            max_bandwidth_r: 100.0,
+            max_bandwidth_r: R_MIN,
             ..BandwidthParams::default()
         };
         let a = Bandwidth::new(&params, &p, 1_000, 1.0).h(1.0);
@@ -632,8 +809,23 @@ mod tests {
         let params = BandwidthParams::default();
         let bw = Bandwidth::new(&params, &p, 100_000, 1.0);
         assert_eq!(bw.h(1e-30), bw.h_max);
-        assert!((bw.h_max - 0.2 * 10.0).abs() < 1e-6);
         assert_eq!(bw.h(1e30), bw.h_min);
+        // [R·h̄, h̄/R] around h̄ = μC at M = 10⁵, C = 1.
+        assert!((bw.h_max - p.mu_c() / 0.2).abs() < 1e-6);
+        assert!((bw.h_min - p.mu_c() * 0.2).abs() < 1e-6);
+        // R = 1: one bandwidth for every ray; R beyond 1 is taken as 1.
+        for r in [1.0, 5.0] {
+            let one = Bandwidth::new(
+                &BandwidthParams {
+                    max_bandwidth_r: r,
+                    ..params
+                },
+                &p,
+                100_000,
+                1.0,
+            );
+            assert_eq!(one.h(1e-3), one.h(1e3));
+        }
     }
 
     #[test]
@@ -641,7 +833,7 @@ mod tests {
         let p = pilot(vec![1.0]);
         let bw = Bandwidth::new(
             &BandwidthParams {
-                max_bandwidth_r: 100.0,
+                max_bandwidth_r: R_MIN,
                 ..BandwidthParams::default()
             },
             &p,
@@ -654,6 +846,7 @@ mod tests {
             length: 2.0,
             power: Vec3::ONE,
             origin_normal: Vec3::X,
+            end_shading_ratio: 1.0,
             pdf_start: 4.0,
             pdf_end: 1.0,
             bounce: 1,

@@ -476,6 +476,8 @@ mod tests {
             let s = EyeSample {
                 position: Vec3::ZERO,
                 normal: Vec3::Y,
+                geo_normal: Vec3::Y,
+                offset: 0.0,
                 wo: Vec3::Y,
                 material: 0,
                 pixel,

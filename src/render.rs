@@ -16,8 +16,8 @@ use crate::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
 use crate::film::Film;
 use crate::filter::FilterParams;
 use crate::photon::{
-    Bandwidth, BandwidthParams, ClassBudgets, LightPassSettings, PhotonBatch, PhotonClass,
-    PhotonRay, Pilot, light_pass, pilot,
+    Bandwidth, BandwidthParams, ClampCounts, ClassBudgets, LightPassSettings, PhotonBatch,
+    PhotonClass, PhotonRay, Pilot, light_pass, pilot,
 };
 use crate::radiance_map::{Accumulators, Channel, DirectionalMode, RadianceMap};
 use crate::scene::{Camera, Scene};
@@ -133,6 +133,8 @@ impl Timings {
 struct StoredBatch {
     rays: Vec<PhotonRay>,
     m: [u64; 3],
+    /// Its rays at the bandwidth bounds under the parameters they were last counted for.
+    clamps: Option<(BandwidthParams, [ClampCounts; 3])>,
 }
 
 /// What [`Renderer::step`] did.
@@ -338,6 +340,44 @@ impl Renderer {
             .map(|c| Bandwidth::new(&self.settings.bandwidth, &self.pilot, m[c as usize], mean_r))
     }
 
+    /// Photon mapping's largest gather radius: rs's h_max (eq. 8's upper bound from μC and R)
+    /// for the largest class stored, so both methods share one bound that follows the lighting's
+    /// scale, never the bounding box.
+    fn pm_max_radius(&self) -> f32 {
+        let bw = self.bandwidths(self.m_total);
+        PhotonClass::ALL
+            .iter()
+            .filter(|&&c| self.m_total[c as usize] > 0)
+            .map(|&c| bw[c as usize].h_max)
+            .fold(0.0f32, f32::max)
+            .max(bw[PhotonClass::Indirect as usize].h_max)
+    }
+
+    /// Rays of each class (direct, indirect, caustic) whose cones sit at h_min or h_max under
+    /// the current parameters, over the stored batches (each with its own M). Each batch is
+    /// counted once per parameter set, so the previewer can ask every frame.
+    pub fn bandwidth_clamps(&mut self) -> [ClampCounts; 3] {
+        let params = self.settings.bandwidth;
+        let mut out = [ClampCounts::default(); 3];
+        for i in 0..self.batches.len() {
+            let counts = match self.batches[i].clamps {
+                Some((p, c)) if p == params => c,
+                _ => {
+                    let b = &self.batches[i];
+                    let bw = self.bandwidths(b.m);
+                    let c =
+                        PhotonClass::ALL.map(|c| ClampCounts::count(&b.rays, &bw[c as usize], c));
+                    self.batches[i].clamps = Some((params, c));
+                    c
+                }
+            };
+            for c in 0..3 {
+                out[c] += counts[c];
+            }
+        }
+        out
+    }
+
     /// Do one unit of work: re-splat the next stored batch if a re-splat is pending, otherwise
     /// trace and splat a new batch.
     pub fn step(&mut self) -> Step {
@@ -375,6 +415,7 @@ impl Renderer {
                 max_emitted_factor: self.settings.max_emitted_factor,
                 seed: self.settings.seed,
                 first_photon: self.photons_used,
+                units: self.pilot.units(),
             },
         );
         self.photons_traced += batch.traced;
@@ -392,6 +433,7 @@ impl Renderer {
         self.batches.push(StoredBatch {
             rays: batch.rays,
             m,
+            clamps: None,
         });
         self.fold_over_budget();
         self.timings.t_splat += t.elapsed().as_secs_f64();
@@ -515,7 +557,6 @@ impl Renderer {
             .collect();
         let inv_b = 1.0 / batches.len().max(1) as f32;
         let side = &self.side;
-        let diag = self.scene.diagonal();
         let mut counters = SplatCounters::default();
         let cache = cache::build(
             &side.eye,
@@ -533,7 +574,7 @@ impl Renderer {
                 let pos: Vec<Vec3> = targets.iter().map(|&t| side.targets.position[t]).collect();
                 let nrm: Vec<Vec3> = targets.iter().map(|&t| side.targets.normal[t]).collect();
                 let glossy: Vec<bool> = targets.iter().map(|&t| side.targets.glossy[t]).collect();
-                let tree = SplatTree::build(&pos, &nrm, diag);
+                let tree = SplatTree::build(&pos, &nrm);
                 let mut acc = Accumulators::for_tree(&tree, &glossy, mode);
                 for batch in &batches {
                     counters += splat(&tree, batch, &mut acc);
@@ -552,7 +593,7 @@ impl Renderer {
         let t = Instant::now();
         let batches: Vec<&[PhotonRay]> = self.batches.iter().map(|b| &b.rays[..]).collect();
         let (global, caustic) = build_maps(&batches, self.splat_direct());
-        let r_max = self.settings.bandwidth.max_bandwidth_r * self.scene.diagonal();
+        let r_max = self.pm_max_radius();
         let side = &mut self.side;
         self.pm_stats = Some(estimate_targets(
             &global,
@@ -823,7 +864,7 @@ fn eye_side(
         targets,
         emitted,
     } = eye_pass(scene, camera, &eye_settings);
-    let tree = SplatTree::build(&targets.position, &targets.normal, scene.diagonal());
+    let tree = SplatTree::build(&targets.position, &targets.normal);
     timings.t_eye += t.elapsed().as_secs_f64();
 
     let t = Instant::now();

@@ -113,6 +113,10 @@ pub struct SessionStats {
     pub resplat_pending: bool,
     /// Paths per pixel of the reference image, 0 when it is off.
     pub reference_spp: u32,
+    /// Fractions of the indirect photon rays whose bandwidth sits at h_min and at h_max
+    /// (eq. 8's bounds; docs/deviations.md §5).
+    pub indirect_at_h_min: f64,
+    pub indirect_at_h_max: f64,
 }
 
 /// A published image and everything needed to describe it.
@@ -602,7 +606,21 @@ impl Worker {
             paused: self.paused,
             resplat_pending: r.resplat_pending(),
             reference_spp: self.reference.as_ref().map_or(0, |p| p.samples_per_pixel()),
+            indirect_at_h_min: 0.0,
+            indirect_at_h_max: 0.0,
         };
+        let mut stats = stats;
+        // The indirect class's rays at the bandwidth bounds (all classes when it is empty).
+        let clamps = r.bandwidth_clamps();
+        let pick = if clamps[1].rays > 0 {
+            clamps[1]
+        } else {
+            let mut all = clamps[0];
+            all += clamps[2];
+            all
+        };
+        stats.indirect_at_h_min = pick.fraction_min();
+        stats.indirect_at_h_max = pick.fraction_max();
         self.seq += 1;
         let frame = Frame {
             film,

@@ -110,6 +110,10 @@ pub struct SplatRay {
     pub end_gain: f32,
     /// length · (dir · end_normal): the hit plane is {p : (p − origin) · end_normal = this}.
     pub end_plane: f32,
+    /// 1 when the footprint extends beyond the hit point as the hemisphere of Fig. 4; 0 when
+    /// the ray ends on a mirror or glass (the photon goes on from there, so the next segment
+    /// carries that light) or escapes: then nothing past the end receives anything.
+    pub beyond: f32,
     pub bounds_min: Vec3A,
     pub bounds_max: Vec3A,
 }
@@ -202,7 +206,9 @@ impl SplatRay {
         };
         let (bounds_min, bounds_max) = cone.bounds();
         let cos_hit = -ray.dir.dot(ray.end_normal);
-        let end_gain = if ray.end_normal == Vec3::ZERO {
+        // Only a ray that lands on a surface that holds eye samples gets the hemisphere and
+        // the end gain; a specular end has no samples on it to correct for.
+        let end_gain = if !ray.lands {
             1.0
         } else {
             // Never more than 4×: at grazing incidence on a steep cone the kept mass tends to 0.
@@ -215,6 +221,7 @@ impl SplatRay {
             end_normal: ray.end_normal.into(),
             end_gain,
             end_plane: ray.length * ray.dir.dot(ray.end_normal),
+            beyond: if ray.lands { 1.0 } else { 0.0 },
             bounds_min,
             bounds_max,
         }
@@ -288,8 +295,11 @@ pub fn test_sample(ray: &SplatRay, p: Vec3, n: Vec3) -> LaneResult {
     let cos = -(n.x * c.dir.x + n.y * c.dir.y + n.z * c.dir.z);
     // ... and it lies in front of the surface the ray leaves.
     let front = vx * ray.origin_normal.x + vy * ray.origin_normal.y + vz * ray.origin_normal.z;
-    let feasible =
-        (t >= 0.0) & (d2 < r2) & ((t <= c.length) | (e2 < r2)) & (cos > 0.0) & (front >= 0.0);
+    let feasible = (t >= 0.0)
+        & (d2 < r2)
+        & ((t <= c.length) | (e2 < r2 * ray.beyond))
+        & (cos > 0.0)
+        & (front >= 0.0);
     // On the hit surface near the hit point, make up for the mass the hemisphere cut off
     // (written without a branch so that 8 lanes of this vectorise).
     let n_end = ray.end_normal;
@@ -583,6 +593,7 @@ mod tests {
                 let th = deg.to_radians();
                 let dir = Vec3::new(th.sin(), -th.cos(), 0.0);
                 let ray = PhotonRay {
+                    end_shading_ratio: 1.0,
                     origin: -dir * len,
                     dir,
                     length: len,
@@ -634,6 +645,7 @@ mod tests {
             end_normal: Vec3A::Y,
             end_gain: 1.0,
             end_plane: -1.0,
+            beyond: 1.0,
             bounds_min: Vec3A::splat(-1.0),
             bounds_max: Vec3A::splat(1.0),
         };
@@ -648,5 +660,42 @@ mod tests {
         // Beyond the hit point but inside the hemisphere: feasible; outside it: not.
         assert!(test_sample(&bw_ray, Vec3::new(0.0, -1.05, 0.0), Vec3::Y).feasible);
         assert!(!test_sample(&bw_ray, Vec3::new(0.08, -1.08, 0.0), Vec3::Y).feasible);
+    }
+
+    /// A ray that ends on glass or a mirror splats nothing past its end and gets no end gain
+    /// (the photon goes on from there, so the next segment carries that light); the same ray
+    /// landing on a diffuse surface splats into the hemisphere beyond with the gain.
+    #[test]
+    fn a_specular_end_splats_nothing_beyond_it() {
+        let mut ray = PhotonRay {
+            origin: Vec3::new(0.0, 1.0, 0.0),
+            dir: Vec3::new(0.6, -0.8, 0.0),
+            length: 1.0,
+            power: Vec3::ONE,
+            origin_normal: Vec3::ZERO,
+            end_shading_ratio: 1.0,
+            pdf_start: 1.0,
+            pdf_end: 1.0,
+            bounce: 1,
+            class: crate::photon::PhotonClass::Caustic,
+            lands: true,
+            end_normal: Vec3::Y,
+        };
+        let end = ray.origin + ray.dir * ray.length;
+        // Just past the end, on the plane it hits, and just before the end, off the plane.
+        let past = end + Vec3::new(0.02, 0.0, 0.0);
+        let before = end - ray.dir * 0.05;
+        let landing = SplatRay::with_cone(&ray, 0.1, 0.0);
+        assert!(landing.end_gain > 1.0);
+        assert!(test_sample(&landing, past, Vec3::Y).feasible);
+        ray.lands = false;
+        let specular = SplatRay::with_cone(&ray, 0.1, 0.0);
+        assert_eq!(specular.end_gain, 1.0);
+        assert!(!test_sample(&specular, past, Vec3::Y).feasible);
+        let r = test_sample(&specular, before, Vec3::Y);
+        assert!(r.feasible && r.weight > 0.0);
+        // Its weight before the end is the plain kernel, with no gain.
+        let k = epanechnikov(0.0, 0.01) * 0.8;
+        assert!((r.weight - k).abs() < 1e-3 * k, "{} vs {k}", r.weight);
     }
 }

@@ -280,8 +280,10 @@ pub struct SplatTree {
 pub const PADDING: u32 = u32::MAX;
 
 impl SplatTree {
-    /// Build over splat-target `positions` and `normals`.
-    pub fn build(positions: &[Vec3], normals: &[Vec3], scene_diagonal: f32) -> Self {
+    /// Build over splat-target `positions` and `normals`. Cells stop splitting below
+    /// [`MIN_CELL_FRACTION`] of the targets' own extent (§7.1 says of the scene's; the targets'
+    /// extent does not grow with geometry nobody sees).
+    pub fn build(positions: &[Vec3], normals: &[Vec3]) -> Self {
         let n = positions.len();
         let mut min = Vec3A::splat(f32::INFINITY);
         let mut max = Vec3A::splat(f32::NEG_INFINITY);
@@ -302,7 +304,7 @@ impl SplatTree {
             nodes: Vec::with_capacity(2 * n / LEAF_SIZE + 16),
             leaves: Vec::with_capacity(n / 8 + 1),
             subtrees: Vec::new(),
-            min_diag: MIN_CELL_FRACTION * scene_diagonal,
+            min_diag: MIN_CELL_FRACTION * (max - min).length(),
             subtree_max,
         };
         b.build(0, n, min, max, false, false, 0);

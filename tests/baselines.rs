@@ -302,6 +302,13 @@ fn furnace_settings() -> RenderSettings {
         nee_samples: 4,
         fg_rays: 16,
         pm_k: 200,
+        // Half the default smoothness: a kernel that reaches over the cube's edges loses part
+        // of its mass there, a bandwidth bias that grows as h² (rs at C = 1: −1.33%; C = 0.5:
+        // −0.26%; C = 0.25: −0.11%). This test is about energy, not that bias.
+        bandwidth: raysplat::photon::BandwidthParams {
+            smoothness_c: 0.5,
+            ..Default::default()
+        },
         ..RenderSettings::default()
     }
 }
@@ -314,11 +321,12 @@ fn furnace_error(scene: &Arc<Scene>, method: Method, s: &RenderSettings) -> f32 
 }
 
 /// The white furnace for every method (rs and pm with NEE and with direct photons, rs-fg,
-/// pm-fg, pt) at default bandwidths: the image mean is Le/(1 − ρ) within 1%, so no stage of
-/// any pipeline loses or invents energy. Measured: every method within ±0.45%.
+/// pm-fg, pt): the image mean is Le/(1 − ρ) within 1%, so no stage of any pipeline loses or
+/// invents energy.
 #[test]
 fn every_method_passes_the_white_furnace() {
     let scene = furnace(true);
+
     let mut failures = Vec::new();
     for (method, direct) in [
         (Method::Rs, DirectMode::Nee),
@@ -349,19 +357,26 @@ fn every_method_passes_the_white_furnace() {
 #[test]
 fn curved_furnace_bias_shrinks_with_the_bandwidth() {
     let scene = furnace(false);
-    let wide = furnace_error(&scene, Method::Rs, &furnace_settings());
+    let wide = furnace_error(
+        &scene,
+        Method::Rs,
+        &RenderSettings {
+            bandwidth: raysplat::photon::BandwidthParams::default(),
+            ..furnace_settings()
+        },
+    );
     let narrow = furnace_error(
         &scene,
         Method::Rs,
         &RenderSettings {
             bandwidth: raysplat::photon::BandwidthParams {
                 smoothness_c: 0.3,
-                sensitivity_s: 0.4,
-                max_bandwidth_r: 0.03,
+                ..Default::default()
             },
             ..furnace_settings()
         },
     );
+    eprintln!("curved furnace: wide {wide:+.4}, narrow {narrow:+.4}");
     assert!(
         wide < 0.0 && narrow.abs() < 0.6 * wide.abs(),
         "wide {wide:+.4}, narrow {narrow:+.4}"

@@ -450,7 +450,7 @@ fn failing_writes_say_why_and_leave_nothing_behind() {
 /// no ray is dropped, and the saturated rays splat with the smallest bandwidth.
 #[test]
 fn long_specular_chains_saturate_the_path_pdf() {
-    use raysplat::photon::{ClassBudgets, LightPassSettings, light_pass};
+    use raysplat::photon::{ClassBudgets, LightPassSettings, PathUnits, light_pass};
     let scene = Scene::default_scene();
     let batch = light_pass(
         &scene,
@@ -459,6 +459,7 @@ fn long_specular_chains_saturate_the_path_pdf() {
             max_emitted_factor: 4,
             seed: 3,
             first_photon: 0,
+            units: PathUnits { length: 1.0 },
         },
     );
     assert_eq!(batch.invalid, 0, "photon rays dropped as non-finite");

@@ -81,6 +81,7 @@ fn rays(seed: u64, n: usize, radius: f32, grow: f32) -> Vec<SplatRay> {
                 },
                 end_gain: 1.0 + rng.next_f32(),
                 end_plane: if i % 4 == 0 { 0.0 } else { -length },
+                beyond: if i % 5 == 0 { 0.0 } else { 1.0 },
                 bounds_min,
                 bounds_max,
             }
@@ -90,7 +91,7 @@ fn rays(seed: u64, n: usize, radius: f32, grow: f32) -> Vec<SplatRay> {
 
 fn check(seed: u64, n_targets: usize, n_rays: usize, radius: f32, grow: f32) {
     let (p, nrm) = targets(seed, n_targets);
-    let tree = SplatTree::build(&p, &nrm, 3.5);
+    let tree = SplatTree::build(&p, &nrm);
     let rays = rays(seed, n_rays, radius, grow);
     // Every third target glossy, so that subtrees own differing numbers of records.
     let glossy: Vec<bool> = (0..p.len()).map(|t| t % 3 == 1).collect();

@@ -102,6 +102,7 @@ pub fn render_fg(
             max_emitted_factor: s.max_emitted_factor,
             seed: s.seed,
             first_photon: 0,
+            units: pilot.units(),
         },
     );
     timings.t_light += t.elapsed().as_secs_f64();
@@ -109,7 +110,12 @@ pub fn render_fg(
     let bw = PhotonClass::ALL
         .map(|c| Bandwidth::new(&s.bandwidth, &pilot, batch.stored[c as usize], mean_r));
     let maps = (!splatting).then(|| build_maps(&[&batch.rays], true));
-    let r_max = s.bandwidth.max_bandwidth_r * scene.diagonal();
+    // The same largest radius as rs's h_max (docs/deviations.md §18).
+    let r_max = PhotonClass::ALL
+        .iter()
+        .filter(|&&c| batch.stored[c as usize] > 0)
+        .map(|&c| bw[c as usize].h_max)
+        .fold(0.0f32, f32::max);
 
     // Caustics at the eye samples.
     let t = Instant::now();
@@ -209,7 +215,7 @@ fn estimate_at(
     if samples.is_empty() {
         return vec![Vec3::ZERO; n_pixels];
     }
-    let tree = SplatTree::build(&samples.position, &samples.normal, scene.diagonal());
+    let tree = SplatTree::build(&samples.position, &samples.normal);
     let mut acc = Accumulators::new(tree.slots());
     fill(&tree, &mut acc);
     let mut map = RadianceMap::new(w, h);
@@ -254,27 +260,30 @@ fn gather_from(
     let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
     let (p, nrm) = (eye.position[i], eye.normal[i]);
     let bsdf = eye.bsdf(i, scene);
-    let origin = p + nrm * scene.ray_epsilon();
+    let (ng, offset) = (eye.geo_normal[i], eye.offset[i]);
     for _ in 0..n {
         // BSDF sampling (cosine sampling for a Lambertian: f·cos/pdf = ρ).
         let Some(s) = bsdf.sample(eye.wo[i], nrm, rng.next_2d(), rng.next_f32()) else {
             continue;
         };
         let (dir, weight) = (s.wi, eye.weight[i] * s.weight / n as f32);
+        let origin = crate::scene::offset_ray_origin(p, ng, offset, dir);
         let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
             continue;
         };
         if scene.materials[hit.material as usize].is_specular() {
             continue;
         }
-        let facing = if hit.geo_normal.dot(dir) <= 0.0 {
-            hit.normal
+        let (facing, geo_facing) = if hit.geo_normal.dot(dir) <= 0.0 {
+            (hit.normal, hit.geo_normal)
         } else {
-            -hit.normal
+            (-hit.normal, -hit.geo_normal)
         };
         out.push(EyeSample {
             position: hit.position,
             normal: facing,
+            geo_normal: geo_facing,
+            offset: hit.offset,
             wo: -dir,
             material: hit.material,
             pixel: eye.pixel[i],

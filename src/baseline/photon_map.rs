@@ -188,7 +188,9 @@ pub fn build_maps(batches: &[&[PhotonRay]], with_direct: bool) -> (PhotonMap, Ph
             let ph = MapPhoton {
                 position: r.origin + r.dir * r.length,
                 dir: r.dir,
-                power: r.power * scale,
+                // Flux through the geometric surface, turned into the shading-normal cosine
+                // the path tracer integrates (Veach 1997, §5.3; 1 on flat-shaded surfaces).
+                power: r.power * (scale * r.end_shading_ratio),
             };
             match r.class {
                 PhotonClass::Caustic => caustic.push(ph),

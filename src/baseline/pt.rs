@@ -112,7 +112,6 @@ pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) 
     let mut specular = true;
     let mut prev_pdf = 0.0f32;
     let mut prev_pos = o;
-    let eps = scene.ray_epsilon();
     for depth in 0..max_depth {
         let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
             break;
@@ -145,9 +144,8 @@ pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) 
             if let Some(ls) = scene.lights.sample_direct(hit.position, u, rng.next_2d()) {
                 let cos = n.dot(ls.wi);
                 if cos > 0.0 && ls.value.is_finite() {
-                    let from = hit.position + n * eps + ls.wi * eps;
-                    let tmax = ls.distance * (1.0 - 1e-4) - 2.0 * eps;
-                    if tmax <= 0.0 || !scene.occluded(from, ls.wi, tmax) {
+                    let from = scene.offset(&hit, ls.wi);
+                    if scene.light_visible(from, &ls) {
                         let f = bsdf.eval(wo, ls.wi, ns);
                         let w = if ls.pdf.is_finite() {
                             power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, ns))

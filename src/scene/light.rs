@@ -24,6 +24,8 @@ pub enum Light {
         area: f32,
         radiance: Vec3,
         two_sided: bool,
+        /// The scene triangle it is.
+        triangle: u32,
     },
     /// KHR_lights_punctual point light; `intensity` in W/sr (glTF candela taken as radiometric).
     Point { position: Vec3, intensity: Vec3 },
@@ -48,6 +50,13 @@ pub struct EmittedPhoton {
     pub power: Vec3,
     /// Emission pdf p_e(x0, x1) without the distance term: area pdf × solid-angle pdf (eq. 7).
     pub pdf: f32,
+    /// `pdf` includes an area density (1/m²: area and directional lights), which eq. 7 must
+    /// express in the pilot's length unit to be free of units; point and spot lights' pdfs are
+    /// per steradian only.
+    pub pdf_per_area: bool,
+    /// Error bound of `origin` along `normal` (zero for punctual lights): the photon leaves
+    /// this far off its emitter ([`crate::scene::offset_ray_origin`]).
+    pub offset: f32,
 }
 
 /// A point on a light for explicit direct lighting.
@@ -60,6 +69,9 @@ pub struct LightSample {
     pub value: Vec3,
     /// Solid-angle pdf of this sample (for MIS); infinite for point, spot and directional lights.
     pub pdf: f32,
+    /// The emitting triangle sampled (`u32::MAX` for punctual lights): a shadow ray never
+    /// counts it as its own occluder.
+    pub triangle: u32,
 }
 
 #[derive(Clone, Debug)]
@@ -109,6 +121,7 @@ impl Lights {
                 area,
                 radiance: m.emission,
                 two_sided: m.double_sided,
+                triangle: ti as u32,
             });
         }
         lights.extend(punctual.into_iter().filter(|l| {
@@ -209,6 +222,7 @@ impl Lights {
                 area,
                 radiance,
                 two_sided,
+                ..
             } => {
                 let (b1, b2) = uniform_triangle(u_pos);
                 let (n, p_side) = if two_sided {
@@ -227,6 +241,13 @@ impl Lights {
                     // Le · cos / (p_sel · p_side · (1/A) · cos/π)
                     power: radiance * (PI * area / (p_sel * p_side)),
                     pdf,
+                    pdf_per_area: true,
+                    offset: crate::scene::surface_offset(
+                        v0.abs()
+                            .max((v0 + e1).abs())
+                            .max((v0 + e2).abs())
+                            .max_element(),
+                    ),
                 }
             }
             Light::Point {
@@ -238,6 +259,8 @@ impl Lights {
                 normal: Vec3::ZERO,
                 power: intensity * (4.0 * PI / p_sel),
                 pdf: p_sel / (4.0 * PI),
+                pdf_per_area: false,
+                offset: 0.0,
             },
             Light::Spot {
                 position,
@@ -255,6 +278,8 @@ impl Lights {
                     power: intensity
                         * (spot_falloff(local.z, cos_inner, cos_outer) / (p_sel * pdf_dir)),
                     pdf: p_sel * pdf_dir,
+                    pdf_per_area: false,
+                    offset: 0.0,
                 }
             }
             Light::Directional {
@@ -271,6 +296,8 @@ impl Lights {
                     normal: direction,
                     power: irradiance * (area / p_sel),
                     pdf: p_sel / area,
+                    pdf_per_area: true,
+                    offset: 0.0,
                 }
             }
         };
@@ -290,6 +317,7 @@ impl Lights {
                 area,
                 radiance,
                 two_sided,
+                triangle,
             } => {
                 let (b1, b2) = uniform_triangle(u);
                 let q = v0 + b1 * e1 + b2 * e2;
@@ -312,6 +340,7 @@ impl Lights {
                     distance,
                     value: radiance * (cos_l * area / (dist2 * p_sel)),
                     pdf: p_sel * dist2 / (area * cos_l),
+                    triangle,
                 })
             }
             Light::Point {
@@ -326,6 +355,7 @@ impl Lights {
                     distance,
                     value: intensity / (dist2 * p_sel),
                     pdf: f32::INFINITY,
+                    triangle: u32::MAX,
                 })
             }
             Light::Spot {
@@ -348,6 +378,7 @@ impl Lights {
                     distance,
                     value: intensity * (fall / (dist2 * p_sel)),
                     pdf: f32::INFINITY,
+                    triangle: u32::MAX,
                 })
             }
             Light::Directional {
@@ -358,6 +389,7 @@ impl Lights {
                 distance: 4.0 * self.scene_radius,
                 value: irradiance / p_sel,
                 pdf: f32::INFINITY,
+                triangle: u32::MAX,
             }),
         }
     }

@@ -166,7 +166,62 @@ pub struct Hit {
     pub uv: Vec2,
     pub triangle: u32,
     pub material: u32,
+    /// How far `position` may lie from the true surface along `geo_normal`: the floating-point
+    /// error bound of the barycentric interpolation that computed it (pbrt-v4 §6.8), a few
+    /// ulps of the triangle's own coordinates. Spawned rays start this far off the surface.
+    pub offset: f32,
 }
+
+/// γ(n) = n·u/(1 − n·u), u = 2⁻²⁴: the bound on the relative error of n floating-point
+/// operations (Higham; pbrt-v4 §6.8.1).
+pub const fn gamma(n: u32) -> f32 {
+    let u = f32::EPSILON * 0.5;
+    n as f32 * u / (1.0 - n as f32 * u)
+}
+
+/// Spawn offsets are this many times the error bound: the ray–triangle test's own rounding
+/// (obvhs's Möller–Trumbore, not watertight) must not bring a ray back onto its surface.
+const OFFSET_SAFETY: f32 = 4.0;
+
+/// How far a spawned ray must start off a surface whose triangle has coordinates of absolute
+/// value up to `coord_max`. pbrt-v4 bounds only the hit point's own error (§6.8), which is
+/// exactly zero on a plane through the origin such as a floor at y = 0; but obvhs's
+/// Möller–Trumbore test computes t from v0 − origin and accepts t = 0, so an origin exactly on
+/// the plane hits its own triangle. The bound here covers both: a few ulps of the largest
+/// coordinate of the triangle or the point (Higham's γ(7), pbrt-v4 §6.8.1). It depends on the
+/// hit triangle alone, never on the scene's size.
+#[inline]
+pub fn surface_offset(coord_max: f32) -> f32 {
+    OFFSET_SAFETY * gamma(7) * coord_max.max(f32::MIN_POSITIVE)
+}
+
+/// A ray origin just off the surface through `p` (normal `n`, error bound `offset` along it),
+/// on the side of `dir`: pbrt-v4's OffsetRayOrigin. Each coordinate is rounded away from `p`
+/// so that the addition's own rounding cannot bring it back. The offset depends only on the
+/// hit triangle's coordinates, never on the scene's size.
+#[inline]
+pub fn offset_ray_origin(p: Vec3, n: Vec3, offset: f32, dir: Vec3) -> Vec3 {
+    let off = if dir.dot(n) < 0.0 {
+        -n * offset
+    } else {
+        n * offset
+    };
+    let po = p + off;
+    let away = |v: f32, d: f32| {
+        if d > 0.0 {
+            v.next_up()
+        } else if d < 0.0 {
+            v.next_down()
+        } else {
+            v
+        }
+    };
+    Vec3::new(away(po.x, off.x), away(po.y, off.y), away(po.z, off.z))
+}
+
+/// Shadow rays stop this fraction of their length short of the light sample (pbrt-v4's
+/// ShadowEpsilon): relative, so the same at every scale.
+pub const SHADOW_EPSILON: f32 = 1e-4;
 
 pub struct Scene {
     pub name: String,
@@ -181,8 +236,6 @@ pub struct Scene {
     /// Things the loader skipped or repaired, for the user to read.
     pub warnings: Vec<String>,
     bvh: CwBvh,
-    /// Offset for spawned rays, relative to the scene size.
-    ray_epsilon: f32,
 }
 
 /// What the loaders hand to [`Scene::build`].
@@ -275,7 +328,6 @@ impl Scene {
             bounds_max,
             warnings: parts.warnings,
             bvh,
-            ray_epsilon: 2e-5 * diag,
         })
     }
 
@@ -285,10 +337,6 @@ impl Scene {
 
     pub fn center(&self) -> Vec3 {
         0.5 * (self.bounds_min + self.bounds_max)
-    }
-
-    pub fn ray_epsilon(&self) -> f32 {
-        self.ray_epsilon
     }
 
     pub fn camera(&self, name: Option<&str>) -> Option<&Camera> {
@@ -330,12 +378,33 @@ impl Scene {
     /// True when something blocks the open segment `origin + t·dir`, t ∈ (0, tmax).
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        self.occluded_except(origin, dir, tmax, u32::MAX)
+    }
+
+    /// [`Scene::occluded`], never counting the triangle `skip` as an occluder.
+    #[inline]
+    pub fn occluded_except(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> bool {
         let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
         let tris = &self.triangles;
         let idx = &self.bvh.primitive_indices;
-        !self
-            .bvh
-            .ray_traverse_miss(ray, |r, id| tris[idx[id] as usize].intersect(r))
+        !self.bvh.ray_traverse_miss(ray, |r, id| {
+            let t = idx[id];
+            if t == skip {
+                f32::INFINITY
+            } else {
+                tris[t as usize].intersect(r)
+            }
+        })
+    }
+
+    /// True when the light sample `ls` is visible from `origin` (already offset off its
+    /// surface): the shadow ray stops [`SHADOW_EPSILON`] of its length short of the sample and
+    /// never counts the sampled emitter triangle itself as the occluder, so a light panel just
+    /// below a ceiling lights the ceiling at any scene scale.
+    #[inline]
+    pub fn light_visible(&self, origin: Vec3, ls: &LightSample) -> bool {
+        let tmax = ls.distance * (1.0 - SHADOW_EPSILON);
+        tmax > 0.0 && !self.occluded_except(origin, ls.wi, tmax, ls.triangle)
     }
 
     fn hit_record(&self, tri_id: u32, p: Vec3, t: f32) -> Hit {
@@ -351,6 +420,18 @@ impl Scene {
         let b1 = (vp.cross(e2)).dot(cross) * inv;
         let b2 = (e1.cross(vp)).dot(cross) * inv;
         let b0 = 1.0 - b1 - b2;
+        // The point on the triangle's plane from its barycentrics, with the error bound of
+        // that interpolation (pbrt-v4 §6.8.5): the hit point is no more wrong than a few ulps
+        // of the triangle's own coordinates.
+        let p_on = v0 * b0 + v1 * b1 + v2 * b2;
+        let p = if p_on.is_finite() { p_on } else { p };
+        let coord_max = v0
+            .abs()
+            .max(v1.abs())
+            .max(v2.abs())
+            .max(p.abs())
+            .max_element();
+        let offset = surface_offset(coord_max);
         let sh = &self.shading[tri_id as usize];
         let mut normal =
             (sh.normals[0] * b0 + sh.normals[1] * b1 + sh.normals[2] * b2).normalize_or(geo_normal);
@@ -366,6 +447,7 @@ impl Scene {
             uv,
             triangle: tri_id,
             material: sh.material,
+            offset,
         }
     }
 
@@ -427,15 +509,10 @@ impl Scene {
         }
     }
 
-    /// A spawn point just off the surface on the side of `dir`.
+    /// A spawn point just off the surface on the side of `dir` ([`offset_ray_origin`]).
     #[inline]
     pub fn offset(&self, hit: &Hit, dir: Vec3) -> Vec3 {
-        let s = if hit.geo_normal.dot(dir) >= 0.0 {
-            1.0
-        } else {
-            -1.0
-        };
-        hit.position + hit.geo_normal * (s * self.ray_epsilon)
+        offset_ray_origin(hit.position, hit.geo_normal, hit.offset, dir)
     }
 
     pub fn triangle_count(&self) -> usize {

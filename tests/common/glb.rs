@@ -77,3 +77,79 @@ pub fn accessor_offset(json: &Value, a: usize) -> usize {
     view["byteOffset"].as_u64().unwrap_or(0) as usize
         + acc["byteOffset"].as_u64().unwrap_or(0) as usize
 }
+
+/// The same scene with every root node under one parent scaled by `s` (cameras included):
+/// physically the same picture, as area lights keep their radiance.
+pub fn scaled(glb: &[u8], s: f32) -> Vec<u8> {
+    let (mut json, bin) = split(glb);
+    let scene = json["scene"].as_u64().unwrap_or(0) as usize;
+    let roots = json["scenes"][scene]["nodes"].clone();
+    let nodes = json["nodes"].as_array_mut().unwrap();
+    nodes.push(json!({"name": "scale", "scale": [s, s, s], "children": roots}));
+    let parent = nodes.len() - 1;
+    json["scenes"][scene]["nodes"] = json!([parent]);
+    join(&json, &bin)
+}
+
+/// The same scene with a black (albedo 0) square ground plane of half size `half` at height
+/// `y`, facing up: it reflects nothing, only the bounding box grows.
+pub fn with_black_ground(glb: &[u8], y: f32, half: f32) -> Vec<u8> {
+    let (mut json, mut bin) = split(glb);
+    let mut view = |bin: &mut Vec<u8>, bytes: &[u8], target: u32| {
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let offset = bin.len();
+        bin.extend_from_slice(bytes);
+        let views = json["bufferViews"].as_array_mut().unwrap();
+        views.push(
+            json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target}),
+        );
+        views.len() - 1
+    };
+    let p = [
+        Vec3::new(-half, y, -half),
+        Vec3::new(half, y, -half),
+        Vec3::new(half, y, half),
+        Vec3::new(-half, y, half),
+    ];
+    let f32s = |v: &[Vec3]| -> Vec<u8> {
+        v.iter()
+            .flat_map(|p| p.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect()
+    };
+    let pv = view(&mut bin, &f32s(&p), 34962);
+    let nv = view(&mut bin, &f32s(&[Vec3::Y; 4]), 34962);
+    let idx: Vec<u8> = [0u32, 2, 1, 0, 3, 2]
+        .iter()
+        .flat_map(|i| i.to_le_bytes())
+        .collect();
+    let iv = view(&mut bin, &idx, 34963);
+    let accessors = json["accessors"].as_array_mut().unwrap();
+    accessors.push(
+        json!({"bufferView": pv, "componentType": 5126, "count": 4, "type": "VEC3",
+        "min": [-half, y, -half], "max": [half, y, half]}),
+    );
+    accessors.push(json!({"bufferView": nv, "componentType": 5126, "count": 4, "type": "VEC3"}));
+    accessors.push(json!({"bufferView": iv, "componentType": 5125, "count": 6, "type": "SCALAR"}));
+    let a = accessors.len();
+    let materials = json["materials"].as_array_mut().unwrap();
+    materials.push(json!({"name": "black_ground", "pbrMetallicRoughness": {
+        "baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
+    let m = materials.len() - 1;
+    let meshes = json["meshes"].as_array_mut().unwrap();
+    meshes.push(json!({"name": "black_ground", "primitives": [{
+        "attributes": {"POSITION": a - 3, "NORMAL": a - 2}, "indices": a - 1, "material": m}]}));
+    let mesh = meshes.len() - 1;
+    let nodes = json["nodes"].as_array_mut().unwrap();
+    nodes.push(json!({"name": "black_ground", "mesh": mesh}));
+    let node = nodes.len() - 1;
+    let scene = json["scene"].as_u64().unwrap_or(0) as usize;
+    json["scenes"][scene]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!(node));
+    json["buffers"][0]["byteLength"] = json!(bin.len());
+    join(&json, &bin)
+}
