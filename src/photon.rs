@@ -18,9 +18,11 @@ pub const MU_C_FACTOR: f32 = 0.2;
 /// m0 = ⁶√(10⁵) = 10^(5/6) ≈ 6.8 (§6; DESIGN.md on the garbled root).
 pub const M0: f32 = 6.812_921;
 /// The clamp distance D̃ of eq. 7 as a fraction of the pilot's ⟨D⟩ (the paper leaves it
-/// scene-dependent without a value; docs/deviations.md §3). A fraction of the light's own
-/// length scale, never of the bounding box, so far-away geometry cannot change it.
-pub const D_TILDE_FRACTION: f32 = 0.1;
+/// scene-dependent without a value; docs/deviations.md §3): D̃ = μC, the typical kernel
+/// radius at M = 10⁵, since a segment shorter than a kernel says nothing about how the
+/// density changes across one. A fraction of the light's own length scale, never of the
+/// bounding box, so far-away geometry cannot change it.
+pub const D_TILDE_FRACTION: f32 = MU_C_FACTOR;
 /// Stand-in solid-angle density of a specular bounce for eq. 7 (a delta has none): about
 /// that of a lobe 6° wide, so caustic paths get the small bandwidths §6 describes.
 pub const SPECULAR_PDF: f32 = 100.0;
@@ -376,13 +378,21 @@ fn trace_photon(
     let mut dir = e.direction;
     let mut normal = e.normal;
     let mut power = e.power;
-    // p̃ of the current vertex and the density factor of the next segment's direction.
-    let mut pdf_here = 0.0f32;
-    let mut dir_density = if e.pdf_per_area {
+    // Eq. 7 is followed along two chains (docs/deviations.md §4). The caustic chain gives a
+    // specular bounce the stand-in density SPECULAR_PDF, so caustic rays (L S+ …) get the
+    // small bandwidths §6 describes. Direct and indirect rays use the unfolded chain: a
+    // mirror or glass vertex adds no density factor and the segments on either side of it
+    // count as one, so light already spread by a diffuse bounce keeps its spread through glass.
+    let emit_density = if e.pdf_per_area {
         e.pdf * units.length * units.length
     } else {
         e.pdf
     };
+    // Unfolded chain: p̃ at the last non-specular vertex (1 before the light), the density
+    // of the direction sampled there, the length travelled since, and p̃ at the current vertex.
+    let (mut u_base, mut u_density, mut u_len, mut u_here) = (1.0f32, emit_density, 0.0f32, 0.0f32);
+    // Caustic chain: p̃ at the current vertex and the density of the next direction.
+    let (mut c_here, mut c_density) = (1.0f32, emit_density);
     let mut any_diffuse = false;
     for bounce in 0..MAX_PATH_SEGMENTS {
         if !power.is_finite() {
@@ -403,10 +413,12 @@ fn trace_photon(
             break;
         }
         // eq. 7: p̃(x1|x0) = p_e/D(x0,x1); p̃(x_{i+1}|x_i) = p̃(x_i|x_{i−1})·p_s⊥/D(x_i,x_{i+1})
-        let prev = if bounce == 0 { 1.0 } else { pdf_here };
         // Long specular chains multiply p̃ past f32's range; it saturates (its bandwidth is
         // h_min either way) rather than becoming infinite.
-        let pdf_next = (prev * dir_density
+        let u_next = (u_base * u_density
+            / clamped_sq_distance((u_len + length) * inv_unit, D_TILDE_FRACTION))
+        .min(f32::MAX);
+        let c_next = (c_here * c_density
             / clamped_sq_distance(length * inv_unit, D_TILDE_FRACTION))
         .min(f32::MAX);
         let class = if bounce == 0 {
@@ -415,6 +427,11 @@ fn trace_photon(
             PhotonClass::Indirect
         } else {
             PhotonClass::Caustic
+        };
+        let (pdf_start, pdf_end) = match class {
+            PhotonClass::Direct => (0.0, u_next),
+            PhotonClass::Indirect => (u_here, u_next),
+            PhotonClass::Caustic => (c_here, c_next),
         };
         let lands = hit
             .as_ref()
@@ -446,8 +463,8 @@ fn trace_photon(
                     power,
                     origin_normal: normal,
                     end_shading_ratio,
-                    pdf_start: pdf_here,
-                    pdf_end: pdf_next,
+                    pdf_start,
+                    pdf_end,
                     bounce: bounce.min(255) as u8,
                     class,
                     lands,
@@ -491,9 +508,15 @@ fn trace_photon(
         }
         new_power /= q;
         power = new_power;
+        // eq. 7's next factor: p̃ × p_s⊥ / D.
+        if s.specular {
+            u_len += length;
+        } else {
+            (u_base, u_density, u_len) = (u_next, s.pdf, 0.0);
+        }
+        u_here = u_next;
+        (c_here, c_density) = (c_next, if s.specular { SPECULAR_PDF } else { s.pdf });
         any_diffuse |= !s.specular;
-        dir_density = if s.specular { SPECULAR_PDF } else { s.pdf };
-        pdf_here = pdf_next;
         normal = if cos_g_out >= 0.0 {
             hit.geo_normal
         } else {

@@ -365,30 +365,27 @@ fn resplat_uses_stored_rays() {
 }
 
 /// Progressive batches: each adds its photons to M, so bandwidths shrink (h ∝ M^(−1/6)) and the
-/// image keeps its brightness while noise falls.
+/// image keeps its brightness while noise falls. The reference (2 × 10⁶ photons) has the same
+/// seed, hence the same eye samples and pilot: with other eye samples the comparison has a
+/// floor of its own (CORNELL BOX I's bumpy floor and glass make two seeds' pixels differ by
+/// relMSE 0.005 whatever the photons), which hid the photons' convergence. Its first
+/// 10⁶-photon batch shares the 8 batches' photons (160k of them).
 #[test]
 fn progressive_batches_converge() {
     let scene = Arc::new(Scene::default_scene());
     let mut reference = Renderer::new(
         scene.clone(),
         RenderSettings {
-            photons: 200_000,
+            photons: 1_000_000,
             ..small_settings()
         },
     )
     .unwrap();
-    for _ in 0..4 {
+    for _ in 0..2 {
         reference.run_batch();
     }
     let reference = reference.film();
-    let mut r = Renderer::new(
-        scene,
-        RenderSettings {
-            seed: 99,
-            ..small_settings()
-        },
-    )
-    .unwrap();
+    let mut r = Renderer::new(scene, small_settings()).unwrap();
     r.run_batch();
     let one = raysplat::film::rel_mse(&r.film().indirect, &reference.indirect);
     for _ in 0..7 {
@@ -396,11 +393,9 @@ fn progressive_batches_converge() {
     }
     let eight = raysplat::film::rel_mse(&r.film().indirect, &reference.indirect);
     assert_eq!(r.batch_count(), 8);
-    // Against a reference of other photons and other eye samples, the error after 8 batches
-    // also holds the bias of the mix of bandwidths the 8 batches used (M from 20k to 160k)
-    // against the reference's (up to 800k): measured 0.72 of the first batch's.
+    // Measured 0.30 (0.00214 → 0.00064).
     assert!(
-        eight < 0.8 * one,
+        eight < 0.5 * one,
         "relMSE after 8 batches {eight} vs after 1 {one}"
     );
     let (m1, m8) = (reference.mean(), r.film().mean());

@@ -447,7 +447,9 @@ fn failing_writes_say_why_and_leave_nothing_behind() {
 
 /// Regression (seen in the previewer as "NaN/Inf contributions dropped"): photons trapped in
 /// CORNELL BOX I's glass sphere multiply eq. 7's p̃ past f32's range. p̃ saturates instead, so
-/// no ray is dropped, and the saturated rays splat with the smallest bandwidth.
+/// no ray is dropped, and the saturated rays splat with the smallest bandwidth. A length unit
+/// of 10⁶ m (areas of 10¹² m²) drives the caustic chain past f32's range within a few bounces;
+/// with the pilot's unit it takes a dozen and is rare.
 #[test]
 fn long_specular_chains_saturate_the_path_pdf() {
     use raysplat::photon::{ClassBudgets, LightPassSettings, PathUnits, light_pass};
@@ -459,7 +461,7 @@ fn long_specular_chains_saturate_the_path_pdf() {
             max_emitted_factor: 4,
             seed: 3,
             first_photon: 0,
-            units: PathUnits { length: 1.0 },
+            units: PathUnits { length: 1e6 },
         },
     );
     assert_eq!(batch.invalid, 0, "photon rays dropped as non-finite");

@@ -256,7 +256,10 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
 /// The progressive image converges: its relMSE against a long render falls as batches
 /// accumulate (consistency of the h ∝ M^(−1/6) schedule). On the classic Lambertian box: in
 /// CORNELL BOX I the focus of the glass sphere's caustic, a few pixels, carries 97% of the
-/// relMSE at 48×48 and converges far more slowly than the rest of the image.
+/// relMSE at 48×48 and converges far more slowly than the rest of the image. The long render
+/// has the session's seed, hence its eye samples and pilot: another seed's eye samples differ
+/// at every edge, a floor that no number of photons lowers. (Its photons include the
+/// session's, which flatters the last checkpoint a little.)
 #[test]
 fn progressive_image_converges_to_a_long_render() {
     let _watchdog = Watchdog::new(240);
@@ -266,7 +269,6 @@ fn progressive_image_converges_to_a_long_render() {
         scene.clone(),
         RenderSettings {
             photons: 400_000,
-            seed: 77,
             ..config.settings.clone()
         },
     )
@@ -293,6 +295,7 @@ fn progressive_image_converges_to_a_long_render() {
         .collect();
     // Variance and squared bias both fall about as M^(−2/3): 32× the photons should cut the
     // error about tenfold; ask for half, and for a fall at every checkpoint.
+    eprintln!("relMSE by batches: {errors:?}");
     assert!(
         errors[1].1 < errors[0].1 && errors[2].1 < errors[1].1 && errors[2].1 < 0.5 * errors[0].1,
         "relMSE by batches: {errors:?}"
