@@ -27,7 +27,9 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
                     continue;
                 };
                 let cos = n.dot(ls.wi);
-                if cos <= 0.0 || !ls.value.is_finite() {
+                // On the viewer's side of the geometric surface too (the shading normal can
+                // lean past it): the path tracer and photons draw the same line.
+                if cos <= 0.0 || !ls.value.is_finite() || eye.geo_normal[i].dot(ls.wi) <= 0.0 {
                     continue;
                 }
                 // Off the surface by the hit point's own error bound (never by a fraction of

@@ -301,14 +301,15 @@ fn trace_chain(
     max_depth: u32,
     out: &mut Vec<RawSample>,
 ) -> Vec3 {
-    let mut stack = [(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0u32, 0f32); BRANCH_STACK];
-    stack[0] = (origin, dir, weight, 0, 0.0);
+    // (origin, direction, weight, depth, length so far, triangle left)
+    let mut stack = [(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0u32, 0f32, u32::MAX); BRANCH_STACK];
+    stack[0] = (origin, dir, weight, 0, 0.0, u32::MAX);
     let mut top = 1;
     let mut emitted = Vec3::ZERO;
     while top > 0 {
         top -= 1;
-        let (o, d, w, depth, travelled) = stack[top];
-        let Some(hit) = scene.intersect(o, d, f32::INFINITY) else {
+        let (o, d, w, depth, travelled, leaving) = stack[top];
+        let Some(hit) = scene.intersect_except(o, d, f32::INFINITY, leaving) else {
             continue;
         };
         let path_length = travelled + hit.t;
@@ -346,9 +347,21 @@ fn trace_chain(
             });
             continue;
         }
-        let mut push = |o: Vec3, d: Vec3, w: Vec3, top: &mut usize| {
-            if w.max_element() >= MIN_BRANCH_WEIGHT && *top < BRANCH_STACK {
-                stack[*top] = (o, d, w, depth + 1, path_length);
+        // A branch that leaves through the geometric surface the wrong way (a shading normal
+        // can send it there) is dropped, as photons and the path tracer drop it.
+        let mut push = |d: Vec3, w: Vec3, transmit: bool, top: &mut usize| {
+            if w.max_element() >= MIN_BRANCH_WEIGHT
+                && *top < BRANCH_STACK
+                && Scene::leaves_correctly(&hit, wo, d, transmit)
+            {
+                stack[*top] = (
+                    scene.offset(&hit, d),
+                    d,
+                    w,
+                    depth + 1,
+                    path_length,
+                    hit.triangle,
+                );
                 *top += 1;
             }
         };
@@ -363,7 +376,7 @@ fn trace_chain(
                     -hit.normal
                 };
                 let r = reflect(wo, n);
-                push(scene.offset(&hit, r), r, w * color, &mut top);
+                push(r, w * color, false, &mut top);
             }
             Bsdf::Dielectric { ior, tint } => {
                 let cos_o = wo.dot(hit.normal);
@@ -374,9 +387,9 @@ fn trace_chain(
                 };
                 let f = fresnel_dielectric(cos_o.abs(), eta);
                 let r = reflect(wo, n);
-                push(scene.offset(&hit, r), r, w * f, &mut top);
+                push(r, w * f, false, &mut top);
                 if let Some(t) = refract(wo, n, eta) {
-                    push(scene.offset(&hit, t), t, w * tint * (1.0 - f), &mut top);
+                    push(t, w * tint * (1.0 - f), true, &mut top);
                 }
             }
         }

@@ -255,10 +255,12 @@ impl ClampCounts {
             .filter(|r| r.class == class)
             .fold(Self::default, |mut c, r| {
                 let (h0, dh) = bw.cone(r);
+                let h_end = h0 + dh * r.length;
                 c.rays += 1;
-                // h(x_0) = 0 is eq. 8's own start, not a clamp.
-                c.at_min += (r.bounce > 0 && h0 <= bw.h_min) as u64;
-                c.at_max += (h0 + dh * r.length >= bw.h_max) as u64;
+                // h(x_0) = 0 is eq. 8's own start, not a clamp: a ray leaving the light is at
+                // h_min when its end is.
+                c.at_min += (if r.bounce == 0 { h_end } else { h0 } <= bw.h_min) as u64;
+                c.at_max += (h_end >= bw.h_max) as u64;
                 c
             })
             .reduce(Self::default, |a, b| Self {
@@ -344,6 +346,8 @@ struct TaggedRay {
     /// Share of the power the end vertex sends on (the Russian-roulette survival
     /// probability; 0 when the ray escapes or the path ends there): the pilot's weight.
     onward: f32,
+    /// The first segment of a directional light's photon, from a disc outside the scene.
+    parallel: bool,
 }
 
 /// D(x, y) = max(D̃², ‖x − y‖²) (eq. 7).
@@ -394,6 +398,8 @@ fn trace_photon(
     // Caustic chain: p̃ at the current vertex and the density of the next direction.
     let (mut c_here, mut c_density) = (1.0f32, emit_density);
     let mut any_diffuse = false;
+    // The triangle the photon leaves (never its next hit).
+    let mut leaving = e.triangle;
     for bounce in 0..MAX_PATH_SEGMENTS {
         if !power.is_finite() {
             *invalid += 1;
@@ -402,7 +408,7 @@ fn trace_photon(
         if power.max_element() <= 0.0 {
             break;
         }
-        let hit = scene.intersect(origin, dir, f32::INFINITY);
+        let hit = scene.intersect_except(origin, dir, f32::INFINITY, leaving);
         let length = match &hit {
             Some(h) => h.t,
             // Escaping photons still pass eye samples on their way out: keep the segment up
@@ -415,12 +421,19 @@ fn trace_photon(
         // eq. 7: p̃(x1|x0) = p_e/D(x0,x1); p̃(x_{i+1}|x_i) = p̃(x_i|x_{i−1})·p_s⊥/D(x_i,x_{i+1})
         // Long specular chains multiply p̃ past f32's range; it saturates (its bandwidth is
         // h_min either way) rather than becoming infinite.
-        let u_next = (u_base * u_density
-            / clamped_sq_distance((u_len + length) * inv_unit, D_TILDE_FRACTION))
-        .min(f32::MAX);
-        let c_next = (c_here * c_density
-            / clamped_sq_distance(length * inv_unit, D_TILDE_FRACTION))
-        .min(f32::MAX);
+        // A directional light's photons travel in parallel: their density does not fall with
+        // distance, so the first segment has no D (and its length, from a disc outside the
+        // scene, is no length of the scene's lighting: the pilot leaves it out).
+        let parallel = bounce == 0 && e.parallel;
+        let d_of = |l: f32| {
+            if parallel {
+                1.0
+            } else {
+                clamped_sq_distance(l * inv_unit, D_TILDE_FRACTION)
+            }
+        };
+        let u_next = (u_base * u_density / d_of(u_len + length)).min(f32::MAX);
+        let c_next = (c_here * c_density / d_of(length)).min(f32::MAX);
         let class = if bounce == 0 {
             PhotonClass::Direct
         } else if any_diffuse {
@@ -443,10 +456,17 @@ fn trace_photon(
                 -h.geo_normal
             }
         });
+        // The shading normal on the side the photon arrives from (geometric side): where it
+        // faces away from the photon, the path tracer and the splat kernel see nothing.
         let end_shading_ratio = hit.as_ref().map_or(1.0, |h| {
             let cos_g = dir.dot(h.geo_normal).abs();
+            let ns = if h.geo_normal.dot(dir) <= 0.0 {
+                h.normal
+            } else {
+                -h.normal
+            };
             if cos_g > 0.0 {
-                dir.dot(h.normal).abs() / cos_g
+                (-dir.dot(ns)).max(0.0) / cos_g
             } else {
                 0.0
             }
@@ -456,6 +476,7 @@ fn trace_photon(
             out.push(TaggedRay {
                 photon,
                 onward: 0.0,
+                parallel,
                 ray: PhotonRay {
                     origin,
                     dir,
@@ -482,7 +503,7 @@ fn trace_photon(
         let cos_g_out = s.wi.dot(hit.geo_normal);
         let cos_g_in = wo.dot(hit.geo_normal);
         let transmitted = matches!(bsdf, Bsdf::Dielectric { .. }) && cos_g_out * cos_g_in < 0.0;
-        if !transmitted && cos_g_out * cos_g_in <= 0.0 {
+        if !Scene::leaves_correctly(&hit, wo, s.wi, transmitted) {
             break;
         }
         // Shading normals make the BSDF non-symmetric: a photon (importance transport) needs
@@ -523,6 +544,7 @@ fn trace_photon(
             -hit.geo_normal
         };
         origin = scene.offset(&hit, s.wi);
+        leaving = hit.triangle;
         dir = s.wi;
     }
     true
@@ -579,7 +601,7 @@ pub fn pilot(scene: &Scene, seed: u64) -> Pilot {
     };
     let first = trace(PathUnits::PROVISIONAL);
     let (mut len_sum, mut w_sum) = (0.0f64, 0.0f64);
-    for r in &first {
+    for r in first.iter().filter(|r| !r.parallel) {
         let w = r.onward as f64;
         len_sum += w * r.ray.length as f64;
         w_sum += w;

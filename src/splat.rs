@@ -295,15 +295,20 @@ pub fn test_sample(ray: &SplatRay, p: Vec3, n: Vec3) -> LaneResult {
     let cos = -(n.x * c.dir.x + n.y * c.dir.y + n.z * c.dir.z);
     // ... and it lies in front of the surface the ray leaves.
     let front = vx * ray.origin_normal.x + vy * ray.origin_normal.y + vz * ray.origin_normal.z;
+    // Signed distance to the plane of the surface the ray hits (positive on its side).
+    let n_end = ray.end_normal;
+    let plane = vx * n_end.x + vy * n_end.y + vz * n_end.z - ray.end_plane;
+    // A ray that ends on glass or a mirror reaches nothing past its end, nor behind the
+    // tangent plane there (a floor under a glass sphere lies behind the sphere's surface).
+    let reaches = (ray.beyond > 0.5) | (plane >= 0.0);
     let feasible = (t >= 0.0)
         & (d2 < r2)
         & ((t <= c.length) | (e2 < r2 * ray.beyond))
         & (cos > 0.0)
-        & (front >= 0.0);
+        & (front >= 0.0)
+        & reaches;
     // On the hit surface near the hit point, make up for the mass the hemisphere cut off
     // (written without a branch so that 8 lanes of this vectorise).
-    let n_end = ray.end_normal;
-    let plane = vx * n_end.x + vy * n_end.y + vz * n_end.z - ray.end_plane;
     let on_plane = ((plane.abs() < 0.5 * c.h_end) as u32) as f32;
     let gain = 1.0 + on_plane * (ray.end_gain - 1.0);
     // One division gives both 1/r² and 1/t: q = 1/(r²·t). The distance to the ray origin is
@@ -694,6 +699,10 @@ mod tests {
         assert!(!test_sample(&specular, past, Vec3::Y).feasible);
         let r = test_sample(&specular, before, Vec3::Y);
         assert!(r.feasible && r.weight > 0.0);
+        // Beside the end but behind the surface it hits: not reached.
+        let behind = before - Vec3::Y * 0.06;
+        assert!(test_sample(&landing, behind, Vec3::Y).feasible);
+        assert!(!test_sample(&specular, behind, Vec3::Y).feasible);
         // Its weight before the end is the plain kernel, with no gain.
         let k = epanechnikov(0.0, 0.01) * 0.8;
         assert!((r.weight - k).abs() < 1e-3 * k, "{} vs {k}", r.weight);

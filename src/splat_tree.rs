@@ -1,6 +1,6 @@
 //! The splat kd-tree over eye samples (§7.1) and its conical-frustum traversal (§7.2, Alg. 1).
 //!
-//! Layout: sliding-midpoint splits; a leaf below 16 samples or below 0.1% of the scene diagonal;
+//! Layout: sliding-midpoint splits; a leaf below 16 samples or below 0.1% of the targets' extent;
 //! four 8-byte node kinds (interior, leaf, empty, backface-cull), the left child at index + 1.
 //!
 //! Parallel splatting: the tree is cut into *subtrees* that own disjoint, contiguous ranges of
@@ -20,7 +20,7 @@ use glam::{Vec3, Vec3A};
 pub const LEAF_SIZE: usize = 128;
 /// Leaves are padded to a multiple of this many slots (one AVX2 register of f32).
 pub const LANES: usize = 8;
-/// ... or when its cell's diagonal is below this fraction of the scene diagonal (§7.1).
+/// ... or when its cell's diagonal is below this fraction of the targets' extent (§7.1: of the scene's).
 pub const MIN_CELL_FRACTION: f32 = 1e-3;
 /// Recursion bound for pathological inputs (sliding midpoint can degenerate on clustered data).
 const MAX_DEPTH: u32 = 60;

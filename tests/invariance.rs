@@ -90,7 +90,8 @@ fn parallel_rectangle_irradiance(le: f64, h: f64, x: [f64; 2], y: [f64; 2]) -> f
 }
 
 /// A two-sided emitter panel (1 m square, radiance 10, black) 0.2 m below a white ceiling
-/// (ρ = 0.8), in a scene whose black floor makes the bounding box 500 m wide.
+/// (ρ = 0.8), in a scene whose black floor makes the bounding box 10 km wide: the old offset,
+/// 2·10⁻⁵ of the diagonal, would be 28 cm, more than the gap.
 fn panel_under_ceiling() -> Scene {
     let mut g = GlbBuilder::default();
     let white = g.material(json!({"name": "ceiling", "pbrMetallicRoughness": {
@@ -119,7 +120,7 @@ fn panel_under_ceiling() -> Scene {
     );
     g.mesh(
         "floor",
-        &quad(250.0, 0.0),
+        &quad(5000.0, 0.0),
         &[Vec3::Y; 4],
         &[0, 2, 1, 0, 3, 2],
         black,
@@ -147,7 +148,7 @@ fn panel_under_ceiling() -> Scene {
 #[test]
 fn a_panel_just_below_a_ceiling_lights_it_fully_in_a_large_scene() {
     let scene = Arc::new(panel_under_ceiling());
-    assert!(scene.diagonal() > 500.0, "the scene must be large");
+    assert!(scene.diagonal() > 10_000.0, "the scene must be large");
     let (le, rho, h, half) = (10.0f64, 0.8f64, 0.2f64, 0.5f64);
     // NEE at ceiling points above the panel's centre, off centre and beyond its edge.
     let mut eye = EyeSamples::default();

@@ -1,27 +1,61 @@
 #!/usr/bin/env bash
-# Reproduces docs/results.md. Run from the repository root after `cargo build --release`.
+# Reproduces docs/results.md. Run from the repository root after `cargo build --release`
+# (or with R=path/to/raysplat). Each scene's path-traced reference is rendered once into
+# its folder (reference.exr, kept between runs: delete it to re-render) and every method is
+# compared against it; photon mapping is also run over a range of K, so that the table can
+# quote pm at its best K. About 45 minutes on the 2-core machine of docs/benchmarks.md, most of
+# it path tracing.
 set -euo pipefail
-R=target/release/raysplat
+R=${R:-target/release/raysplat}
 S=../shared/scenes
 OUT=docs/results
+
+# scene_dir, reference paths per pixel, eye samples per pixel, K values for the global map,
+# then the render arguments.
+run() {
+    local dir=$1 ref_spp=$2 spp=$3 ks=$4
+    shift 4
+    mkdir -p "$OUT/$dir"
+    if [ ! -f "$OUT/$dir/reference.exr" ]; then
+        $R render "$@" --method pt --spp "$ref_spp" --out "$OUT/$dir/reference.exr"
+    fi
+    $R compare "$@" --spp "$spp" --methods rs,pm,pt --pt-spp 16 \
+        --reference "$OUT/$dir/reference.exr" --out-dir "$OUT/$dir"
+    for k in $ks; do
+        $R compare "$@" --spp "$spp" --methods pm --pm-k "$k" \
+            --reference "$OUT/$dir/reference.exr" --out-dir "$OUT/$dir/pm_k$k" >/dev/null
+    done
+}
+
 # CORNELL BOX I, Table 2's settings (500×500×4, M = 200,000, (0.3, 0.6, 0.1), R = 0.2, C = 1, S = 0.4).
-$R compare --width 500 --height 500 --spp 4 --photons 200000 --fractions 0.3,0.6,0.1 \
-    --c 1.0 --s 0.4 --r 0.2 --methods rs,pm,pt --pt-spp 16 --ref-spp 1024 --out-dir $OUT/cornell1
+run cornell1 1024 4 "100 200 800" builtin:cornell1 --width 500 --height 500 \
+    --photons 200000 --fractions 0.3,0.6,0.1 --c 1.0 --s 0.4 --r 0.2 --pm-k 400 --pm-caustic-k 250
 # Final gathering on CORNELL BOX I at 250×250×1 with 64 gather rays.
-$R compare --width 250 --height 250 --spp 1 --photons 200000 --fg-rays 64 --pm-k 100 \
-    --pm-caustic-k 50 --methods rs-fg,pm-fg --ref-spp 1024 --out-dir $OUT/cornell1_fg
+mkdir -p $OUT/cornell1_fg
+if [ ! -f $OUT/cornell1_fg/reference.exr ]; then
+    $R render builtin:cornell1 --width 250 --height 250 --method pt --spp 1024 \
+        --out $OUT/cornell1_fg/reference.exr
+fi
+$R compare builtin:cornell1 --width 250 --height 250 --spp 1 --photons 200000 --fg-rays 64 \
+    --pm-k 100 --pm-caustic-k 50 --methods rs-fg,pm-fg --reference $OUT/cornell1_fg/reference.exr \
+    --out-dir $OUT/cornell1_fg
 # CORNELL BOX II, Table 2's settings (M = 300,000, (0.2, 0.0, 0.8), C = 1.1, S = 0.5).
-$R compare builtin:cornell2 --width 500 --height 500 --spp 4 --photons 300000 \
-    --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-k 400 --pm-caustic-k 250 \
-    --methods rs,pm,pt --pt-spp 16 --ref-spp 1024 --out-dir $OUT/cornell2
-# SIBENIK and the apartment (living room), Table 2's settings at 500×375×1 (4:3 cameras).
+run cornell2 1024 4 "" builtin:cornell2 --width 500 --height 500 --photons 300000 \
+    --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-k 400 --pm-caustic-k 250
+for k in 60 125 500; do
+    $R compare builtin:cornell2 --width 500 --height 500 --spp 4 --photons 300000 \
+        --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-k 400 --pm-caustic-k $k \
+        --methods pm --reference $OUT/cornell2/reference.exr --out-dir $OUT/cornell2/pm_ck$k >/dev/null
+done
+# SIBENIK (both cameras) and the apartment (living room), Table 2's settings at 500×375×1
+# and 500×333×1 (the files' 4:3 and 3:2 cameras).
 if [ -f $S/sibenik.glb ]; then
-    $R compare $S/sibenik.glb --width 500 --height 375 --spp 1 --photons 500000 \
-        --fractions 0.0,1.0,0.0 --c 0.9 --s 0.3 --r 0.2 --pm-k 500 \
-        --methods rs,pm,pt --pt-spp 16 --ref-spp 256 --out-dir $OUT/sibenik
+    for cam in camera_nave camera_apse_to_rose_window; do
+        run sibenik_$cam 256 1 "125 250 1000" $S/sibenik.glb --camera $cam --width 500 \
+            --height 375 --photons 500000 --fractions 0.0,1.0,0.0 --c 0.9 --s 0.3 --r 0.2 --pm-k 500
+    done
 fi
 if [ -f $S/living_room.glb ]; then
-    $R compare $S/living_room.glb --width 500 --height 333 --spp 1 --photons 500000 \
-        --fractions 0.0,0.9,0.1 --c 0.9 --s 0.4 --r 0.2 --pm-k 600 \
-        --methods rs,pm,pt --pt-spp 16 --ref-spp 256 --out-dir $OUT/living_room
+    run living_room 256 1 "150 300 1200" $S/living_room.glb --width 500 --height 333 \
+        --photons 500000 --fractions 0.0,0.9,0.1 --c 0.9 --s 0.4 --r 0.2 --pm-k 600
 fi

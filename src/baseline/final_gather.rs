@@ -267,6 +267,9 @@ fn gather_from(
             continue;
         };
         let (dir, weight) = (s.wi, eye.weight[i] * s.weight / n as f32);
+        if ng.dot(dir) <= 0.0 {
+            continue; // through the geometric surface (deviations §36)
+        }
         let origin = crate::scene::offset_ray_origin(p, ng, offset, dir);
         let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
             continue;

@@ -112,8 +112,9 @@ pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) 
     let mut specular = true;
     let mut prev_pdf = 0.0f32;
     let mut prev_pos = o;
+    let mut leaving = u32::MAX;
     for depth in 0..max_depth {
-        let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
+        let Some(hit) = scene.intersect_except(origin, dir, f32::INFINITY, leaving) else {
             break;
         };
         let wo = -dir;
@@ -143,7 +144,12 @@ pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) 
             let u = rng.next_f32();
             if let Some(ls) = scene.lights.sample_direct(hit.position, u, rng.next_2d()) {
                 let cos = n.dot(ls.wi);
-                if cos > 0.0 && ls.value.is_finite() {
+                // The light must also lie on the viewer's side of the geometric surface (as
+                // for photons and NEE at eye samples): a shading normal can lean past it.
+                if cos > 0.0
+                    && ls.value.is_finite()
+                    && Scene::leaves_correctly(&hit, wo, ls.wi, false)
+                {
                     let from = scene.offset(&hit, ls.wi);
                     if scene.light_visible(from, &ls) {
                         let f = bsdf.eval(wo, ls.wi, ns);
@@ -164,6 +170,13 @@ pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) 
         let Some(s) = bsdf.sample(wo, ns, rng.next_2d(), rng.next_f32()) else {
             break;
         };
+        // A sample through the geometric surface the wrong way ends the path, as it ends a
+        // photon (the light pass): both sides then treat shading normals alike.
+        let transmitted = matches!(bsdf, crate::bsdf::Bsdf::Dielectric { .. })
+            && Scene::leaves_correctly(&hit, wo, s.wi, true);
+        if !Scene::leaves_correctly(&hit, wo, s.wi, transmitted) {
+            break;
+        }
         beta *= s.weight;
         if !beta.is_finite() || beta.max_element() <= 0.0 {
             break;
@@ -179,6 +192,7 @@ pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) 
         prev_pdf = s.pdf;
         prev_pos = hit.position;
         origin = scene.offset(&hit, s.wi);
+        leaving = hit.triangle;
         dir = s.wi;
     }
     l

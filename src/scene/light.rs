@@ -57,6 +57,11 @@ pub struct EmittedPhoton {
     /// Error bound of `origin` along `normal` (zero for punctual lights): the photon leaves
     /// this far off its emitter ([`crate::scene::offset_ray_origin`]).
     pub offset: f32,
+    /// The emitting triangle (`u32::MAX` for punctual lights): the photon never hits it.
+    pub triangle: u32,
+    /// A directional light's photon: it starts on a disc outside the scene and travels
+    /// parallel to the others.
+    pub parallel: bool,
 }
 
 /// A point on a light for explicit direct lighting.
@@ -222,7 +227,7 @@ impl Lights {
                 area,
                 radiance,
                 two_sided,
-                ..
+                triangle,
             } => {
                 let (b1, b2) = uniform_triangle(u_pos);
                 let (n, p_side) = if two_sided {
@@ -248,6 +253,8 @@ impl Lights {
                             .max((v0 + e2).abs())
                             .max_element(),
                     ),
+                    triangle,
+                    parallel: false,
                 }
             }
             Light::Point {
@@ -261,6 +268,8 @@ impl Lights {
                 pdf: p_sel / (4.0 * PI),
                 pdf_per_area: false,
                 offset: 0.0,
+                triangle: u32::MAX,
+                parallel: false,
             },
             Light::Spot {
                 position,
@@ -280,6 +289,8 @@ impl Lights {
                     pdf: p_sel * pdf_dir,
                     pdf_per_area: false,
                     offset: 0.0,
+                    triangle: u32::MAX,
+                    parallel: false,
                 }
             }
             Light::Directional {
@@ -298,6 +309,8 @@ impl Lights {
                     pdf: p_sel / area,
                     pdf_per_area: true,
                     offset: 0.0,
+                    triangle: u32::MAX,
+                    parallel: true,
                 }
             }
         };

@@ -361,14 +361,27 @@ impl Scene {
     /// Closest hit along `origin + t·dir`, t ∈ (0, tmax).
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        self.intersect_except(origin, dir, tmax, u32::MAX)
+    }
+
+    /// [`Scene::intersect`] ignoring the triangle `skip`: a ray leaving a flat triangle can
+    /// never meet it again, so spawned rays skip the one they leave, whatever the rounding of
+    /// the ray–triangle test on a thin triangle (the offset alone bounds it for well-shaped
+    /// ones only).
+    #[inline]
+    pub fn intersect_except(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> Option<Hit> {
         let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
         let mut hit = RayHit::none();
         let tris = &self.triangles;
         let idx = &self.bvh.primitive_indices;
-        if !self
-            .bvh
-            .ray_traverse(ray, &mut hit, |r, id| tris[idx[id] as usize].intersect(r))
-        {
+        if !self.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            let t = idx[id];
+            if t == skip {
+                f32::INFINITY
+            } else {
+                tris[t as usize].intersect(r)
+            }
+        }) {
             return None;
         }
         let tri_id = idx[hit.primitive_id as usize];
@@ -513,6 +526,23 @@ impl Scene {
     #[inline]
     pub fn offset(&self, hit: &Hit, dir: Vec3) -> Vec3 {
         offset_ray_origin(hit.position, hit.geo_normal, hit.offset, dir)
+    }
+
+    /// The next hit of a ray leaving `hit` along `dir`: offset off the surface and never
+    /// meeting the triangle it leaves.
+    #[inline]
+    pub fn intersect_from(&self, hit: &Hit, dir: Vec3) -> Option<Hit> {
+        self.intersect_except(self.offset(hit, dir), dir, f32::INFINITY, hit.triangle)
+    }
+
+    /// Does `dir` leave the surface of `hit` on the side it should? Reflection (`transmit`
+    /// false) must stay on the side of `wo` and transmission cross to the other, judged by the
+    /// geometric normal: an interpolated shading normal can send a sample through the surface,
+    /// and photons, the path tracer and the eye pass all drop such samples alike.
+    #[inline]
+    pub fn leaves_correctly(hit: &Hit, wo: Vec3, dir: Vec3, transmit: bool) -> bool {
+        let s = wo.dot(hit.geo_normal) * dir.dot(hit.geo_normal);
+        if transmit { s < 0.0 } else { s > 0.0 }
     }
 
     pub fn triangle_count(&self) -> usize {
