@@ -1,12 +1,30 @@
-//! Explicit direct light at eye samples (next-event estimation, `--direct nee`): one or more
-//! light samples per eye sample with a shadow ray each. With `--direct photons` this is not
-//! used and direct photons are splatted instead (the paper's way).
+//! Explicit direct light at eye samples (next-event estimation, `--direct nee`): per eye sample
+//! one or more light samples with a shadow ray each, combined by multiple importance sampling
+//! (Veach's power heuristic) with as many BSDF-sampled rays that may hit an emitter, exactly as
+//! the path tracer's first bounce does. Light sampling alone is unbounded near an emitter (its
+//! 1/r² has no limit where a wall or vault meets a light panel) and gave isolated pixels a
+//! hundred times too bright in SIBENIK; BSDF sampling is bounded there (docs/deviations.md
+//! §9). With `--direct photons` this is not used and direct photons are splatted instead (the
+//! paper's way).
 
 use crate::eye::EyeSamples;
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
+
+/// Veach's power heuristic (β = 2) for the sampler with density `a` against one with `b`.
+#[inline]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 && a2.is_finite() {
+        a2 / (a2 + b2)
+    } else if a2.is_finite() {
+        0.0
+    } else {
+        1.0
+    }
+}
 
 /// Reflected direct radiance towards the eye at every sample (BSDF applied, eye weight not),
 /// and the number of samples whose estimate was NaN or infinite (set to zero, not used).
@@ -39,7 +57,33 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
                 if !scene.light_visible(origin, &ls) {
                     continue;
                 }
-                sum += bsdf.eval(wo, ls.wi, n) * ls.value * cos;
+                let w = if ls.pdf.is_finite() {
+                    power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, n))
+                } else {
+                    1.0 // a point light: no BSDF sample can find it
+                };
+                sum += bsdf.eval(wo, ls.wi, n) * ls.value * (cos * w);
+            }
+            // The BSDF-sampled half of the estimate: an emitter met along a sampled direction,
+            // weighted against the light sampler's density for it.
+            for _ in 0..samples {
+                let Some(s) = bsdf.sample(wo, n, rng.next_2d(), rng.next_f32()) else {
+                    continue;
+                };
+                if s.specular || s.pdf <= 0.0 || eye.geo_normal[i].dot(s.wi) <= 0.0 {
+                    continue;
+                }
+                let origin =
+                    crate::scene::offset_ray_origin(p, eye.geo_normal[i], eye.offset[i], s.wi);
+                let Some(hit) = scene.intersect(origin, s.wi, f32::INFINITY) else {
+                    continue;
+                };
+                let le = scene.emitted(&hit, -s.wi);
+                if le == Vec3::ZERO {
+                    continue;
+                }
+                let pl = scene.lights.pdf_direct(hit.triangle, p, hit.position);
+                sum += s.weight * le * power_heuristic(s.pdf, pl);
             }
             sum / samples as f32
         })

@@ -537,6 +537,9 @@ impl Worker {
                     height: r.settings.height,
                     max_depth: 64,
                     seed: r.settings.seed,
+                    max_diffuse_vertices: crate::baseline::pt::max_diffuse_vertices_for(
+                        r.settings.fractions,
+                    ),
                 },
             )
         });

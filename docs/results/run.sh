@@ -10,16 +10,16 @@ R=${R:-target/release/raysplat}
 S=../shared/scenes
 OUT=docs/results
 
-# scene_dir, reference paths per pixel, eye samples per pixel, K values for the global map,
-# then the render arguments.
+# scene_dir, reference paths per pixel, eye samples per pixel, K of the global map (Table 2's),
+# other K values to try, then the render arguments.
 run() {
-    local dir=$1 ref_spp=$2 spp=$3 ks=$4
-    shift 4
+    local dir=$1 ref_spp=$2 spp=$3 k0=$4 ks=$5
+    shift 5
     mkdir -p "$OUT/$dir"
     if [ ! -f "$OUT/$dir/reference.exr" ]; then
         $R render "$@" --method pt --spp "$ref_spp" --out "$OUT/$dir/reference.exr"
     fi
-    $R compare "$@" --spp "$spp" --methods rs,pm,pt --pt-spp 16 \
+    $R compare "$@" --spp "$spp" --pm-k "$k0" --methods rs,pm,pt --pt-spp 16 \
         --reference "$OUT/$dir/reference.exr" --out-dir "$OUT/$dir"
     for k in $ks; do
         $R compare "$@" --spp "$spp" --methods pm --pm-k "$k" \
@@ -28,8 +28,8 @@ run() {
 }
 
 # CORNELL BOX I, Table 2's settings (500×500×4, M = 200,000, (0.3, 0.6, 0.1), R = 0.2, C = 1, S = 0.4).
-run cornell1 1024 4 "100 200 800" builtin:cornell1 --width 500 --height 500 \
-    --photons 200000 --fractions 0.3,0.6,0.1 --c 1.0 --s 0.4 --r 0.2 --pm-k 400 --pm-caustic-k 250
+run cornell1 1024 4 400 "100 200 800" builtin:cornell1 --width 500 --height 500 \
+    --photons 200000 --fractions 0.3,0.6,0.1 --c 1.0 --s 0.4 --r 0.2 --pm-caustic-k 250
 # Final gathering on CORNELL BOX I at 250×250×1 with 64 gather rays.
 mkdir -p $OUT/cornell1_fg
 if [ ! -f $OUT/cornell1_fg/reference.exr ]; then
@@ -40,8 +40,8 @@ $R compare builtin:cornell1 --width 250 --height 250 --spp 1 --photons 200000 --
     --pm-k 100 --pm-caustic-k 50 --methods rs-fg,pm-fg --reference $OUT/cornell1_fg/reference.exr \
     --out-dir $OUT/cornell1_fg
 # CORNELL BOX II, Table 2's settings (M = 300,000, (0.2, 0.0, 0.8), C = 1.1, S = 0.5).
-run cornell2 1024 4 "" builtin:cornell2 --width 500 --height 500 --photons 300000 \
-    --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-k 400 --pm-caustic-k 250
+run cornell2 1024 4 400 "" builtin:cornell2 --width 500 --height 500 --photons 300000 \
+    --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-caustic-k 250
 for k in 60 125 500; do
     $R compare builtin:cornell2 --width 500 --height 500 --spp 4 --photons 300000 \
         --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-k 400 --pm-caustic-k $k \
@@ -51,11 +51,11 @@ done
 # and 500×333×1 (the files' 4:3 and 3:2 cameras).
 if [ -f $S/sibenik.glb ]; then
     for cam in camera_nave camera_apse_to_rose_window; do
-        run sibenik_$cam 256 1 "125 250 1000" $S/sibenik.glb --camera $cam --width 500 \
-            --height 375 --photons 500000 --fractions 0.0,1.0,0.0 --c 0.9 --s 0.3 --r 0.2 --pm-k 500
+        run sibenik_$cam 256 1 500 "125 250 1000" $S/sibenik.glb --camera $cam --width 500 \
+            --height 375 --photons 500000 --fractions 0.0,1.0,0.0 --c 0.9 --s 0.3 --r 0.2
     done
 fi
 if [ -f $S/living_room.glb ]; then
-    run living_room 256 1 "150 300 1200" $S/living_room.glb --width 500 --height 333 \
-        --photons 500000 --fractions 0.0,0.9,0.1 --c 0.9 --s 0.4 --r 0.2 --pm-k 600
+    run living_room 256 1 600 "150 300 1200" $S/living_room.glb --width 500 --height 333 \
+        --photons 500000 --fractions 0.0,0.9,0.1 --c 0.9 --s 0.4 --r 0.2
 fi

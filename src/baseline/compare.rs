@@ -111,6 +111,7 @@ pub fn render_method(
                     height: settings.height,
                     max_depth: 64,
                     seed: settings.seed,
+                    max_diffuse_vertices: super::pt::max_diffuse_vertices_for(settings.fractions),
                 },
             );
             match budget {
