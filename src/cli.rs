@@ -97,7 +97,7 @@ struct RenderArgs {
     /// Also write a tone-mapped sRGB PNG.
     #[arg(long)]
     png: Option<PathBuf>,
-    /// Exposure for the PNG, in stops.
+    /// Exposure for the PNG (and for `compare`'s montage), in stops.
     #[arg(long, default_value_t = 0.0)]
     exposure: f32,
     /// Write timings and counters as JSON.
@@ -495,6 +495,8 @@ fn compare(args: CompareArgs) -> Result<(), String> {
         },
     };
     let mut rows = serde_json::Map::new();
+    // Fig. 10's montage: each method's image above its relative-error map, the reference last.
+    let mut montage: Vec<(Vec<u8>, Vec<u8>)> = Vec::new();
     println!(
         "{:<6} {:>8} {:>8} {:>8} {:>8} {:>10} {:>10} {:>8}",
         "method", "T_E", "T_L", "T_S", "ΣT", "RMSE", "relMSE", "bias"
@@ -536,7 +538,21 @@ fn compare(args: CompareArgs) -> Result<(), String> {
             m.name().to_string(),
             serde_json::to_value(&row).map_err(|e| e.to_string())?,
         );
+        montage.push((
+            raysplat::film::tonemap(&r.film.rgb, args.render.exposure),
+            error_map(&r.film.rgb, &reference),
+        ));
     }
+    montage.push((
+        raysplat::film::tonemap(&reference, args.render.exposure),
+        vec![255; (settings.width * settings.height * 3) as usize],
+    ));
+    write_montage(
+        &args.out_dir.join("montage.jpg"),
+        settings.width,
+        settings.height,
+        &montage,
+    )?;
     let doc = json!({
         "scene": scene.name,
         "settings": settings,
@@ -551,6 +567,39 @@ fn compare(args: CompareArgs) -> Result<(), String> {
     )?;
     eprintln!("wrote {} and the images beside it", path.display());
     Ok(())
+}
+
+/// Images side by side (top row) over their error maps (bottom row), as a JPEG.
+fn write_montage(
+    path: &Path,
+    width: u32,
+    height: u32,
+    columns: &[(Vec<u8>, Vec<u8>)],
+) -> Result<(), String> {
+    let gap = 4;
+    let cols = columns.len() as u32;
+    let mut img = image::RgbImage::from_pixel(
+        cols * width + (cols - 1) * gap,
+        2 * height + gap,
+        image::Rgb([255, 255, 255]),
+    );
+    for (c, (top, bottom)) in columns.iter().enumerate() {
+        for (row, px) in [top, bottom].into_iter().enumerate() {
+            let tile = image::RgbImage::from_raw(width, height, px.clone())
+                .ok_or("montage: a tile has the wrong size")?;
+            image::imageops::replace(
+                &mut img,
+                &tile,
+                (c as u32 * (width + gap)) as i64,
+                (row as u32 * (height + gap)) as i64,
+            );
+        }
+    }
+    let mut buf = std::io::Cursor::new(Vec::new());
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 85)
+        .encode_image(&img)
+        .map_err(|e| format!("cannot encode JPEG for {}: {e}", path.display()))?;
+    raysplat::film::write_atomic(path, buf.get_ref())
 }
 
 fn print_table(r: &Renderer) {

@@ -258,6 +258,13 @@ fn compare_writes_table_images_and_json() {
         assert_eq!((err.width(), err.height()), (24, 24));
     }
     assert!(dir.join("reference.exr").exists());
+    // Fig. 10's montage: three methods and the reference side by side (4 px gaps), images
+    // over error maps.
+    let montage = image::open(dir.join("montage.jpg")).unwrap();
+    assert_eq!(
+        (montage.width(), montage.height()),
+        (4 * 24 + 3 * 4, 2 * 24 + 4)
+    );
 }
 
 #[test]

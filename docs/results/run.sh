@@ -2,7 +2,8 @@
 # Reproduces docs/results.md. Run from the repository root after `cargo build --release`
 # (or with R=path/to/raysplat). Each scene's path-traced reference is rendered once into
 # its folder (reference.exr, kept between runs: delete it to re-render) and every method is
-# compared against it; photon mapping is also run over a range of K, so that the table can
+# compared against it (compare.json, each method's EXR and error map, and montage.jpg: the
+# images over their Fig. 10 error maps, the reference last); photon mapping is also run over a range of K, so that the table can
 # quote pm at its best K. About 45 minutes on the 2-core machine of docs/benchmarks.md, most of
 # it path tracing.
 set -euo pipefail
@@ -29,7 +30,7 @@ run() {
 
 # CORNELL BOX I, Table 2's settings (500×500×4, M = 200,000, (0.3, 0.6, 0.1), R = 0.2, C = 1, S = 0.4).
 run cornell1 1024 4 400 "100 200 800" builtin:cornell1 --width 500 --height 500 \
-    --photons 200000 --fractions 0.3,0.6,0.1 --c 1.0 --s 0.4 --r 0.2 --pm-caustic-k 250
+    --photons 200000 --fractions 0.3,0.6,0.1 --c 1.0 --s 0.4 --r 0.2 --pm-caustic-k 250 --exposure 2.5
 # Final gathering on CORNELL BOX I at 250×250×1 with 64 gather rays.
 mkdir -p $OUT/cornell1_fg
 if [ ! -f $OUT/cornell1_fg/reference.exr ]; then
@@ -37,11 +38,11 @@ if [ ! -f $OUT/cornell1_fg/reference.exr ]; then
         --out $OUT/cornell1_fg/reference.exr
 fi
 $R compare builtin:cornell1 --width 250 --height 250 --spp 1 --photons 200000 --fg-rays 64 \
-    --pm-k 100 --pm-caustic-k 50 --methods rs-fg,pm-fg --reference $OUT/cornell1_fg/reference.exr \
+    --pm-k 100 --pm-caustic-k 50 --exposure 2.5 --methods rs-fg,pm-fg --reference $OUT/cornell1_fg/reference.exr \
     --out-dir $OUT/cornell1_fg
 # CORNELL BOX II, Table 2's settings (M = 300,000, (0.2, 0.0, 0.8), C = 1.1, S = 0.5).
 run cornell2 1024 4 400 "" builtin:cornell2 --width 500 --height 500 --photons 300000 \
-    --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-caustic-k 250
+    --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-caustic-k 250 --exposure 2.5
 for k in 60 125 500; do
     $R compare builtin:cornell2 --width 500 --height 500 --spp 4 --photons 300000 \
         --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-k 400 --pm-caustic-k $k \
@@ -51,11 +52,11 @@ done
 # and 500×333×1 (the files' 4:3 and 3:2 cameras).
 if [ -f $S/sibenik.glb ]; then
     for cam in camera_nave camera_apse_to_rose_window; do
-        run sibenik_$cam 256 1 500 "125 250 1000" $S/sibenik.glb --camera $cam --width 500 \
-            --height 375 --photons 500000 --fractions 0.0,1.0,0.0 --c 0.9 --s 0.3 --r 0.2
+        run sibenik_$cam 256 1 500 "60 125 250 1000" $S/sibenik.glb --camera $cam --width 500 \
+            --height 375 --photons 500000 --fractions 0.0,1.0,0.0 --c 0.9 --s 0.3 --r 0.2 --exposure=-1
     done
 fi
 if [ -f $S/living_room.glb ]; then
-    run living_room 256 1 600 "150 300 1200" $S/living_room.glb --width 500 --height 333 \
-        --photons 500000 --fractions 0.0,0.9,0.1 --c 0.9 --s 0.4 --r 0.2
+    run living_room 256 1 600 "75 150 300 1200" $S/living_room.glb --width 500 --height 333 \
+        --photons 500000 --fractions 0.0,0.9,0.1 --c 0.9 --s 0.4 --r 0.2 --exposure 1
 fi
