@@ -82,8 +82,16 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
                 if le == Vec3::ZERO {
                     continue;
                 }
-                let pl = scene.lights.pdf_direct(hit.triangle, p, hit.position);
-                sum += s.weight * le * power_heuristic(s.pdf, pl);
+                // Light sampling only produces directions above the shading normal (a viewer
+                // below it, at a grazing view of a smooth-shaded mesh, can still reflect
+                // light from below): there the BSDF sample takes the whole weight.
+                let w = if n.dot(s.wi) <= 0.0 {
+                    1.0
+                } else {
+                    let pl = scene.lights.pdf_direct(hit.triangle, p, hit.position);
+                    power_heuristic(s.pdf, pl)
+                };
+                sum += s.weight * le * w;
             }
             sum / samples as f32
         })

@@ -43,20 +43,35 @@ $R compare builtin:cornell1 --width 250 --height 250 --spp 1 --photons 200000 --
 # CORNELL BOX II, Table 2's settings (M = 300,000, (0.2, 0.0, 0.8), C = 1.1, S = 0.5).
 run cornell2 1024 4 400 "" builtin:cornell2 --width 500 --height 500 --photons 300000 \
     --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-caustic-k 250 --exposure 2.5
-for k in 60 125 500; do
+for k in 30 60 125 500; do
     $R compare builtin:cornell2 --width 500 --height 500 --spp 4 --photons 300000 \
         --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2 --pm-k 400 --pm-caustic-k $k \
         --methods pm --reference $OUT/cornell2/reference.exr --out-dir $OUT/cornell2/pm_ck$k >/dev/null
+done
+# rs with a wider bandwidth range R (caustic rays sit at h_min = R·h̄).
+for r in 0.1 0.05; do
+    $R compare builtin:cornell2 --width 500 --height 500 --spp 4 --photons 300000 \
+        --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r $r \
+        --methods rs --reference $OUT/cornell2/reference.exr --out-dir $OUT/cornell2/rs_r$r >/dev/null
 done
 # SIBENIK (both cameras) and the apartment (living room), Table 2's settings at 500×375×1
 # and 500×333×1 (the files' 4:3 and 3:2 cameras).
 if [ -f $S/sibenik.glb ]; then
     for cam in camera_nave camera_apse_to_rose_window; do
-        run sibenik_$cam 256 1 500 "60 125 250 1000" $S/sibenik.glb --camera $cam --width 500 \
+        run sibenik_$cam 256 1 500 "30 60 125 250 1000" $S/sibenik.glb --camera $cam --width 500 \
             --height 375 --photons 500000 --fractions 0.0,1.0,0.0 --c 0.9 --s 0.3 --r 0.2 --exposure=-1
     done
 fi
+# Other seeds on the nave: rs against pm at K = 125.
+if [ -f $S/sibenik.glb ]; then
+    for seed in 2 3; do
+        $R compare $S/sibenik.glb --camera camera_nave --width 500 --height 375 --photons 500000 \
+            --spp 1 --fractions 0.0,1.0,0.0 --c 0.9 --s 0.3 --r 0.2 --seed $seed --pm-k 125 \
+            --methods rs,pm --reference $OUT/sibenik_camera_nave/reference.exr \
+            --out-dir $OUT/sibenik_camera_nave/seed$seed >/dev/null
+    done
+fi
 if [ -f $S/living_room.glb ]; then
-    run living_room 256 1 600 "75 150 300 1200" $S/living_room.glb --width 500 --height 333 \
+    run living_room 256 1 600 "40 75 150 300 1200" $S/living_room.glb --width 500 --height 333 \
         --photons 500000 --fractions 0.0,0.9,0.1 --c 0.9 --s 0.4 --r 0.2 --exposure 1
 fi

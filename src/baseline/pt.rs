@@ -141,6 +141,9 @@ pub fn radiance_limited(
     let mut specular = true;
     let mut prev_pdf = 0.0f32;
     let mut prev_pos = o;
+    // The viewer-side normal at the previous vertex: light sampling there only produced
+    // directions above it, so a BSDF-sampled direction below it takes the whole weight.
+    let mut prev_n = Vec3::ZERO;
     let mut leaving = u32::MAX;
     for depth in 0..max_depth {
         let Some(hit) = scene.intersect_except(origin, dir, f32::INFINITY, leaving) else {
@@ -152,10 +155,14 @@ pub fn radiance_limited(
             let w = if specular {
                 1.0
             } else {
-                let pl = scene
-                    .lights
-                    .pdf_direct(hit.triangle, prev_pos, hit.position);
-                power_heuristic(prev_pdf, pl)
+                if prev_n.dot(dir) <= 0.0 {
+                    1.0
+                } else {
+                    let pl = scene
+                        .lights
+                        .pdf_direct(hit.triangle, prev_pos, hit.position);
+                    power_heuristic(prev_pdf, pl)
+                }
             };
             l += beta * le * w;
         }
@@ -226,6 +233,7 @@ pub fn radiance_limited(
         specular = s.specular;
         prev_pdf = s.pdf;
         prev_pos = hit.position;
+        prev_n = n;
         origin = scene.offset(&hit, s.wi);
         leaving = hit.triangle;
         dir = s.wi;
