@@ -675,7 +675,6 @@ fn stats_json(r: &mut Renderer, film: &Film, t_load: f64) -> serde_json::Value {
         "photon_rays_caustic": per_class[2],
         "photon_ray_bytes": r.photon_memory_bytes(),
         "pilot_mean_length": r.pilot().mean_length,
-        "pilot_unit_length": r.pilot().unit_length,
         "bandwidth_clamps": {
             "direct": class_clamps(0),
             "indirect": class_clamps(1),

@@ -140,16 +140,11 @@ impl Default for BandwidthParams {
 #[derive(Clone, Copy, Debug)]
 pub struct Pilot {
     /// ⟨D⟩: weighted mean photon-segment length (a length, so that μC = a·⟨D⟩ is one;
-    /// DESIGN.md).
+    /// DESIGN.md). Eq. 7's lengths are measured in this unit.
     pub mean_length: f32,
-    /// The length unit of eq. 7 ([`PathUnits`]): the one in which the factor a diffuse bounce
-    /// multiplies p̃ by, p_s⊥/D (eq. 7), is 1 at the weighted median over the pilot's bounces,
-    /// so that bandwidths neither grow nor shrink with the bounce count, whatever the scene's
-    /// size or geometry (docs/deviations.md §3).
-    pub unit_length: f32,
-    /// Weighted median of ln p̃ (dimensionless, eq. 7) over the pilot's vertices: the median
-    /// of r = p̃^(−S/2) for any S is exp(−S/2 · this).
-    pub median_log_pdf: f64,
+    /// Weighted mean of ln p̃ (dimensionless, eq. 7) over the pilot's vertices: the geometric
+    /// mean of r = p̃^(−S/2) for any S is exp(−S/2 · this).
+    pub mean_log_pdf: f64,
     /// Pilot vertices that entered the statistics.
     pub vertices: usize,
 }
@@ -162,46 +157,33 @@ impl Pilot {
 
     /// The units of eq. 7 for the light pass.
     pub fn units(&self) -> PathUnits {
-        PathUnits::new(self.unit_length, self.mean_length)
+        PathUnits {
+            length: self.mean_length,
+        }
     }
 
-    /// ⟨r⟩, r = 1/√(p̃^S) (§6), as the weighted median: p̃ spans many orders of magnitude,
-    /// and an arithmetic mean is set by a few deep vertices, a geometric mean by a pocket of
-    /// trapped photons (docs/deviations.md §5).
+    /// ⟨r⟩, r = 1/√(p̃^S) (§6), as a geometric mean: p̃ spans many orders of magnitude over
+    /// bounces, and an arithmetic mean is then set by a few deep vertices
+    /// (docs/deviations.md §5).
     pub fn mean_r(&self, s: f32) -> f32 {
         if self.vertices == 0 {
             return 1.0;
         }
-        ((-0.5 * s as f64 * self.median_log_pdf).exp() as f32).clamp(f32::MIN_POSITIVE, f32::MAX)
+        ((-0.5 * s as f64 * self.mean_log_pdf).exp() as f32).clamp(f32::MIN_POSITIVE, f32::MAX)
     }
 }
 
-/// The length unit of eq. 7 ([`Pilot::unit_length`]): p̃ is computed with lengths in this
-/// unit and area densities per unit², so it has no units and a scene scaled by any factor gets
-/// the same p̃, the same bandwidths relative to its size, and the same image.
+/// The length unit of eq. 7 (the pilot's ⟨D⟩): p̃ is computed with lengths in this unit and
+/// area densities per unit², so it has no units and a scene scaled by any factor gets the
+/// same p̃, the same bandwidths relative to its size, and the same image.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathUnits {
     pub length: f32,
-    /// D̃ of eq. 7 in this unit: μC = a·⟨D⟩ (a length of the scene's lighting, never of its
-    /// bounding box), divided by `length`.
-    pub d_tilde: f32,
 }
 
 impl PathUnits {
     /// Units for the pilot's first look at a scene, before ⟨D⟩ is known (p̃ unused then).
-    const PROVISIONAL: PathUnits = PathUnits {
-        length: 1.0,
-        d_tilde: D_TILDE_FRACTION,
-    };
-
-    /// Lengths in `unit`, with D̃ = a·`mean_length` (§6's μC).
-    pub fn new(unit: f32, mean_length: f32) -> Self {
-        let unit = unit.max(f32::MIN_POSITIVE);
-        Self {
-            length: unit,
-            d_tilde: D_TILDE_FRACTION * mean_length / unit,
-        }
-    }
+    const PROVISIONAL: PathUnits = PathUnits { length: 1.0 };
 }
 
 /// Eq. 8 evaluated for one parameter set and class size; cheap per-vertex evaluation.
@@ -220,7 +202,7 @@ impl Bandwidth {
         let mu_c = pilot.mu_c();
         let w = M0 * mu_c / mean_r; // w = m0·μC/⟨r⟩ (§6)
         let scale = params.smoothness_c * m.powf(-1.0 / 6.0) * w; // eq. 8: C/⁶√M · w
-        // The typical bandwidth at this M, C·(M/10⁵)^(−1/6)·μC (the median of eq. 8
+        // The typical bandwidth at this M, C·(M/10⁵)^(−1/6)·μC (the geometric mean of eq. 8
         // over the pilot); the bounds "from μC and R" (§6) keep h within a factor 1/R of it.
         let typical = (params.smoothness_c * (m / 1e5).powf(-1.0 / 6.0) * mu_c).max(1e-30);
         let r = params.max_bandwidth_r.clamp(R_MIN, 1.0);
@@ -366,11 +348,6 @@ struct TaggedRay {
     onward: f32,
     /// The first segment of a directional light's photon, from a disc outside the scene.
     parallel: bool,
-    /// For a ray ending on a non-specular surface after at least one non-specular bounce: the
-    /// density p_s⊥ of the direction sampled at the last non-specular vertex and the length
-    /// travelled since (through mirrors and glass), in metres: one diffuse bounce's factor of
-    /// eq. 7, for the pilot's choice of unit.
-    bounce_factor: Option<(f32, f32)>,
 }
 
 /// D(x, y) = max(D̃², ‖x − y‖²) (eq. 7).
@@ -452,7 +429,7 @@ fn trace_photon(
             if parallel {
                 1.0
             } else {
-                clamped_sq_distance(l * inv_unit, units.d_tilde)
+                clamped_sq_distance(l * inv_unit, D_TILDE_FRACTION)
             }
         };
         let u_next = (u_base * u_density / d_of(u_len + length)).min(f32::MAX);
@@ -500,7 +477,6 @@ fn trace_photon(
                 photon,
                 onward: 0.0,
                 parallel,
-                bounce_factor: (any_diffuse && lands).then_some((u_density, u_len + length)),
                 ray: PhotonRay {
                     origin,
                     dir,
@@ -643,58 +619,24 @@ pub fn pilot(scene: &Scene, seed: u64) -> Pilot {
             0.1 * scene.diagonal()
         }
     };
-    // The unit in which a diffuse bounce's factor p_s⊥/D of eq. 7 is 1 at the weighted median
-    // over the pilot's bounces (weights as ⟨D⟩'s): ln L = median of ln max(D̃, ℓ) − ½ ln p_s⊥,
-    // with D̃ = a·⟨D⟩ a length. The median, not the mean: a pocket of short bounces (photons
-    // trapped between a light and the ceiling above it) must not set the unit of the room.
-    let d_tilde = D_TILDE_FRACTION * mean_length;
-    let mut logs: Vec<(f64, f64)> = first
-        .iter()
-        .filter_map(|r| {
-            let (pdf, len) = r.bounce_factor?;
-            (r.onward > 0.0 && pdf > 0.0 && len.is_finite()).then(|| {
-                (
-                    (len.max(d_tilde) as f64).ln() - 0.5 * (pdf as f64).ln(),
-                    r.onward as f64,
-                )
-            })
-        })
-        .collect();
-    let unit_length = weighted_median(&mut logs).map_or(mean_length, |m| {
-        (m.exp() as f32).clamp(1e-3 * mean_length, 1e3 * mean_length)
-    });
-
-    let units = PathUnits::new(unit_length, mean_length);
+    let units = PathUnits {
+        length: mean_length,
+    };
     let second = trace(units);
-    let mut logs: Vec<(f64, f64)> = second
-        .iter()
-        .filter(|r| r.onward > 0.0 && r.ray.pdf_end.is_finite() && r.ray.pdf_end > 0.0)
-        .map(|r| ((r.ray.pdf_end as f64).ln(), r.onward as f64))
-        .collect();
-    let vertices = logs.len();
-    Pilot {
-        mean_length,
-        unit_length,
-        median_log_pdf: weighted_median(&mut logs).unwrap_or(0.0),
-        vertices,
-    }
-}
-
-/// The weighted median of `(value, weight)` pairs (None when no weight is positive).
-fn weighted_median(v: &mut [(f64, f64)]) -> Option<f64> {
-    v.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let total: f64 = v.iter().map(|x| x.1).sum();
-    if total <= 0.0 {
-        return None;
-    }
-    let mut acc = 0.0;
-    for &(x, w) in v.iter() {
-        acc += w;
-        if acc >= 0.5 * total {
-            return Some(x);
+    let (mut log_sum, mut w_sum, mut vertices) = (0.0f64, 0.0f64, 0usize);
+    for r in &second {
+        let p = r.ray.pdf_end;
+        if r.onward > 0.0 && p.is_finite() && p > 0.0 {
+            log_sum += r.onward as f64 * (p as f64).ln();
+            w_sum += r.onward as f64;
+            vertices += 1;
         }
     }
-    v.last().map(|x| x.0)
+    Pilot {
+        mean_length,
+        mean_log_pdf: if w_sum > 0.0 { log_sum / w_sum } else { 0.0 },
+        vertices,
+    }
 }
 
 /// Trace photons until every class has its budget of stored rays (Table 2's fractions), or
@@ -799,28 +741,11 @@ mod tests {
     /// A pilot whose vertices had these p̃ (equal weights).
     fn pilot(pdfs: Vec<f32>) -> Pilot {
         let n = pdfs.len();
-        let mut logs: Vec<(f64, f64)> = pdfs.iter().map(|&p| ((p as f64).ln(), 1.0)).collect();
         Pilot {
             mean_length: 0.5,
-            unit_length: 0.5,
-            median_log_pdf: weighted_median(&mut logs).unwrap_or(0.0),
+            mean_log_pdf: pdfs.iter().map(|&p| (p as f64).ln()).sum::<f64>() / n.max(1) as f64,
             vertices: n,
         }
-    }
-
-    #[test]
-    fn weighted_median_ignores_a_heavy_tail() {
-        let mut v = vec![
-            (1.0, 1.0),
-            (2.0, 1.0),
-            (3.0, 1.0),
-            (1e30, 1.0),
-            (-1e30, 0.5),
-        ];
-        assert_eq!(weighted_median(&mut v), Some(2.0));
-        let mut w = vec![(5.0, 3.0), (1.0, 1.0), (9.0, 1.0)];
-        assert_eq!(weighted_median(&mut w), Some(5.0));
-        assert_eq!(weighted_median(&mut []), None);
     }
 
     #[test]
@@ -893,7 +818,7 @@ mod tests {
     #[test]
     fn mean_bandwidth_is_mu_c_at_m_1e5_and_c_1() {
         // m0 calibrates the typical (unclamped) bandwidth to μC at M = 10⁵, C = 1 (§6); with
-        // ⟨r⟩ the median of r, the median of h is μC.
+        // ⟨r⟩ a geometric mean, the geometric mean of h is μC.
         let pdfs: Vec<f32> = (1..200).map(|i| 0.05 * i as f32).collect();
         let p = pilot(pdfs.clone());
         let params = BandwidthParams {
@@ -902,9 +827,8 @@ mod tests {
             max_bandwidth_r: R_MIN,
         };
         let bw = Bandwidth::new(&params, &p, 100_000, p.mean_r(0.4));
-        let mut hs: Vec<f32> = pdfs.iter().map(|&x| bw.h(x)).collect();
-        hs.sort_by(f32::total_cmp);
-        let mean = hs[hs.len() / 2];
+        let mean = (pdfs.iter().map(|&x| (bw.h(x) as f64).ln()).sum::<f64>() / pdfs.len() as f64)
+            .exp() as f32;
         assert!(
             (mean - p.mu_c()).abs() < 1e-3 * p.mu_c(),
             "{mean} vs {}",

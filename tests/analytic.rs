@@ -110,15 +110,13 @@ fn eq7_clamped_path_pdf_on_a_known_geometry() {
             max_emitted_factor: 4,
             seed: 3,
             first_photon: 0,
-            // D̃ = a·⟨D⟩ with ⟨D⟩ = 2 units: D̃ = 0.4 in this unit.
-            units: PathUnits::new(unit, 2.0 * unit),
+            units: PathUnits { length: unit },
         },
     );
     let area = side * side / (unit * unit);
     let (mut direct, mut bounced) = (0, 0);
     for r in &batch.rays {
-        let d_tilde = 2.0 * D_TILDE_FRACTION;
-        let d = (r.length * r.length / (unit * unit)).max(d_tilde * d_tilde);
+        let d = (r.length * r.length / (unit * unit)).max(D_TILDE_FRACTION * D_TILDE_FRACTION);
         match (r.class, r.bounce) {
             (PhotonClass::Direct, 0) => {
                 let cos = r.dir.dot(-Vec3::Y);
@@ -247,7 +245,7 @@ fn photons_leave_a_two_sided_light() {
             max_emitted_factor: 4,
             seed: 2,
             first_photon: 0,
-            units: PathUnits::new(1.0, 1.0),
+            units: PathUnits { length: 1.0 },
         },
     );
     let direct: Vec<_> = batch
@@ -280,7 +278,7 @@ fn direct_rays_carry_the_light_power() {
             max_emitted_factor: 4,
             seed: 5,
             first_photon: 0,
-            units: PathUnits::new(1.0, 1.0),
+            units: PathUnits { length: 1.0 },
         },
     );
     let sum: Vec3 = batch

@@ -104,11 +104,9 @@ fn the_filter_reduces_noise() {
     let few = RenderSettings {
         photons: 20_000,
         // Small kernels: the speckle noise §8.2's filter is for (with eq. 8's default
-        // bandwidth the noise of 20k photons is blotches wider than the filter's box). C = 0.6
-        // since eq. 7's unit and ⟨r⟩ became medians (deviations §3, §5), about the kernels
-        // C = 0.4 gave before (at C = 0.4 now: relMSE 0.0078 → 0.0033, the mean moved 2.1%).
+        // bandwidth the noise of 20k photons is blotches wider than the filter's box).
         bandwidth: raysplat::photon::BandwidthParams {
-            smoothness_c: 0.6,
+            smoothness_c: 0.4,
             ..Default::default()
         },
         ..settings(Method::Rs)

@@ -461,7 +461,7 @@ fn long_specular_chains_saturate_the_path_pdf() {
             max_emitted_factor: 4,
             seed: 3,
             first_photon: 0,
-            units: PathUnits::new(1e6, 1e6),
+            units: PathUnits { length: 1e6 },
         },
     );
     assert_eq!(batch.invalid, 0, "photon rays dropped as non-finite");
