@@ -14,7 +14,7 @@ use raysplat::direct::direct_light;
 use raysplat::eye::{EyeSample, EyeSamples};
 use raysplat::film::{Film, rel_mse};
 use raysplat::render::{DirectMode, RenderSettings};
-use raysplat::scene::{BuiltinScene, GlbBuilder, Scene, uv_sphere};
+use raysplat::scene::{BuiltinScene, GlbBuilder, Hit, Scene, uv_sphere};
 use serde_json::json;
 use std::sync::Arc;
 
@@ -147,6 +147,23 @@ fn panel_below_ceiling(gap: f32) -> Scene {
     Scene::from_glb_bytes(&g.to_glb(), "panel under a ceiling").unwrap()
 }
 
+/// An eye sample at a real hit on the ceiling (its own error bound), seen from below.
+fn ceiling_sample(hit: &Hit, albedo: f32, pixel: u32) -> EyeSample {
+    EyeSample {
+        position: hit.position,
+        normal: -Vec3::Y,
+        geo_normal: -Vec3::Y,
+        offset: hit.offset,
+        wo: -Vec3::Y,
+        material: hit.material,
+        pixel,
+        weight: Vec3::ONE,
+        albedo: Vec3::splat(albedo),
+        specular: Vec3::ZERO,
+        primary: true,
+    }
+}
+
 /// Finding 1 of issue 11: shadow rays toward a panel just below a ceiling must not be stopped
 /// by the panel itself, however large the scene. NEE at points of the ceiling and the path
 /// tracer's image of it both give the analytic irradiance within 1%.
@@ -163,20 +180,7 @@ fn a_panel_just_below_a_ceiling_lights_it_fully_in_a_large_scene() {
         let hit = scene
             .intersect(Vec3::new(x, 2.9, z), Vec3::Y, f32::INFINITY)
             .expect("the ray meets the ceiling");
-        let s = EyeSample {
-            position: hit.position,
-            normal: -Vec3::Y,
-            geo_normal: -Vec3::Y,
-            offset: hit.offset,
-            wo: -Vec3::Y,
-            material: hit.material,
-            pixel: k as u32,
-            weight: Vec3::ONE,
-            albedo: Vec3::splat(rho as f32),
-            specular: Vec3::ZERO,
-            primary: true,
-        };
-        eye.push_sample(&s, k as u32);
+        eye.push_sample(&ceiling_sample(&hit, rho as f32, k as u32), k as u32);
     }
     let (radiance, invalid) = direct_light(&scene, &eye, 2_000_000, 7);
     assert_eq!(invalid, 0);
@@ -253,22 +257,7 @@ fn direct_light_next_to_an_emitter_is_bounded() {
     let mut eye = EyeSamples::default();
     let n = 4096;
     for k in 0..n {
-        eye.push_sample(
-            &EyeSample {
-                position: hit.position,
-                normal: -Vec3::Y,
-                geo_normal: -Vec3::Y,
-                offset: hit.offset,
-                wo: -Vec3::Y,
-                material: hit.material,
-                pixel: k,
-                weight: Vec3::ONE,
-                albedo: Vec3::splat(rho as f32),
-                specular: Vec3::ZERO,
-                primary: true,
-            },
-            k,
-        );
+        eye.push_sample(&ceiling_sample(&hit, rho as f32, k), k);
     }
     let (radiance, invalid) = direct_light(&scene, &eye, 1, 11);
     assert_eq!(invalid, 0);
