@@ -180,6 +180,15 @@ impl Lights {
         self.lights.is_empty()
     }
 
+    /// The scene triangles that emit (every triangle with non-zero emission and area is an
+    /// area light).
+    pub fn area_triangles(&self) -> impl Iterator<Item = u32> + '_ {
+        self.lights.iter().filter_map(|l| match l {
+            Light::Area { triangle, .. } => Some(*triangle),
+            _ => None,
+        })
+    }
+
     pub fn len(&self) -> usize {
         self.lights.len()
     }

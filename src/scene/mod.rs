@@ -394,6 +394,14 @@ impl Scene {
         self.occluded_except(origin, dir, tmax, u32::MAX)
     }
 
+    /// Whether the ray from `origin` along `dir` meets any of the triangles `tris` (by the same
+    /// test the BVH traversal uses).
+    pub fn meets_any(&self, origin: Vec3, dir: Vec3, tris: &[u32]) -> bool {
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, f32::INFINITY);
+        tris.iter()
+            .any(|&t| self.triangles[t as usize].intersect(&ray).is_finite())
+    }
+
     /// [`Scene::occluded`], never counting the triangle `skip` as an occluder.
     #[inline]
     pub fn occluded_except(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> bool {
