@@ -9,7 +9,7 @@
 
 use crate::eye::EyeSamples;
 use crate::sampling::Rng;
-use crate::scene::Scene;
+use crate::scene::{Hit, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -26,6 +26,33 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     }
 }
 
+/// The MIS weight (power heuristic, against light sampling) of emission at `hit`, found along
+/// the BSDF-sampled direction `wi` with solid-angle density `pdf` from `from`, whose
+/// viewer-side shading normal is `n`. Light sampling only produces directions above `n` (a
+/// viewer below it, at a grazing view of a smooth-shaded mesh, can still reflect light from
+/// below): there the BSDF sample takes the whole weight. Shared by NEE at eye samples and the
+/// path tracer.
+pub fn bsdf_emission_weight(
+    scene: &Scene,
+    from: Vec3,
+    n: Vec3,
+    wi: Vec3,
+    pdf: f32,
+    hit: &Hit,
+) -> f32 {
+    if n.dot(wi) <= 0.0 {
+        return 1.0;
+    }
+    power_heuristic(
+        pdf,
+        scene.lights.pdf_direct(hit.triangle, from, hit.position),
+    )
+}
+
+/// Area lights tested one by one before a BSDF-sampled ray's full traversal (at most this
+/// many): a ray that meets none of them cannot find an emitter.
+const EMITTERS_TESTED_DIRECTLY: usize = 64;
+
 /// Reflected direct radiance towards the eye at every sample (BSDF applied, eye weight not),
 /// and the number of samples whose estimate was NaN or infinite (set to zero, not used).
 pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) -> (Vec<Vec3>, u64) {
@@ -33,8 +60,8 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
     // Emitting triangles, when few enough to test one by one: a BSDF-sampled ray that meets
     // none of them cannot find an emitter, so the full traversal is skipped for it (most such
     // rays miss every light). The same triangle test as the BVH's, so nothing changes.
-    let emitters: Vec<u32> = scene.lights.area_triangles().take(65).collect();
-    let few_emitters = (emitters.len() <= 64).then_some(emitters.as_slice());
+    let emitters: Vec<u32> = scene.lights.area_triangles().collect();
+    let few_emitters = (emitters.len() <= EMITTERS_TESTED_DIRECTLY).then_some(emitters.as_slice());
     let radiance: Vec<Vec3> = (0..eye.len())
         .into_par_iter()
         .map(|i| {
@@ -62,11 +89,8 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
                 if !scene.light_visible(origin, &ls) {
                     continue;
                 }
-                let w = if ls.pdf.is_finite() {
-                    power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, n))
-                } else {
-                    1.0 // a point light: no BSDF sample can find it
-                };
+                // A point light (infinite pdf) takes the whole weight: no BSDF sample finds it.
+                let w = power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, n));
                 sum += bsdf.eval(wo, ls.wi, n) * ls.value * (cos * w);
             }
             // The BSDF-sampled half of the estimate: an emitter met along a sampled direction,
@@ -92,16 +116,7 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
                 if le == Vec3::ZERO {
                     continue;
                 }
-                // Light sampling only produces directions above the shading normal (a viewer
-                // below it, at a grazing view of a smooth-shaded mesh, can still reflect
-                // light from below): there the BSDF sample takes the whole weight.
-                let w = if n.dot(s.wi) <= 0.0 {
-                    1.0
-                } else {
-                    let pl = scene.lights.pdf_direct(hit.triangle, p, hit.position);
-                    power_heuristic(s.pdf, pl)
-                };
-                sum += s.weight * le * w;
+                sum += s.weight * le * bsdf_emission_weight(scene, p, n, s.wi, s.pdf, &hit);
             }
             sum / samples as f32
         })

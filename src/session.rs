@@ -532,15 +532,12 @@ impl Worker {
             PathTracer::new(
                 self.scene.clone(),
                 r.camera.clone(),
-                PtSettings {
-                    width: r.settings.width,
-                    height: r.settings.height,
-                    max_depth: 64,
-                    seed: r.settings.seed,
-                    max_diffuse_vertices: crate::baseline::pt::max_diffuse_vertices_for(
-                        r.settings.fractions,
-                    ),
-                },
+                PtSettings::matching(
+                    r.settings.width,
+                    r.settings.height,
+                    r.settings.seed,
+                    r.settings.fractions,
+                ),
             )
         });
         pt.add_samples(1);

@@ -106,13 +106,12 @@ pub fn render_method(
             let mut pt = PathTracer::new(
                 scene.clone(),
                 camera,
-                PtSettings {
-                    width: settings.width,
-                    height: settings.height,
-                    max_depth: 64,
-                    seed: settings.seed,
-                    max_diffuse_vertices: super::pt::max_diffuse_vertices_for(settings.fractions),
-                },
+                PtSettings::matching(
+                    settings.width,
+                    settings.height,
+                    settings.seed,
+                    settings.fractions,
+                ),
             );
             match budget {
                 Budget::Fixed { pt_spp } => pt.add_samples(pt_spp.max(1)),

@@ -2,7 +2,7 @@
 //! importance sampling (power heuristic) over the same BSDFs and lights as the splatter.
 //! Progressive: each call adds samples per pixel; every sample has its own random stream.
 
-use crate::direct::power_heuristic;
+use crate::direct::{bsdf_emission_weight, power_heuristic};
 use crate::film::Film;
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
@@ -25,6 +25,21 @@ pub struct PtSettings {
     /// (E S* D S* L), the transport that photon classes (direct, 0, caustic) carry
     /// ([`max_diffuse_vertices_for`]).
     pub max_diffuse_vertices: u32,
+}
+
+impl PtSettings {
+    /// The path tracer as a reference for a render of `width` × `height` with these photon
+    /// `fractions`: the same transport ([`max_diffuse_vertices_for`]) and paths long enough
+    /// for Russian roulette to end them.
+    pub fn matching(width: u32, height: u32, seed: u64, fractions: [f32; 3]) -> Self {
+        Self {
+            width,
+            height,
+            max_depth: 64,
+            seed,
+            max_diffuse_vertices: max_diffuse_vertices_for(fractions),
+        }
+    }
 }
 
 /// The path tracer's [`PtSettings::max_diffuse_vertices`] for the transport that the photon
@@ -85,7 +100,7 @@ impl PathTracer {
                             (y as f32 + j.y) / s.height as f32,
                             aspect,
                         );
-                        let l = radiance_limited(
+                        let l = radiance(
                             scene,
                             camera.position,
                             d,
@@ -119,13 +134,9 @@ impl PathTracer {
     }
 }
 
-/// Radiance arriving at `o` from direction `d` along one path.
-pub fn radiance(scene: &Scene, o: Vec3, d: Vec3, rng: &mut Rng, max_depth: u32) -> Vec3 {
-    radiance_limited(scene, o, d, rng, max_depth, u32::MAX)
-}
-
-/// [`radiance`] along paths with at most `max_diffuse` non-specular scattering vertices.
-pub fn radiance_limited(
+/// Radiance arriving at `o` from direction `d` along one path with at most `max_diffuse`
+/// non-specular scattering vertices (`u32::MAX`: full global illumination).
+pub fn radiance(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
@@ -141,8 +152,7 @@ pub fn radiance_limited(
     let mut specular = true;
     let mut prev_pdf = 0.0f32;
     let mut prev_pos = o;
-    // The viewer-side normal at the previous vertex: light sampling there only produced
-    // directions above it, so a BSDF-sampled direction below it takes the whole weight.
+    // The viewer-side normal at the previous vertex (for `bsdf_emission_weight`).
     let mut prev_n = Vec3::ZERO;
     let mut leaving = u32::MAX;
     for depth in 0..max_depth {
@@ -155,14 +165,7 @@ pub fn radiance_limited(
             let w = if specular {
                 1.0
             } else {
-                if prev_n.dot(dir) <= 0.0 {
-                    1.0
-                } else {
-                    let pl = scene
-                        .lights
-                        .pdf_direct(hit.triangle, prev_pos, hit.position);
-                    power_heuristic(prev_pdf, pl)
-                }
+                bsdf_emission_weight(scene, prev_pos, prev_n, dir, prev_pdf, &hit)
             };
             l += beta * le * w;
         }
@@ -195,11 +198,8 @@ pub fn radiance_limited(
                     let from = scene.offset(&hit, ls.wi);
                     if scene.light_visible(from, &ls) {
                         let f = bsdf.eval(wo, ls.wi, ns);
-                        let w = if ls.pdf.is_finite() {
-                            power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, ns))
-                        } else {
-                            1.0
-                        };
+                        // Point lights (infinite pdf) take the whole weight.
+                        let w = power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, ns));
                         l += beta * f * ls.value * (cos * w);
                     }
                 }
