@@ -75,3 +75,21 @@ if [ -f $S/living_room.glb ]; then
     run living_room 256 1 600 "40 75 150 300 1200" $S/living_room.glb --width 500 --height 333 \
         --photons 500000 --fractions 0.0,0.9,0.1 --c 0.9 --s 0.4 --r 0.2 --exposure 1
 fi
+# Bandwidth clamp fractions (docs/results.md's table): photon-side only, so a tiny image will do;
+# CORNELL WATER and SPONZA too, scenes not used for tuning.
+mkdir -p $OUT/clamps
+clamps() {
+    local name=$1
+    shift
+    $R render "$@" --direct photons --width 40 --height 40 --spp 1 --out /tmp/raysplat_clamps.exr \
+        --stats $OUT/clamps/$name.json >/dev/null
+}
+clamps cornell1 builtin:cornell1 --photons 200000 --fractions 0.3,0.6,0.1 --c 1.0 --s 0.4 --r 0.2
+clamps cornell2 builtin:cornell2 --photons 300000 --fractions 0.2,0.0,0.8 --c 1.1 --s 0.5 --r 0.2
+for f in sibenik:0.0,1.0,0.0:0.9:0.3 living_room:0.0,0.9,0.1:0.9:0.4 \
+    sponza_dabrovic:0.0,1.0,0.0:0.9:0.3 cornell_water:0.3,0.6,0.1:1.0:0.4; do
+    IFS=: read -r name fr c s <<<"$f"
+    if [ -f $S/$name.glb ]; then
+        clamps $name $S/$name.glb --photons 500000 --fractions $fr --c $c --s $s --r 0.2
+    fi
+done
