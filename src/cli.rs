@@ -3,13 +3,15 @@
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use raysplat::baseline::Method;
-use raysplat::baseline::compare::{Budget, CompareRow, error_map, render_method, rmse};
+use raysplat::choice::Choice;
 use raysplat::film::Film;
-use raysplat::photon::BandwidthParams;
-use raysplat::radiance_map::DirectionalMode;
-use raysplat::render::{DirectMode, RenderSettings, Renderer, peak_rss_mb};
+use raysplat::film::error::{error_map, mean_bias, rmse};
+use raysplat::methods::{self, Budget, MethodStats, Timings, peak_rss_mb, render_method};
+use raysplat::pipeline::directional::DirectionalMode;
+use raysplat::pipeline::photon::BandwidthParams;
 use raysplat::scene::{BuiltinScene, Scene};
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -87,7 +89,8 @@ struct RenderArgs {
     r: f32,
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    #[arg(long, value_enum, default_value_t = DirectMode::Nee)]
+    /// Direct light: nee (light and BSDF samples at eye samples) or photons (splatted).
+    #[arg(long, default_value = "nee", value_parser = choice::<DirectMode>())]
     direct: DirectMode,
     /// Light samples per eye sample for --direct nee.
     #[arg(long, default_value_t = 1)]
@@ -112,8 +115,9 @@ struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
-    #[arg(long, value_enum, default_value_t = Method::Rs)]
-    method: Method,
+    /// rs, rc, pm, pt, rs-fg or pm-fg.
+    #[arg(long, default_value = "rs", value_parser = choice::<MethodKind>())]
+    method: MethodKind,
     /// K of the global photon map (--method pm).
     #[arg(long, default_value_t = 400)]
     pm_k: usize,
@@ -129,7 +133,7 @@ struct RenderArgs {
     no_merge: bool,
     /// Directional storage at glossy surfaces (§8.1): diffuse (irradiance only), sh
     /// (16 spherical-harmonic coefficients per channel) or histogram (20 strata).
-    #[arg(long, value_enum, default_value_t = DirectionalMode::Sh)]
+    #[arg(long, default_value = "sh", value_parser = choice::<DirectionalMode>())]
     radiance_map: DirectionalMode,
     /// ε, the radiance cache error (§8.3): records are valid up to ε × their harmonic mean
     /// distance. Used by --method rc, and by rs with --cache.
@@ -154,8 +158,8 @@ struct CompareArgs {
     #[command(flatten)]
     render: RenderArgs,
     /// Methods to compare.
-    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Method::Rs, Method::Pm, Method::Pt])]
-    methods: Vec<Method>,
+    #[arg(long, value_delimiter = ',', default_value = "rs,pm,pt", value_parser = choice::<MethodKind>())]
+    methods: Vec<MethodKind>,
     /// Reference image (linear EXR of the same size); without it the path tracer renders one.
     #[arg(long)]
     reference: Option<PathBuf>,
@@ -187,6 +191,28 @@ struct BenchArgs {
     /// the Table 2 rows report relMSE to it.
     #[arg(long)]
     cornell_reference: Option<PathBuf>,
+}
+
+/// A clap value parser for a closed set of named choices.
+fn choice<T: Choice>() -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(T::ALL.iter().map(|c| c.name()))
+        .map(|s| T::from_name(&s).expect("clap checked the name"))
+}
+
+/// One row of `compare`'s table (Table 2's phases plus errors).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct CompareRow {
+    t_eye: f64,
+    t_light: f64,
+    t_splat: f64,
+    t_total: f64,
+    rmse: f64,
+    relmse: f64,
+    /// Image mean over reference mean, minus 1 (luminance): the method's overall bias.
+    mean_bias: f64,
+    photons: u64,
+    passes: u64,
 }
 
 pub fn main() -> i32 {
@@ -260,12 +286,13 @@ impl RenderArgs {
             pm_caustic_k: self.pm_caustic_k,
             fg_rays: self.fg_rays,
             radiance_map: self.radiance_map,
-            cache: raysplat::cache::CacheParams {
+            pt_spp: self.spp,
+            cache: raysplat::pipeline::cache::CacheParams {
                 error: self.cache_error,
                 min_records: self.min_records.max(1),
             },
             cache_on: self.cache,
-            filter: raysplat::filter::FilterParams {
+            filter: raysplat::pipeline::filter::FilterParams {
                 enabled: self.filter,
                 strength: self.filter_strength,
             },
@@ -335,12 +362,9 @@ fn render(args: RenderArgs) -> Result<(), String> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    if !matches!(args.method, Method::Rs | Method::Rc | Method::Pm) {
-        return render_other(&args, &settings, &scene, t_load);
-    }
     let progress = ProgressBar::new(match args.time_budget {
         Some(b) => (b * 1000.0) as u64,
-        None => 3,
+        None => 1,
     });
     progress.set_style(
         ProgressStyle::with_template("{spinner} {msg:24} [{bar:30}] {elapsed_precise}")
@@ -348,31 +372,30 @@ fn render(args: RenderArgs) -> Result<(), String> {
             .progress_chars("=> "),
     );
     progress.enable_steady_tick(Duration::from_millis(100));
-    progress.set_message("eye pass");
+    progress.set_message(format!("preparing ({})", args.method.name()));
     let start = Instant::now();
-    let mut r = Renderer::new(scene.clone(), settings)?;
-    progress.set_message("tracing and splatting");
-    loop {
-        r.run_batch();
-        match args.time_budget {
-            Some(b) => {
-                let spent = start.elapsed().as_secs_f64();
-                progress.set_position((spent * 1000.0).min(b * 1000.0) as u64);
-                progress.set_message(format!("batch {}", r.batch_count()));
-                if spent >= b {
-                    break;
-                }
-            }
-            None => break,
-        }
-    }
+    let mut m = methods::build(scene.clone(), settings)?;
+    progress.set_message("rendering");
+    let budget = match args.time_budget {
+        Some(b) => Budget::Seconds(b),
+        None => Budget::Fixed,
+    };
+    methods::run(m.as_mut(), budget, |m| {
+        let spent = start.elapsed().as_secs_f64();
+        progress.set_position(match args.time_budget {
+            Some(b) => (spent * 1000.0).min(b * 1000.0) as u64,
+            None => 1,
+        });
+        progress.set_message(format!("pass {}", m.passes()));
+    });
     progress.set_message("resolving");
-    let film = r.film();
+    let film = m.film();
     progress.finish_and_clear();
-    print_table(&r);
+    let stats = m.stats();
+    print_table(&scene.name, m.kind(), m.timings(), &stats);
     write_outputs(&args, &film)?;
     if let Some(path) = &args.stats {
-        let j = stats_json(&mut r, &film, t_load);
+        let j = stats_json(&scene.name, m.as_ref(), &stats, &film, t_load);
         let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
         raysplat::film::write_atomic(path, &bytes)?;
         eprintln!("wrote {}", path.display());
@@ -390,57 +413,6 @@ fn write_outputs(args: &RenderArgs, film: &Film) -> Result<(), String> {
     if let Some(png) = &args.png {
         film.write_png(png, args.exposure)?;
         eprintln!("wrote {}", png.display());
-    }
-    Ok(())
-}
-
-/// `render --method pt|rs-fg|pm-fg`: the path tracer (`--spp` paths per pixel) or final
-/// gathering (`--fg-rays` per eye sample), or either until `--time-budget`.
-fn render_other(
-    args: &RenderArgs,
-    settings: &RenderSettings,
-    scene: &Arc<Scene>,
-    t_load: f64,
-) -> Result<(), String> {
-    let budget = match args.time_budget {
-        Some(b) => Budget::Seconds(b),
-        None => Budget::Fixed { pt_spp: args.spp },
-    };
-    let progress = ProgressBar::new_spinner();
-    progress.set_message(format!("rendering ({})", args.method.name()));
-    progress.enable_steady_tick(Duration::from_millis(100));
-    let out = render_method(scene, args.method, settings, budget)?;
-    progress.finish_and_clear();
-    let t = out.timings;
-    println!(
-        "{}: T_E {:.3}  T_D {:.3}  T_L {:.3}  T_S {:.3}  ΣT {:.3} s, {} passes, {} invalid contributions dropped",
-        args.method.name(),
-        t.t_eye,
-        t.t_direct,
-        t.t_light,
-        t.t_splat,
-        t.total(),
-        out.passes,
-        out.invalid
-    );
-    write_outputs(args, &out.film)?;
-    if let Some(path) = &args.stats {
-        let j = json!({
-            "scene": scene.name,
-            "method": args.method,
-            "settings": settings,
-            "t_load": t_load,
-            "t_total": out.timings.total(),
-            "passes": out.passes,
-            "t_eye": out.timings.t_eye,
-            "t_light": out.timings.t_light,
-            "t_splat": out.timings.t_splat,
-            "invalid_contributions": out.invalid,
-            "peak_rss_mb": peak_rss_mb(),
-            "version": env!("CARGO_PKG_VERSION"),
-        });
-        let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
-        raysplat::film::write_atomic(path, &bytes)?;
     }
     Ok(())
 }
@@ -472,16 +444,10 @@ fn compare(args: CompareArgs) -> Result<(), String> {
             );
             let reference_settings = RenderSettings {
                 seed: settings.seed ^ 0x5eed,
+                pt_spp: args.ref_spp,
                 ..settings.clone()
             };
-            let r = render_method(
-                &scene,
-                Method::Pt,
-                &reference_settings,
-                Budget::Fixed {
-                    pt_spp: args.ref_spp,
-                },
-            )?;
+            let r = render_method(&scene, MethodKind::Pt, &reference_settings, Budget::Fixed)?;
             let path = args.out_dir.join("reference.exr");
             r.film.write_exr(&path)?;
             eprintln!("wrote {} ({:.1} s)", path.display(), r.timings.total());
@@ -490,9 +456,11 @@ fn compare(args: CompareArgs) -> Result<(), String> {
     };
     let budget = match args.render.time_budget {
         Some(b) => Budget::Seconds(b),
-        None => Budget::Fixed {
-            pt_spp: args.pt_spp,
-        },
+        None => Budget::Fixed,
+    };
+    let settings = RenderSettings {
+        pt_spp: args.pt_spp,
+        ..settings
     };
     let mut rows = serde_json::Map::new();
     // Fig. 10's montage: each method's image above its relative-error map, the reference last.
@@ -511,7 +479,7 @@ fn compare(args: CompareArgs) -> Result<(), String> {
             t_total: t.total(),
             rmse: rmse(&r.film.rgb, &reference),
             relmse: raysplat::film::rel_mse(&r.film.rgb, &reference),
-            mean_bias: raysplat::baseline::compare::mean_bias(&r.film.rgb, &reference),
+            mean_bias: mean_bias(&r.film.rgb, &reference),
             photons: r.photons,
             passes: r.passes,
         };
@@ -602,22 +570,21 @@ fn write_montage(
     raysplat::film::write_atomic(path, buf.get_ref())
 }
 
-fn print_table(r: &Renderer) {
-    let t = r.timings;
+fn print_table(scene: &str, kind: MethodKind, t: Timings, s: &MethodStats) {
     println!(
         "{:<18} {:>8} {:>8} {:>8} {:>8} {:>8}",
         "scene", "T_E", "T_D", "T_L", "T_S", "ΣT"
     );
     println!(
         "{:<18} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3}",
-        truncate(&r.scene.name, 18),
+        truncate(scene, 18),
         t.t_eye,
         t.t_direct,
         t.t_light,
         t.t_splat + t.t_resolve,
         t.total()
     );
-    if let Some(pm) = &r.pm_stats {
+    if let Some(pm) = &s.pm {
         println!(
             "photon mapping: {} global photons (K avg/max {:.0}/{}), {} caustic photons (K avg/max {:.0}/{})",
             pm.global_photons,
@@ -628,16 +595,16 @@ fn print_table(r: &Renderer) {
             pm.max_k_caustic
         );
     }
-    let c = r.counters;
     println!(
-        "photons traced {}, photon rays {}, eye samples {}, batches {}, accepted/tested pairs {}/{} ({:.2})",
-        r.photons_traced,
-        r.photon_rays(),
-        r.eye_samples().len(),
-        r.batch_count(),
-        c.accepted,
-        c.tested,
-        c.accepted as f64 / c.tested.max(1) as f64
+        "{}: photons traced {}, photon rays {}, eye samples {}, passes {}, accepted/tested pairs {}/{} ({:.2})",
+        kind.name(),
+        s.photons_traced,
+        s.photon_rays,
+        s.eye_samples,
+        s.passes,
+        s.accepted_pairs,
+        s.tested_pairs,
+        s.accepted_pairs as f64 / s.tested_pairs.max(1) as f64
     );
 }
 
@@ -645,22 +612,28 @@ fn truncate(s: &str, n: usize) -> String {
     s.chars().take(n).collect()
 }
 
-fn stats_json(r: &mut Renderer, film: &Film, t_load: f64) -> serde_json::Value {
-    let t = r.timings;
-    let clamps = r.bandwidth_clamps();
+fn stats_json(
+    scene: &str,
+    m: &dyn methods::Method,
+    s: &MethodStats,
+    film: &Film,
+    t_load: f64,
+) -> serde_json::Value {
+    let t = m.timings();
     let class_clamps = |c: usize| {
-        json!({
-            "rays": clamps[c].rays,
-            "at_h_min": clamps[c].fraction_min(),
-            "at_h_max": clamps[c].fraction_max(),
+        s.bandwidth_clamps.map(|clamps| {
+            json!({
+                "rays": clamps[c].rays,
+                "at_h_min": clamps[c].fraction_min(),
+                "at_h_max": clamps[c].fraction_max(),
+            })
         })
     };
-    let per_class = r.photon_rays_per_class();
-    let (dir_bytes, glossy_targets) = r.directional_memory();
+    let settings = m.settings();
     json!({
-        "scene": r.scene.name,
-        "camera": r.camera.name,
-        "settings": r.settings,
+        "scene": scene,
+        "camera": m.camera().name,
+        "settings": settings,
         "t_load": t_load,
         "t_eye": t.t_eye,
         "t_direct": t.t_direct,
@@ -668,38 +641,46 @@ fn stats_json(r: &mut Renderer, film: &Film, t_load: f64) -> serde_json::Value {
         "t_splat": t.t_splat,
         "t_resolve": t.t_resolve,
         "t_total": t.total(),
-        "photons": r.photons_traced,
-        "photon_rays": r.photon_rays(),
-        "photon_rays_direct": per_class[0],
-        "photon_rays_indirect": per_class[1],
-        "photon_rays_caustic": per_class[2],
-        "photon_ray_bytes": r.photon_memory_bytes(),
-        "pilot_mean_length": r.pilot().mean_length,
+        "photons": s.photons_traced,
+        "photon_rays": s.photon_rays,
+        "photon_rays_direct": s.photon_rays_per_class[0],
+        "photon_rays_indirect": s.photon_rays_per_class[1],
+        "photon_rays_caustic": s.photon_rays_per_class[2],
+        "photon_ray_bytes": s.photon_ray_bytes,
+        "pilot_mean_length": s.pilot_mean_length,
         "bandwidth_clamps": {
             "direct": class_clamps(0),
             "indirect": class_clamps(1),
             "caustic": class_clamps(2),
         },
-        "eye_samples": r.eye_samples().len(),
-        "splat_targets": r.tree().samples,
-        "splat_tree_nodes": r.tree().nodes.len(),
-        "batches": r.batch_count(),
-        "tested_pairs": r.counters.tested,
-        "accepted_pairs": r.counters.accepted,
+        "eye_samples": s.eye_samples,
+        "splat_targets": s.splat_targets,
+        "splat_tree_nodes": s.splat_tree_nodes,
+        "batches": s.passes,
+        "passes": s.passes,
+        "tested_pairs": s.tested_pairs,
+        "accepted_pairs": s.accepted_pairs,
         "peak_rss_mb": peak_rss_mb(),
-        "radiance_map": r.settings.radiance_map,
-        "cache_records": r.cache.as_ref().map(|c| c.records.len()),
-        "cache_records_per_pass": r.cache.as_ref().map(|c| c.per_pass.clone()),
-        "directional_bytes": dir_bytes,
-        "glossy_targets": glossy_targets,
-        "directional_bytes_per_glossy_target": dir_bytes as f64 / glossy_targets.max(1) as f64,
+        "radiance_map": settings.radiance_map,
+        "cache_records": s.cache_records,
+        "cache_records_per_pass": s.cache_records_per_pass,
+        "directional_bytes": s.directional_bytes,
+        "glossy_targets": s.glossy_targets,
+        "directional_bytes_per_glossy_target": s.directional_bytes as f64 / s.glossy_targets.max(1) as f64,
         "invalid_pixels": film.invalid_pixels(),
         "invalid_contributions": film.invalid_contributions,
-        "method": r.settings.method,
-        "pm": r.pm_stats,
+        "method": m.kind(),
+        "pm": s.pm,
         "threads": rayon::current_num_threads(),
         "version": env!("CARGO_PKG_VERSION"),
     })
+}
+
+/// The fastest of a bench row's runs.
+struct BenchRun {
+    timings: Timings,
+    stats: MethodStats,
+    rel_mse: f64,
 }
 
 /// Table 2's CORNELL BOX I settings: 500×500×4, M = 200,000, (0.3, 0.6, 0.1), C = 1, S = 0.4, R = 0.2.
@@ -720,13 +701,13 @@ fn bench(args: BenchArgs) -> Result<(), String> {
     };
     // Table 2's RC row: C = 0.6, S = 0.3, ε = 0.7.
     let rc = |direct| RenderSettings {
-        method: Method::Rc,
+        method: MethodKind::Rc,
         bandwidth: BandwidthParams {
             smoothness_c: 0.6,
             sensitivity_s: 0.3,
             max_bandwidth_r: 0.2,
         },
-        cache: raysplat::cache::CacheParams {
+        cache: raysplat::pipeline::cache::CacheParams {
             error: 0.7,
             ..Default::default()
         },
@@ -738,24 +719,33 @@ fn bench(args: BenchArgs) -> Result<(), String> {
         ("cornell1_rc", rc(DirectMode::Photons)),
         ("cornell1_rc_nee", rc(DirectMode::Nee)),
     ] {
-        let mut best: Option<(raysplat::render::Timings, u64, u64, f64, usize)> = None;
+        let mut best: Option<BenchRun> = None;
         for _ in 0..args.runs.max(1) {
-            let mut r = Renderer::new(scene.clone(), settings.clone())?;
-            r.run_batch();
-            let film = r.film();
-            if film.invalid_pixels() > 0 {
+            let r = render_method(&scene, settings.method, &settings, Budget::Fixed)?;
+            if r.invalid > 0 {
                 return Err(format!("{name}: the image has NaN or infinite pixels"));
             }
             let err = reference
                 .as_ref()
-                .map_or(f64::NAN, |px| raysplat::film::rel_mse(&film.rgb, px));
-            let records = r.cache.as_ref().map_or(0, |c| c.records.len());
-            let t = r.timings;
-            if best.is_none_or(|b| t.total() < b.0.total()) {
-                best = Some((t, r.counters.tested, r.counters.accepted, err, records));
+                .map_or(f64::NAN, |px| raysplat::film::rel_mse(&r.film.rgb, px));
+            if best
+                .as_ref()
+                .is_none_or(|b| r.timings.total() < b.timings.total())
+            {
+                best = Some(BenchRun {
+                    timings: r.timings,
+                    stats: r.stats,
+                    rel_mse: err,
+                });
             }
         }
-        let (t, tested, accepted, err, records) = best.expect("at least one run");
+        let BenchRun {
+            timings: t,
+            stats,
+            rel_mse: err,
+        } = best.expect("at least one run");
+        let (tested, accepted) = (stats.tested_pairs, stats.accepted_pairs);
+        let records = stats.cache_records.unwrap_or(0);
         let ratio = accepted as f64 / tested.max(1) as f64;
         println!(
             "{name:<16} T_E {:.3}  T_D {:.3}  T_L {:.3}  T_S {:.3}  ΣT {:.3} s  peak {:.0} MB  accepted/tested {:.2}  relMSE {:.4}{}",
@@ -838,23 +828,21 @@ fn glossy_bench(
         }
         None => None,
     };
-    for mode in DirectionalMode::ALL {
+    for &mode in DirectionalMode::ALL {
         let settings = RenderSettings {
             direct: DirectMode::Photons,
             radiance_map: mode,
             ..RenderSettings::default()
         };
-        let mut best: Option<(raysplat::render::Timings, f64)> = None;
+        let mut best: Option<(Timings, f64)> = None;
         let mut memory = (0, 0);
         for _ in 0..args.runs.max(1) {
-            let mut r = Renderer::new(scene.clone(), settings.clone())?;
-            r.run_batch();
-            let film = r.film();
+            let r = render_method(&scene, settings.method, &settings, Budget::Fixed)?;
             let err = reference
                 .as_ref()
-                .map_or(f64::NAN, |px| raysplat::film::rel_mse(&film.rgb, px));
+                .map_or(f64::NAN, |px| raysplat::film::rel_mse(&r.film.rgb, px));
             let t = r.timings;
-            memory = r.directional_memory();
+            memory = (r.stats.directional_bytes, r.stats.glossy_targets);
             if best.is_none_or(|b| t.t_splat + t.t_resolve < b.0.t_splat + b.0.t_resolve) {
                 best = Some((t, err));
             }

@@ -3,7 +3,7 @@
 //! failed or interrupted write never leaves a partial file under the final name.
 
 pub mod display;
-pub mod snapshot;
+pub mod error;
 
 use glam::Vec3;
 use std::io::Write;

@@ -6,14 +6,14 @@
 //! stale frame is dropped, never queued), events out (scene loaded, load failed). Commands that
 //! arrive together are coalesced and applied once, at the batch boundary.
 
-use crate::baseline::pt::{PathTracer, PtSettings};
-use crate::cache::CacheParams;
 use crate::film::Film;
-use crate::filter::FilterParams;
-use crate::photon::BandwidthParams;
-use crate::radiance_map::DirectionalMode;
-use crate::render::{DirectMode, RenderSettings, Renderer, Step};
+use crate::methods::{self, Method, Step};
+use crate::pipeline::cache::CacheParams;
+use crate::pipeline::directional::DirectionalMode;
+use crate::pipeline::filter::FilterParams;
+use crate::pipeline::photon::BandwidthParams;
 use crate::scene::{Camera, Scene};
+use crate::settings::{DirectMode, MethodKind, RenderSettings, limits};
 use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError, bounded, unbounded};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -187,7 +187,7 @@ impl Session {
     ) -> Self {
         // Build the splat's kept-fraction table (≈ 30 ms, docs/deviations.md §23) beside the
         // first eye pass rather than in front of the first splat.
-        std::thread::spawn(|| crate::splat::kept_fraction(1.0, 0.0));
+        std::thread::spawn(|| crate::pipeline::splat::kept_fraction(1.0, 0.0));
         let (cmd_tx, cmd_rx) = unbounded();
         let (frame_tx, frame_rx) = bounded(1);
         let (event_tx, event_rx) = unbounded();
@@ -264,6 +264,8 @@ struct Pending {
     view: bool,
     interactive: Option<bool>,
     bandwidth: Option<BandwidthParams>,
+    /// Settings that need no re-trace changed ([`Method::update`]).
+    update: bool,
 }
 
 struct Worker {
@@ -272,13 +274,13 @@ struct Worker {
     config: SessionConfig,
     camera: Camera,
     interactive: bool,
-    renderer: Option<Renderer>,
+    renderer: Option<Box<dyn Method>>,
     /// A (re)start renders its first frame at the interactive resolution, then switches to
     /// full resolution (re-splatting, no re-trace): an image appears sooner.
     coarse_start: bool,
     paused: bool,
     /// The reference mode's path tracer, for the current view.
-    reference: Option<PathTracer>,
+    reference: Option<Box<dyn Method>>,
     reference_on: bool,
     generation: u64,
     seq: u64,
@@ -334,7 +336,7 @@ impl Worker {
             let busy = self
                 .renderer
                 .as_ref()
-                .is_some_and(|r| r.resplat_pending() || !self.paused);
+                .is_some_and(|r| r.catching_up() || !self.paused);
             let mut commands = Vec::new();
             if !busy {
                 match cmd_rx.recv_timeout(Duration::from_millis(250)) {
@@ -363,7 +365,7 @@ impl Worker {
                 self.reference_step();
                 traced = true;
             } else if let Some(r) = self.renderer.as_mut()
-                && (r.resplat_pending() || !self.paused)
+                && (r.catching_up() || !self.paused)
             {
                 let t = Instant::now();
                 match r.step() {
@@ -378,8 +380,7 @@ impl Worker {
                 self.publish();
                 last_publish = Some(Instant::now());
                 unseen = false;
-                if self.coarse_start && self.renderer.as_ref().is_some_and(|r| r.batch_count() > 0)
-                {
+                if self.coarse_start && self.renderer.as_ref().is_some_and(|r| r.passes() > 0) {
                     self.coarse_start = false;
                     if !self.interactive {
                         self.apply(Pending {
@@ -398,39 +399,33 @@ impl Worker {
         match c {
             Command::SetBandwidth(b) => p.bandwidth = Some(b),
             Command::SetPhotonsPerBatch(n) => {
-                s.photons = n.max(100);
-                if let Some(r) = self.renderer.as_mut() {
-                    r.settings.photons = s.photons;
-                }
+                s.photons = limits::PHOTONS.clamp(n);
+                p.update = true;
             }
             Command::SetSamplesPerPixel(spp) => {
-                s.spp = spp.clamp(1, 64);
+                s.spp = limits::SPP.clamp(spp);
                 p.view = true;
             }
             Command::SetResolution { width, height } => {
-                s.width = width.clamp(8, 4096);
-                s.height = height.clamp(8, 4096);
+                s.width = limits::RESOLUTION.clamp(width);
+                s.height = limits::RESOLUTION.clamp(height);
                 p.view = true;
             }
-            Command::SetCache { on, params } => {
+            Command::SetCache { on, mut params } => {
+                params.error = limits::CACHE_ERROR.clamp(params.error);
+                params.min_records = limits::MIN_RECORDS.clamp(params.min_records);
                 s.cache_on = on;
                 s.cache = params;
-                if let Some(r) = self.renderer.as_mut() {
-                    r.settings.cache_on = on;
-                    r.settings.cache = params;
-                }
+                p.update = true;
             }
-            Command::SetFilter(f) => {
+            Command::SetFilter(mut f) => {
+                f.strength = limits::FILTER_STRENGTH.clamp(f.strength);
                 s.filter = f;
-                if let Some(r) = self.renderer.as_mut() {
-                    r.settings.filter = f;
-                }
+                p.update = true;
             }
             Command::SetRadianceMap(m) => {
-                if s.radiance_map != m {
-                    s.radiance_map = m;
-                    p.view = true;
-                }
+                s.radiance_map = m;
+                p.update = true;
             }
             Command::SetDirect(d) => {
                 if s.direct != d {
@@ -447,9 +442,9 @@ impl Worker {
                 p.interactive = Some(interactive);
             }
             Command::SetRayBudget(n) => {
-                self.config.max_stored_rays = n.max(1);
+                self.config.max_stored_rays = limits::RAY_BUDGET.clamp(n);
                 if let Some(r) = self.renderer.as_mut() {
-                    r.max_stored_rays = self.config.max_stored_rays;
+                    r.set_ray_budget(self.config.max_stored_rays);
                 }
             }
             Command::Pause => self.paused = true,
@@ -473,7 +468,10 @@ impl Worker {
             // The reference shows the current view only.
             self.reference = None;
         }
-        if let Some(b) = p.bandwidth {
+        if let Some(mut b) = p.bandwidth {
+            b.smoothness_c = limits::SMOOTHNESS_C.clamp(b.smoothness_c);
+            b.sensitivity_s = limits::SENSITIVITY_S.clamp(b.sensitivity_s);
+            b.max_bandwidth_r = limits::MAX_BANDWIDTH_R.clamp(b.max_bandwidth_r);
             self.config.settings.bandwidth = b;
         }
         if let Some(i) = p.interactive {
@@ -502,23 +500,29 @@ impl Worker {
         let Some(r) = self.renderer.as_mut() else {
             return;
         };
+        let s = &self.config.settings;
+        let changed = p.update || p.bandwidth.is_some();
+        if changed && let Err(e) = r.update(s) {
+            self.emit(Event::Error(e));
+            return;
+        }
         if p.view {
-            let s = &self.config.settings;
             let (w, h, spp) = if self.interactive {
                 let d = self.config.interactive_divisor.max(1);
-                ((s.width / d).max(8), (s.height / d).max(8), 1)
+                (
+                    limits::RESOLUTION.clamp(s.width / d),
+                    limits::RESOLUTION.clamp(s.height / d),
+                    1,
+                )
             } else {
                 (s.width, s.height, s.spp)
             };
-            r.settings.bandwidth = s.bandwidth;
-            r.settings.radiance_map = s.radiance_map;
             if let Err(e) = r.set_view(self.camera.clone(), w, h, spp) {
                 self.emit(Event::Error(e));
                 return;
             }
-            self.generation += 1;
-        } else if let Some(b) = p.bandwidth {
-            r.begin_resplat(b);
+        }
+        if p.view || changed {
             self.generation += 1;
         }
     }
@@ -528,19 +532,24 @@ impl Worker {
         let Some(r) = self.renderer.as_ref() else {
             return;
         };
-        let pt = self.reference.get_or_insert_with(|| {
-            PathTracer::new(
-                self.scene.clone(),
-                r.camera.clone(),
-                PtSettings::matching(
-                    r.settings.width,
-                    r.settings.height,
-                    r.settings.seed,
-                    r.settings.fractions,
-                ),
-            )
-        });
-        pt.add_samples(1);
+        if self.reference.is_none() {
+            let settings = RenderSettings {
+                method: MethodKind::Pt,
+                pt_spp: 1,
+                ..r.settings().clone()
+            };
+            match methods::build_for(self.scene.clone(), settings, r.camera().clone()) {
+                Ok(pt) => self.reference = Some(pt),
+                Err(e) => {
+                    self.reference_on = false;
+                    self.emit(Event::Error(e));
+                    return;
+                }
+            }
+        }
+        if let Some(pt) = self.reference.as_mut() {
+            pt.step();
+        }
     }
 
     fn restart(&mut self) {
@@ -549,13 +558,13 @@ impl Worker {
         self.coarse_start = self.config.interactive_divisor > 1;
         if self.interactive || self.coarse_start {
             let d = self.config.interactive_divisor.max(1);
-            settings.width = (settings.width / d).max(8);
-            settings.height = (settings.height / d).max(8);
+            settings.width = limits::RESOLUTION.clamp(settings.width / d);
+            settings.height = limits::RESOLUTION.clamp(settings.height / d);
             settings.spp = 1;
         }
-        match Renderer::with_camera(self.scene.clone(), settings, self.camera.clone()) {
+        match methods::build_for(self.scene.clone(), settings, self.camera.clone()) {
             Ok(mut r) => {
-                r.max_stored_rays = self.config.max_stored_rays;
+                r.set_ray_budget(self.config.max_stored_rays);
                 self.renderer = Some(r);
             }
             Err(e) => self.emit(Event::Error(e)),
@@ -585,42 +594,41 @@ impl Worker {
             return;
         };
         let film = r.film();
-        let (directional_bytes, glossy_targets) = r.directional_memory();
+        let m = r.stats();
         let elapsed = self.started.elapsed().as_secs_f64();
+        // The indirect class's rays at the bandwidth bounds (all classes when it is empty).
+        let (at_min, at_max) = m.bandwidth_clamps.map_or((0.0, 0.0), |clamps| {
+            let pick = if clamps[1].rays > 0 {
+                clamps[1]
+            } else {
+                let mut all = clamps[0];
+                all += clamps[2];
+                all
+            };
+            (pick.fraction_min(), pick.fraction_max())
+        });
         let stats = SessionStats {
-            photons_traced: r.photons_traced,
-            photon_rays: r.photon_rays(),
-            photon_ray_bytes: r.photon_memory_bytes(),
-            batches: r.batch_count(),
-            folded_batches: r.folded_batches(),
-            stored_batches: r.stored_batches(),
-            splat_bytes: r.splat_memory_bytes(),
-            directional_bytes,
-            glossy_targets,
-            cache_records: r.cache.as_ref().map_or(0, |c| c.records.len()),
-            photons_per_second: r.photons_traced as f64 / elapsed.max(1e-9),
+            photons_traced: m.photons_traced,
+            photon_rays: m.photon_rays,
+            photon_ray_bytes: m.photon_ray_bytes,
+            batches: m.passes as usize,
+            folded_batches: m.folded_batches,
+            stored_batches: m.stored_batches,
+            splat_bytes: m.splat_bytes,
+            directional_bytes: m.directional_bytes,
+            glossy_targets: m.glossy_targets,
+            cache_records: m.cache_records.unwrap_or(0),
+            photons_per_second: m.photons_traced as f64 / elapsed.max(1e-9),
             last_splat_ms: self.last_splat_ms,
-            eye_samples: r.eye_samples().len(),
-            splat_targets: r.tree().samples,
+            eye_samples: m.eye_samples,
+            splat_targets: m.splat_targets,
             elapsed_s: elapsed,
             paused: self.paused,
-            resplat_pending: r.resplat_pending(),
-            reference_spp: self.reference.as_ref().map_or(0, |p| p.samples_per_pixel()),
-            indirect_at_h_min: 0.0,
-            indirect_at_h_max: 0.0,
+            resplat_pending: r.catching_up(),
+            reference_spp: self.reference.as_ref().map_or(0, |p| p.passes() as u32),
+            indirect_at_h_min: at_min,
+            indirect_at_h_max: at_max,
         };
-        let mut stats = stats;
-        // The indirect class's rays at the bandwidth bounds (all classes when it is empty).
-        let clamps = r.bandwidth_clamps();
-        let pick = if clamps[1].rays > 0 {
-            clamps[1]
-        } else {
-            let mut all = clamps[0];
-            all += clamps[2];
-            all
-        };
-        stats.indirect_at_h_min = pick.fraction_min();
-        stats.indirect_at_h_max = pick.fraction_max();
         self.seq += 1;
         let frame = Frame {
             film,
@@ -628,10 +636,10 @@ impl Worker {
             generation: self.generation,
             scene_name: self.scene.name.clone(),
             scene_path: self.scene_path.clone(),
-            camera: r.camera.clone(),
-            settings: r.settings.clone(),
+            camera: r.camera().clone(),
+            settings: r.settings().clone(),
             interactive: self.interactive || self.coarse_start,
-            cache_records: r.cache.as_ref().map_or_else(Vec::new, |c| {
+            cache_records: r.cache().map_or_else(Vec::new, |c| {
                 c.records
                     .iter()
                     .map(|k| {
@@ -645,7 +653,7 @@ impl Worker {
                     .collect()
             }),
             stats,
-            reference: self.reference.as_ref().map(|p| p.film()),
+            reference: self.reference.as_mut().map(|p| p.film()),
         };
         // Keep only the newest frame: drop one the UI has not taken yet.
         while self.stale.try_recv().is_ok() {}

@@ -4,13 +4,16 @@
 mod common;
 
 use glam::Vec3;
-use raysplat::photon::{
+use raysplat::choice::Choice;
+use raysplat::methods::Method;
+use raysplat::methods::rs::RaySplatting;
+use raysplat::pipeline::directional::DirectionalMode;
+use raysplat::pipeline::photon::{
     ClassBudgets, D_TILDE_FRACTION, LightPassSettings, PathUnits, PhotonClass, light_pass,
 };
-use raysplat::radiance_map::DirectionalMode;
-use raysplat::render::{DirectMode, RenderSettings, Renderer};
 use raysplat::sampling::Rng;
 use raysplat::scene::Scene;
+use raysplat::settings::{DirectMode, RenderSettings};
 use std::f32::consts::PI;
 use std::sync::Arc;
 
@@ -35,13 +38,13 @@ fn point_light_rings(
         seed,
         // Half the default smoothness: the kernel's blur of the 1/d³ falloff grows with h²
         // (at C = 1 it adds +3.7% at 54°), and these tests measure the splat's energy.
-        bandwidth: raysplat::photon::BandwidthParams {
+        bandwidth: raysplat::pipeline::photon::BandwidthParams {
             smoothness_c: 0.5,
             ..Default::default()
         },
         ..RenderSettings::default()
     };
-    let mut r = Renderer::new(scene, settings).unwrap();
+    let mut r = RaySplatting::open(scene, settings).unwrap();
     r.run_batch();
     let e = r.target_irradiance(true);
     let light = Vec3::new(0.0, height, 0.0);
@@ -317,7 +320,7 @@ fn same_seed_same_image_on_any_thread_count() {
             .build()
             .unwrap();
         pool.install(|| {
-            let mut r = Renderer::new(
+            let mut r = RaySplatting::open(
                 scene.clone(),
                 RenderSettings {
                     direct,
@@ -332,7 +335,7 @@ fn same_seed_same_image_on_any_thread_count() {
         })
     };
     for direct in [DirectMode::Nee, DirectMode::Photons] {
-        for map in DirectionalMode::ALL {
+        for &map in DirectionalMode::ALL {
             let a = render(1, direct, map);
             let b = render(3, direct, map);
             assert!(
@@ -348,20 +351,20 @@ fn same_seed_same_image_on_any_thread_count() {
 #[test]
 fn resplat_uses_stored_rays() {
     let scene = Arc::new(Scene::default_scene());
-    let mut r = Renderer::new(scene, small_settings()).unwrap();
+    let mut r = RaySplatting::open(scene, small_settings()).unwrap();
     r.run_batch();
     let before = r.film().rgb;
-    let traced = r.photons_traced;
-    let params = r.settings.bandwidth;
+    let traced = r.core.store.photons_traced;
+    let params = r.core.settings.bandwidth;
     r.resplat(params);
     assert!(r.film().rgb == before);
-    r.resplat(raysplat::photon::BandwidthParams {
+    r.resplat(raysplat::pipeline::photon::BandwidthParams {
         smoothness_c: 0.5,
         ..params
     });
     let after = r.film().rgb;
     assert!(after != before);
-    assert_eq!(r.photons_traced, traced);
+    assert_eq!(r.core.store.photons_traced, traced);
 }
 
 /// Progressive batches: each adds its photons to M, so bandwidths shrink (h ∝ M^(−1/6)) and the
@@ -373,7 +376,7 @@ fn resplat_uses_stored_rays() {
 #[test]
 fn progressive_batches_converge() {
     let scene = Arc::new(Scene::default_scene());
-    let mut reference = Renderer::new(
+    let mut reference = RaySplatting::open(
         scene.clone(),
         RenderSettings {
             photons: 1_000_000,
@@ -385,7 +388,7 @@ fn progressive_batches_converge() {
         reference.run_batch();
     }
     let reference = reference.film();
-    let mut r = Renderer::new(scene, small_settings()).unwrap();
+    let mut r = RaySplatting::open(scene, small_settings()).unwrap();
     r.run_batch();
     let one = raysplat::film::rel_mse(&r.film().indirect, &reference.indirect);
     for _ in 0..7 {

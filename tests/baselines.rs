@@ -4,12 +4,11 @@
 mod common;
 
 use glam::Vec3;
-use raysplat::baseline::Method;
-use raysplat::baseline::compare::{Budget, render_method};
-use raysplat::baseline::pt::{PathTracer, PtSettings};
 use raysplat::film::rel_mse;
-use raysplat::render::{DirectMode, RenderSettings};
+use raysplat::methods::pt::{PathTracer, PtSettings};
+use raysplat::methods::{Budget, render_method};
 use raysplat::scene::{BuiltinScene, GlbBuilder, Scene, uv_sphere};
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
 use serde_json::json;
 use std::sync::Arc;
 
@@ -141,16 +140,33 @@ fn pm_and_rs_converge_to_the_path_tracer() {
         pm_caustic_k: 50,
         ..RenderSettings::default()
     };
-    let reference = render_method(&scene, Method::Pt, &base, Budget::Fixed { pt_spp: 1024 })
-        .unwrap()
-        .film;
-    for method in [Method::Rs, Method::Pm] {
+    let reference = render_method(
+        &scene,
+        MethodKind::Pt,
+        &RenderSettings {
+            pt_spp: 1024,
+            ..(&base).clone()
+        },
+        Budget::Fixed,
+    )
+    .unwrap()
+    .film;
+    for method in [MethodKind::Rs, MethodKind::Pm] {
         let err = |m: u64| {
             let s = RenderSettings {
                 photons: m,
                 ..base.clone()
             };
-            let r = render_method(&scene, method, &s, Budget::Fixed { pt_spp: 0 }).unwrap();
+            let r = render_method(
+                &scene,
+                method,
+                &RenderSettings {
+                    pt_spp: 0,
+                    ..(&s).clone()
+                },
+                Budget::Fixed,
+            )
+            .unwrap();
             masked_rel_mse(&r.film.rgb, &reference.rgb, 48, 48)
         };
         let (few, many) = (err(10_000), err(640_000));
@@ -182,12 +198,29 @@ fn final_gathering_agrees_with_the_path_tracer() {
         seed: 6,
         ..RenderSettings::default()
     };
-    let reference = render_method(&scene, Method::Pt, &base, Budget::Fixed { pt_spp: 1024 })
-        .unwrap()
-        .film;
+    let reference = render_method(
+        &scene,
+        MethodKind::Pt,
+        &RenderSettings {
+            pt_spp: 1024,
+            ..(&base).clone()
+        },
+        Budget::Fixed,
+    )
+    .unwrap()
+    .film;
     let mean = |f: &[Vec3]| f.iter().copied().sum::<Vec3>() / f.len() as f32;
-    for method in [Method::RsFg, Method::PmFg] {
-        let r = render_method(&scene, method, &base, Budget::Fixed { pt_spp: 0 }).unwrap();
+    for method in [MethodKind::RsFg, MethodKind::PmFg] {
+        let r = render_method(
+            &scene,
+            method,
+            &RenderSettings {
+                pt_spp: 0,
+                ..(&base).clone()
+            },
+            Budget::Fixed,
+        )
+        .unwrap();
         assert_eq!(r.invalid, 0);
         let (x, refr) = masked(&r.film.rgb, &reference.rgb, 40, 40);
         let (m, m_ref) = (mean(&x), mean(&refr));
@@ -235,12 +268,28 @@ fn glass_refraction_agrees_between_path_tracer_and_eye_pass() {
         photons: 1_000,
         ..RenderSettings::default()
     };
-    let eye = render_method(&scene, Method::Rs, &settings, Budget::Fixed { pt_spp: 0 })
-        .unwrap()
-        .film;
-    let pt = render_method(&scene, Method::Pt, &settings, Budget::Fixed { pt_spp: 512 })
-        .unwrap()
-        .film;
+    let eye = render_method(
+        &scene,
+        MethodKind::Rs,
+        &RenderSettings {
+            pt_spp: 0,
+            ..(&settings).clone()
+        },
+        Budget::Fixed,
+    )
+    .unwrap()
+    .film;
+    let pt = render_method(
+        &scene,
+        MethodKind::Pt,
+        &RenderSettings {
+            pt_spp: 512,
+            ..(&settings).clone()
+        },
+        Budget::Fixed,
+    )
+    .unwrap()
+    .film;
     let err = rel_mse(&eye.rgb, &pt.rgb);
     let (me, mp) = (eye.mean(), pt.mean());
     assert!(err < 0.01, "relMSE {err}, means {me} vs {mp}");
@@ -307,7 +356,7 @@ fn furnace_settings() -> RenderSettings {
         // Half the default smoothness: a kernel that reaches over the cube's edges loses part
         // of its mass there, a bandwidth bias that grows as h² (rs at C = 1: −1.33%; C = 0.5:
         // −0.26%; C = 0.25: −0.11%). This test is about energy, not that bias.
-        bandwidth: raysplat::photon::BandwidthParams {
+        bandwidth: raysplat::pipeline::photon::BandwidthParams {
             smoothness_c: 0.5,
             ..Default::default()
         },
@@ -316,8 +365,17 @@ fn furnace_settings() -> RenderSettings {
 }
 
 /// Relative error of the image mean against Le/(1 − ρ).
-fn furnace_error(scene: &Arc<Scene>, method: Method, s: &RenderSettings) -> f32 {
-    let r = render_method(scene, method, s, Budget::Fixed { pt_spp: 256 }).unwrap();
+fn furnace_error(scene: &Arc<Scene>, method: MethodKind, s: &RenderSettings) -> f32 {
+    let r = render_method(
+        scene,
+        method,
+        &RenderSettings {
+            pt_spp: 256,
+            ..(s).clone()
+        },
+        Budget::Fixed,
+    )
+    .unwrap();
     assert_eq!(r.film.invalid_pixels(), 0);
     r.film.mean().x / 2.5 - 1.0
 }
@@ -331,13 +389,13 @@ fn every_method_passes_the_white_furnace() {
 
     let mut failures = Vec::new();
     for (method, direct) in [
-        (Method::Rs, DirectMode::Nee),
-        (Method::Rs, DirectMode::Photons),
-        (Method::Pm, DirectMode::Nee),
-        (Method::Pm, DirectMode::Photons),
-        (Method::RsFg, DirectMode::Nee),
-        (Method::PmFg, DirectMode::Nee),
-        (Method::Pt, DirectMode::Nee),
+        (MethodKind::Rs, DirectMode::Nee),
+        (MethodKind::Rs, DirectMode::Photons),
+        (MethodKind::Pm, DirectMode::Nee),
+        (MethodKind::Pm, DirectMode::Photons),
+        (MethodKind::RsFg, DirectMode::Nee),
+        (MethodKind::PmFg, DirectMode::Nee),
+        (MethodKind::Pt, DirectMode::Nee),
     ] {
         let s = RenderSettings {
             direct,
@@ -361,17 +419,17 @@ fn curved_furnace_bias_shrinks_with_the_bandwidth() {
     let scene = furnace(false);
     let wide = furnace_error(
         &scene,
-        Method::Rs,
+        MethodKind::Rs,
         &RenderSettings {
-            bandwidth: raysplat::photon::BandwidthParams::default(),
+            bandwidth: raysplat::pipeline::photon::BandwidthParams::default(),
             ..furnace_settings()
         },
     );
     let narrow = furnace_error(
         &scene,
-        Method::Rs,
+        MethodKind::Rs,
         &RenderSettings {
-            bandwidth: raysplat::photon::BandwidthParams {
+            bandwidth: raysplat::pipeline::photon::BandwidthParams {
                 smoothness_c: 0.3,
                 ..Default::default()
             },
@@ -383,7 +441,7 @@ fn curved_furnace_bias_shrinks_with_the_bandwidth() {
         wide < 0.0 && narrow.abs() < 0.6 * wide.abs(),
         "wide {wide:+.4}, narrow {narrow:+.4}"
     );
-    let pt = furnace_error(&scene, Method::Pt, &furnace_settings());
+    let pt = furnace_error(&scene, MethodKind::Pt, &furnace_settings());
     assert!(pt.abs() < 0.01, "path tracer {pt:+.4}");
 }
 
@@ -410,15 +468,25 @@ fn without_indirect_photons_the_path_tracer_renders_direct_light_and_caustics() 
     };
     let mean =
         |v: &[Vec3]| v.iter().map(|c| (c.x + c.y + c.z) as f64).sum::<f64>() / v.len() as f64;
-    let pt = render_method(&scene, Method::Pt, &settings, Budget::Fixed { pt_spp: 256 }).unwrap();
+    let pt = render_method(
+        &scene,
+        MethodKind::Pt,
+        &RenderSettings {
+            pt_spp: 256,
+            ..(&settings).clone()
+        },
+        Budget::Fixed,
+    )
+    .unwrap();
     let full = render_method(
         &scene,
-        Method::Pt,
+        MethodKind::Pt,
         &RenderSettings {
             fractions: [0.2, 0.6, 0.2],
+            pt_spp: 64,
             ..settings.clone()
         },
-        Budget::Fixed { pt_spp: 64 },
+        Budget::Fixed,
     )
     .unwrap();
     let (m_pt, m_full) = (mean(&pt.film.rgb), mean(&full.film.rgb));
@@ -427,8 +495,17 @@ fn without_indirect_photons_the_path_tracer_renders_direct_light_and_caustics() 
         m_full > 1.1 * m_pt,
         "full GI {m_full} vs direct and caustics {m_pt}"
     );
-    for method in [Method::Rs, Method::Pm] {
-        let r = render_method(&scene, method, &settings, Budget::Fixed { pt_spp: 0 }).unwrap();
+    for method in [MethodKind::Rs, MethodKind::Pm] {
+        let r = render_method(
+            &scene,
+            method,
+            &RenderSettings {
+                pt_spp: 0,
+                ..(&settings).clone()
+            },
+            Budget::Fixed,
+        )
+        .unwrap();
         let m = mean(&r.film.rgb);
         eprintln!("{method:?}: {m:.4}");
         assert!(

@@ -1,14 +1,15 @@
 //! Radiance caching (§8.3) and image-space filtering (§8.2) on whole renders.
 
-use raysplat::baseline::Method;
-use raysplat::cache::{self, CacheParams, PixelGeometry};
 use raysplat::film::rel_mse;
-use raysplat::filter::FilterParams;
-use raysplat::render::{RenderSettings, Renderer};
+use raysplat::methods::rc::RadianceCaching;
+use raysplat::methods::{self, Method};
+use raysplat::pipeline::cache::{self, CacheParams, PixelGeometry};
+use raysplat::pipeline::filter::FilterParams;
 use raysplat::scene::{BuiltinScene, Scene};
+use raysplat::settings::{MethodKind, RenderSettings};
 use std::sync::Arc;
 
-fn settings(method: Method) -> RenderSettings {
+fn settings(method: MethodKind) -> RenderSettings {
     RenderSettings {
         width: 96,
         height: 96,
@@ -20,10 +21,10 @@ fn settings(method: Method) -> RenderSettings {
     }
 }
 
-fn render(scene: &Arc<Scene>, s: RenderSettings, batches: usize) -> Renderer {
-    let mut r = Renderer::new(scene.clone(), s).unwrap();
+fn render(scene: &Arc<Scene>, s: RenderSettings, batches: usize) -> Box<dyn Method> {
+    let mut r = methods::build(scene.clone(), s).unwrap();
     for _ in 0..batches {
-        r.run_batch();
+        r.step();
     }
     r
 }
@@ -35,9 +36,9 @@ fn render(scene: &Arc<Scene>, s: RenderSettings, batches: usize) -> Renderer {
 #[test]
 fn rc_stays_close_to_rs_on_smooth_light() {
     let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
-    let reference = render(&scene, settings(Method::Rs), 16).film();
-    let mut rs = render(&scene, settings(Method::Rs), 1);
-    let mut rc = render(&scene, settings(Method::Rc), 1);
+    let reference = render(&scene, settings(MethodKind::Rs), 16).film();
+    let mut rs = render(&scene, settings(MethodKind::Rs), 1);
+    let mut rc = render(&scene, settings(MethodKind::Rc), 1);
     let (rs_f, rc_f) = (rs.film(), rc.film());
     let between = rel_mse(&rc_f.indirect, &rs_f.indirect);
     let (e_rs, e_rc) = (
@@ -49,7 +50,7 @@ fn rc_stays_close_to_rs_on_smooth_light() {
     assert!(e_rc < 0.012, "rc vs the reference {e_rc} (rs {e_rs})");
     assert_eq!(rc_f.invalid_pixels(), 0);
     // rc splatted far fewer (ray, sample) pairs than rs.
-    assert!(rc.counters.accepted * 10 < rs.counters.accepted);
+    assert!(rc.stats().accepted_pairs * 10 < rs.stats().accepted_pairs);
 }
 
 /// Lowering ε never lowers the record count, and every pixel (its first eye sample seen
@@ -65,13 +66,15 @@ fn records_grow_as_epsilon_falls_and_cover_every_sample() {
                     error: eps,
                     min_records: min,
                 },
-                ..settings(Method::Rc)
+                ..settings(MethodKind::Rc)
             };
-            let mut r = render(&scene, s, 1);
+            let mut r = RadianceCaching::open(scene.clone(), s).unwrap();
+            r.core.run_batch();
             r.film();
-            let c = r.cache.as_ref().expect("rc builds a cache");
-            let geo = PixelGeometry::new(r.eye_samples(), 96, 96);
-            let values = cache::interpolate(c, r.eye_samples(), &geo, r.settings.radiance_map);
+            let c = r.cache().expect("rc builds a cache");
+            let eye = &r.core.side.eye;
+            let geo = PixelGeometry::new(eye, 96, 96);
+            let values = cache::interpolate(c, eye, &geo, r.core.settings.radiance_map);
             let worst = geo
                 .first
                 .iter()
@@ -100,16 +103,16 @@ fn records_grow_as_epsilon_falls_and_cover_every_sample() {
 #[test]
 fn the_filter_reduces_noise() {
     let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
-    let reference = render(&scene, settings(Method::Rs), 16).film();
+    let reference = render(&scene, settings(MethodKind::Rs), 16).film();
     let few = RenderSettings {
         photons: 20_000,
         // Small kernels: the speckle noise §8.2's filter is for (with eq. 8's default
         // bandwidth the noise of 20k photons is blotches wider than the filter's box).
-        bandwidth: raysplat::photon::BandwidthParams {
+        bandwidth: raysplat::pipeline::photon::BandwidthParams {
             smoothness_c: 0.4,
             ..Default::default()
         },
-        ..settings(Method::Rs)
+        ..settings(MethodKind::Rs)
     };
     let plain = render(&scene, few.clone(), 1).film();
     let filtered = render(
@@ -143,7 +146,11 @@ fn the_filter_reduces_noise() {
 #[test]
 fn cache_and_filter_handle_specular_chains() {
     let scene = Arc::new(Scene::default_scene());
-    for (method, cache_on) in [(Method::Rc, false), (Method::Rs, true), (Method::Rs, false)] {
+    for (method, cache_on) in [
+        (MethodKind::Rc, false),
+        (MethodKind::Rs, true),
+        (MethodKind::Rs, false),
+    ] {
         let s = RenderSettings {
             width: 48,
             height: 48,
@@ -160,7 +167,7 @@ fn cache_and_filter_handle_specular_chains() {
         let f = r.film();
         assert_eq!(f.invalid_pixels(), 0, "{method:?} cache {cache_on}");
         assert!(f.mean().max_element() > 0.0);
-        let own = r.cache.as_ref().map_or(1, |c| c.own.len());
+        let own = r.cache().map_or(1, |c| c.own.len());
         assert!(
             own > 0,
             "{method:?}: no sample behind the glass was valued on its own"

@@ -11,11 +11,11 @@
 mod common;
 
 use common::glb::{join, small_scene, split};
-use raysplat::baseline::Method;
-use raysplat::baseline::compare::{Budget, render_method};
-use raysplat::render::{RenderSettings, Renderer};
+use raysplat::methods;
+use raysplat::methods::{Budget, render_method};
 use raysplat::sampling::Rng;
 use raysplat::scene::{BuiltinScene, Scene};
+use raysplat::settings::{MethodKind, RenderSettings};
 use serde_json::{Value, json};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
@@ -210,12 +210,20 @@ fn check(bytes: &[u8]) -> Result<bool, String> {
         ..RenderSettings::default()
     };
     catch_unwind(AssertUnwindSafe(|| -> Result<(), String> {
-        let mut r = Renderer::new(scene.clone(), settings.clone())?;
-        r.run_batch();
+        let mut r = methods::build(scene.clone(), settings.clone())?;
+        r.step();
         if r.film().invalid_pixels() > 0 {
             return Err("NaN or infinite pixels (rs)".into());
         }
-        let pt = render_method(&scene, Method::Pt, &settings, Budget::Fixed { pt_spp: 1 })?;
+        let pt = render_method(
+            &scene,
+            MethodKind::Pt,
+            &RenderSettings {
+                pt_spp: 1,
+                ..(&settings).clone()
+            },
+            Budget::Fixed,
+        )?;
         if pt.film.invalid_pixels() > 0 {
             return Err("NaN or infinite pixels (pt)".into());
         }

@@ -5,12 +5,11 @@
 mod common;
 
 use glam::Vec3;
-use raysplat::baseline::Method;
-use raysplat::baseline::compare::{Budget, render_method};
 use raysplat::film::rel_mse;
-use raysplat::radiance_map::DirectionalMode;
-use raysplat::render::{DirectMode, RenderSettings};
+use raysplat::methods::{Budget, render_method};
+use raysplat::pipeline::directional::DirectionalMode;
 use raysplat::scene::{GlbBuilder, Scene};
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
 use serde_json::json;
 use std::sync::Arc;
 
@@ -53,20 +52,37 @@ fn glossy_plate_matches_the_path_tracer_in_both_directional_modes() {
         seed: 7,
         ..RenderSettings::default()
     };
-    let reference = render_method(&scene, Method::Pt, &base, Budget::Fixed { pt_spp: 1024 })
-        .unwrap()
-        .film;
-    let err_of = |method: Method, mode: DirectionalMode| {
+    let reference = render_method(
+        &scene,
+        MethodKind::Pt,
+        &RenderSettings {
+            pt_spp: 1024,
+            ..(&base).clone()
+        },
+        Budget::Fixed,
+    )
+    .unwrap()
+    .film;
+    let err_of = |method: MethodKind, mode: DirectionalMode| {
         let s = RenderSettings {
             radiance_map: mode,
             pm_k: 200,
             ..base.clone()
         };
-        let r = render_method(&scene, method, &s, Budget::Fixed { pt_spp: 0 }).unwrap();
+        let r = render_method(
+            &scene,
+            method,
+            &RenderSettings {
+                pt_spp: 0,
+                ..(&s).clone()
+            },
+            Budget::Fixed,
+        )
+        .unwrap();
         assert_eq!(r.invalid, 0);
         rel_mse(&r.film.rgb, &reference.rgb)
     };
-    let err = |mode| err_of(Method::Rs, mode);
+    let err = |mode| err_of(MethodKind::Rs, mode);
     let (diffuse, sh, hist) = (
         err(DirectionalMode::Diffuse),
         err(DirectionalMode::Sh),
@@ -84,7 +100,7 @@ fn glossy_plate_matches_the_path_tracer_in_both_directional_modes() {
         "diffuse {diffuse} is not worse than sh/histogram"
     );
     // Photon mapping fills the same directional records from its K nearest photons.
-    let pm_sh = err_of(Method::Pm, DirectionalMode::Sh);
+    let pm_sh = err_of(MethodKind::Pm, DirectionalMode::Sh);
     println!("pm sh {pm_sh:.4}");
     // Measured 0.014.
     assert!(pm_sh < 0.03, "photon mapping with SH: relMSE {pm_sh}");

@@ -4,8 +4,8 @@
 use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
+use raysplat::app::snapshot::SnapshotMeta;
 use raysplat::app::{App, AppOptions, UiSettings};
-use raysplat::film::snapshot::SnapshotMeta;
 use raysplat::scene::BuiltinScene;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -360,9 +360,17 @@ fn radiance_map_mode_switches_and_reports_memory() {
     assert!(f.stats.directional_bytes >= f.stats.glossy_targets * 48 * 4);
     let before = h.state().shown().unwrap().rgba.clone();
     let photons = f.stats.photons_traced;
-    for (label, floats) in [
-        ("histogram (20 strata)", 60usize),
-        ("diffuse (irradiance only)", 0),
+    for (label, mode, floats) in [
+        (
+            "histogram (20 strata)",
+            raysplat::pipeline::directional::DirectionalMode::Histogram,
+            60usize,
+        ),
+        (
+            "diffuse (irradiance only)",
+            raysplat::pipeline::directional::DirectionalMode::Diffuse,
+            0,
+        ),
     ] {
         let generation = h.state().frame().unwrap().generation;
         h.get_by_role_and_label(Role::ComboBox, "Glossy radiance map")
@@ -373,7 +381,7 @@ fn radiance_map_mode_switches_and_reports_memory() {
             a.frame().is_some_and(|f| {
                 f.generation > generation
                     && !f.stats.resplat_pending
-                    && f.settings.radiance_map.label() == label
+                    && f.settings.radiance_map == mode
             })
         });
         h.step();

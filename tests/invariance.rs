@@ -7,21 +7,28 @@ mod common;
 
 use common::glb;
 use glam::Vec3;
-use raysplat::baseline::Method;
-use raysplat::baseline::compare::{Budget, render_method};
-use raysplat::baseline::pt::{PathTracer, PtSettings};
-use raysplat::direct::direct_light;
-use raysplat::eye::{EyeSample, EyeSamples};
 use raysplat::film::{Film, rel_mse};
-use raysplat::render::{DirectMode, RenderSettings};
+use raysplat::methods::pt::{PathTracer, PtSettings};
+use raysplat::methods::{Budget, render_method};
+use raysplat::pipeline::direct::direct_light;
+use raysplat::pipeline::eye::{EyeSample, EyeSamples};
 use raysplat::scene::{BuiltinScene, GlbBuilder, Hit, Scene, uv_sphere};
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
 use serde_json::json;
 use std::sync::Arc;
 
-fn render(scene: &Arc<Scene>, method: Method, s: &RenderSettings, spp: u32) -> Film {
-    render_method(scene, method, s, Budget::Fixed { pt_spp: spp })
-        .unwrap()
-        .film
+fn render(scene: &Arc<Scene>, method: MethodKind, s: &RenderSettings, spp: u32) -> Film {
+    render_method(
+        scene,
+        method,
+        &RenderSettings {
+            pt_spp: spp,
+            ..(s).clone()
+        },
+        Budget::Fixed,
+    )
+    .unwrap()
+    .film
 }
 
 fn mean(f: &Film) -> f32 {
@@ -50,8 +57,8 @@ fn scale_and_far_black_geometry_do_not_change_the_image() {
         ..RenderSettings::default()
     };
     let original = Arc::new(Scene::from_glb_bytes(&base, "classic").unwrap());
-    let reference = render(&original, Method::Pt, &settings, 256);
-    let film = render(&original, Method::Rs, &settings, 0);
+    let reference = render(&original, MethodKind::Pt, &settings, 256);
+    let film = render(&original, MethodKind::Rs, &settings, 0);
     let err = rel_mse(&film.rgb, &reference.rgb);
     let m0 = mean(&film);
     for (name, bytes) in [
@@ -63,7 +70,7 @@ fn scale_and_far_black_geometry_do_not_change_the_image() {
         ),
     ] {
         let scene = Arc::new(Scene::from_glb_bytes(&bytes, name).unwrap());
-        let f = render(&scene, Method::Rs, &settings, 0);
+        let f = render(&scene, MethodKind::Rs, &settings, 0);
         let m = mean(&f);
         let e = rel_mse(&f.rgb, &reference.rgb);
         eprintln!("{name}: mean {m:.5} vs {m0:.5}, relMSE {e:.5} vs {err:.5}");
@@ -341,14 +348,14 @@ fn shading_normals_agree_between_photons_and_the_path_tracer() {
         // Bandwidths small against the sphere's radius: density estimation on a convex
         // surface overestimates in proportion to h/radius (at C = 1, rs is 4% high on the
         // sphere however finely it is tessellated; docs/deviations.md §30).
-        bandwidth: raysplat::photon::BandwidthParams {
+        bandwidth: raysplat::pipeline::photon::BandwidthParams {
             smoothness_c: 0.4,
             ..Default::default()
         },
         pm_k: 100,
         ..RenderSettings::default()
     };
-    let pt = render(&scene, Method::Pt, &settings, 512);
+    let pt = render(&scene, MethodKind::Pt, &settings, 512);
     // The sphere covers the middle of the image.
     let centre = |f: &Film| {
         let mut s = 0.0f64;
@@ -361,7 +368,7 @@ fn shading_normals_agree_between_photons_and_the_path_tracer() {
         s / 256.0
     };
     let (pt_mean, pt_centre) = (mean(&pt) as f64, centre(&pt));
-    for method in [Method::Rs, Method::Pm] {
+    for method in [MethodKind::Rs, MethodKind::Pm] {
         let f = render(&scene, method, &settings, 0);
         let (m, c) = (mean(&f) as f64, centre(&f));
         eprintln!("{method:?}: mean {m:.4} vs pt {pt_mean:.4}, sphere {c:.4} vs pt {pt_centre:.4}");
@@ -475,9 +482,9 @@ fn photons_follow_shading_normals_as_the_path_tracer_does() {
         assert!(n > 200, "region {which} has {n} pixels");
         s / n as f64
     };
-    let pt = render(&scene, Method::Pt, &settings, 1024);
+    let pt = render(&scene, MethodKind::Pt, &settings, 1024);
     let (pt_floor, pt_ceiling) = (region(&pt, 0), region(&pt, 1));
-    for method in [Method::Rs, Method::Pm] {
+    for method in [MethodKind::Rs, MethodKind::Pm] {
         let f = render(&scene, method, &settings, 0);
         let (floor, ceiling) = (region(&f, 0), region(&f, 1));
         eprintln!(

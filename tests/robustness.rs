@@ -9,10 +9,10 @@ mod common;
 
 use common::glb::{accessor_offset, join, put_f32, small_scene, split};
 use glam::Vec3;
-use raysplat::baseline::Method;
-use raysplat::baseline::compare::{Budget, render_method};
-use raysplat::render::{DirectMode, RenderSettings, Renderer};
+use raysplat::methods;
+use raysplat::methods::{Budget, render_method};
 use raysplat::scene::{GlbBuilder, Scene};
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
 use serde_json::json;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
@@ -43,13 +43,22 @@ fn render_all(scene: Scene) {
             direct,
             ..base.clone()
         };
-        let mut r = Renderer::new(scene.clone(), s).expect("a loaded scene has a camera");
-        r.run_batch();
+        let mut r = methods::build(scene.clone(), s).expect("a loaded scene has a camera");
+        r.step();
         let film = r.film();
         assert_eq!(film.invalid_pixels(), 0, "NaN/Inf pixels ({direct:?})");
     }
-    for method in [Method::Pm, Method::Pt] {
-        let r = render_method(&scene, method, &base, Budget::Fixed { pt_spp: 2 }).unwrap();
+    for method in [MethodKind::Pm, MethodKind::Pt] {
+        let r = render_method(
+            &scene,
+            method,
+            &RenderSettings {
+                pt_spp: 2,
+                ..(&base).clone()
+            },
+            Budget::Fixed,
+        )
+        .unwrap();
         assert_eq!(r.film.invalid_pixels(), 0, "NaN/Inf pixels ({method:?})");
     }
 }
@@ -297,8 +306,8 @@ fn extreme_light_strength_keeps_the_film_finite() {
             direct,
             ..RenderSettings::default()
         };
-        let mut r = Renderer::new(scene.clone(), s).unwrap();
-        r.run_batch();
+        let mut r = methods::build(scene.clone(), s).unwrap();
+        r.step();
         let film = r.film();
         assert_eq!(film.invalid_pixels(), 0, "{direct:?}");
         assert!(
@@ -338,7 +347,7 @@ fn a_million_triangles_load_and_render() {
     g.camera("top", Vec3::new(0.0, 2.0, 0.01), Vec3::ZERO, 0.8);
     let scene = Scene::from_glb_bytes(&g.to_glb(), "million").unwrap();
     assert!(scene.triangle_count() >= 1_000_000);
-    let mut r = Renderer::new(
+    let mut r = methods::build(
         Arc::new(scene),
         RenderSettings {
             width: 24,
@@ -349,7 +358,7 @@ fn a_million_triangles_load_and_render() {
         },
     )
     .unwrap();
-    r.run_batch();
+    r.step();
     let film = r.film();
     assert_eq!(film.invalid_pixels(), 0);
     assert!(film.mean().x > 0.0);
@@ -452,7 +461,7 @@ fn failing_writes_say_why_and_leave_nothing_behind() {
 /// with the pilot's unit it takes a dozen and is rare.
 #[test]
 fn long_specular_chains_saturate_the_path_pdf() {
-    use raysplat::photon::{ClassBudgets, LightPassSettings, PathUnits, light_pass};
+    use raysplat::pipeline::photon::{ClassBudgets, LightPassSettings, PathUnits, light_pass};
     let scene = Scene::default_scene();
     let batch = light_pass(
         &scene,

@@ -4,8 +4,9 @@
 mod common;
 
 use glam::Vec3;
-use raysplat::render::{DirectMode, RenderSettings, Renderer};
+use raysplat::methods;
 use raysplat::scene::{BuiltinScene, DEFAULT_SCENE_GLB, GlbBuilder, MaterialKind, Scene};
+use raysplat::settings::{DirectMode, RenderSettings};
 use serde_json::json;
 use std::sync::Arc;
 
@@ -58,7 +59,7 @@ fn cornell_box_1_is_the_papers_scene() {
 fn embedded_cornell_box_renders_cleanly() {
     let scene = Arc::new(Scene::default_scene());
     for direct in [DirectMode::Nee, DirectMode::Photons] {
-        let mut r = Renderer::new(
+        let mut r = methods::build(
             scene.clone(),
             RenderSettings {
                 width: 80,
@@ -70,7 +71,7 @@ fn embedded_cornell_box_renders_cleanly() {
             },
         )
         .unwrap();
-        r.run_batch();
+        r.step();
         let film = r.film();
         assert_eq!(film.invalid_pixels(), 0, "{direct:?}");
         assert!(
@@ -98,7 +99,8 @@ fn embedded_cornell_box_renders_cleanly() {
             left.x / left.y > right.x / right.y,
             "{direct:?}: {left} vs {right}"
         );
-        assert!(r.counters.accepted > 0 && r.counters.accepted <= r.counters.tested);
+        let s = r.stats();
+        assert!(s.accepted_pairs > 0 && s.accepted_pairs <= s.tested_pairs);
     }
 }
 
@@ -174,7 +176,7 @@ fn shared_scenes_load_when_present() {
                 "{}",
                 path.display()
             );
-            let mut r = Renderer::new(
+            let mut r = methods::build(
                 Arc::new(s),
                 RenderSettings {
                     width: 40,
@@ -185,7 +187,7 @@ fn shared_scenes_load_when_present() {
                 },
             )
             .unwrap();
-            r.run_batch();
+            r.step();
             let film = r.film();
             assert_eq!(film.invalid_pixels(), 0, "{}", path.display());
             assert!(

@@ -1,11 +1,12 @@
 //! The progressive worker on its own: random command storms, convergence, the ray budget.
 
 use raysplat::film::rel_mse;
-use raysplat::photon::BandwidthParams;
-use raysplat::render::{DirectMode, RenderSettings, Renderer};
+use raysplat::methods;
+use raysplat::pipeline::photon::BandwidthParams;
 use raysplat::sampling::Rng;
 use raysplat::scene::{BuiltinScene, Scene};
 use raysplat::session::{Command, Event, Frame, Session, SessionConfig};
+use raysplat::settings::{DirectMode, RenderSettings};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -105,8 +106,8 @@ fn check_frame(f: &Frame) {
 /// the ray store within its budget, every snapshot either complete or refused with a message.
 #[test]
 fn thousands_of_random_commands_neither_panic_nor_deadlock() {
+    use raysplat::app::snapshot::{SnapshotMeta, write_snapshot};
     use raysplat::film::display::{ToneMap, ViewMode, display};
-    use raysplat::film::snapshot::{SnapshotMeta, write_snapshot};
     let _watchdog = Watchdog::new(400);
     let (good, bad) = scene_files();
     let snap_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("storm-snapshots");
@@ -194,16 +195,17 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
             }),
             11 => Command::SetRayBudget(2_000 + (u * 50_000.0) as usize),
             12 => Command::SetRadianceMap(
-                raysplat::radiance_map::DirectionalMode::ALL[(u * 2.99) as usize],
+                <raysplat::pipeline::directional::DirectionalMode as raysplat::choice::Choice>::ALL
+                    [(u * 2.99) as usize],
             ),
             13 => Command::SetCache {
                 on: rng.next_f32() < 0.6,
-                params: raysplat::cache::CacheParams {
+                params: raysplat::pipeline::cache::CacheParams {
                     error: 0.05 + 2.0 * u,
                     min_records: 1 + (rng.next_f32() * 7.0) as u32,
                 },
             },
-            14 => Command::SetFilter(raysplat::filter::FilterParams {
+            14 => Command::SetFilter(raysplat::pipeline::filter::FilterParams {
                 enabled: rng.next_f32() < 0.6,
                 strength: 3.0 * u,
             }),
@@ -265,7 +267,7 @@ fn progressive_image_converges_to_a_long_render() {
     let _watchdog = Watchdog::new(240);
     let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
     let config = small_config();
-    let mut long = Renderer::new(
+    let mut long = methods::build(
         scene.clone(),
         RenderSettings {
             photons: 400_000,
@@ -274,7 +276,7 @@ fn progressive_image_converges_to_a_long_render() {
     )
     .unwrap();
     for _ in 0..10 {
-        long.run_batch();
+        long.step();
     }
     let reference = long.film();
     // Publish after every batch so the checkpoints below are met closely.

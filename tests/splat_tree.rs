@@ -4,11 +4,12 @@
 
 use glam::{Vec3, Vec3A};
 use proptest::prelude::*;
-use raysplat::directional::SH_COEFFS;
-use raysplat::radiance_map::{Accumulators, Channel, DirectionalMode};
+use raysplat::pipeline::directional::DirectionalMode;
+use raysplat::pipeline::directional::SH_COEFFS;
+use raysplat::pipeline::radiance_map::{Accumulators, Channel};
+use raysplat::pipeline::splat::{RayDirection, SplatBatch, SplatRay, splat, test_sample};
+use raysplat::pipeline::splat_tree::{Cone, SplatTree};
 use raysplat::sampling::{Rng, uniform_sphere};
-use raysplat::splat::{RayDirection, SplatBatch, SplatRay, splat, test_sample};
-use raysplat::splat_tree::{Cone, SplatTree};
 
 /// Random splat targets: a mix of planes (coherent normals, so cull nodes appear), a sphere
 /// and a cloud with random normals, with duplicated points for degenerate leaves.

@@ -5,7 +5,9 @@
 //! splat weight K·cos θ already holds cos θ, §8.1: "we encode the term cos θ in the radiance SH
 //! coefficients"), so the reflected radiance is ∫ f(ωo, ω)·(L cos θ)(ω) dω.
 
+use crate::choice::Choice;
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 
 use std::sync::OnceLock;
 
@@ -187,6 +189,46 @@ pub fn filter_taps(d: Vec3) -> &'static FilterTaps {
     let i = ((u * FILTER_RES as f32) as usize).min(FILTER_RES - 1);
     let j = ((v * FILTER_RES as f32) as usize).min(FILTER_RES - 1);
     &filter_table()[j * FILTER_RES + i]
+}
+
+/// How the radiance map stores the direction of incident light at glossy samples (§8.1).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DirectionalMode {
+    /// Irradiance only: glossy surfaces are shaded as if matte with their whole reflectance.
+    Diffuse,
+    /// 16 spherical-harmonic coefficients (bands 0–3) per channel at glossy samples.
+    #[default]
+    Sh,
+    /// 20 directional strata (dodecahedron vertices) per channel at glossy samples.
+    Histogram,
+}
+
+impl DirectionalMode {
+    /// Floats per directional record (all three channels).
+    pub fn record_floats(self) -> usize {
+        match self {
+            DirectionalMode::Diffuse => 0,
+            DirectionalMode::Sh => 3 * SH_COEFFS,
+            DirectionalMode::Histogram => 3 * STRATA,
+        }
+    }
+}
+
+impl Choice for DirectionalMode {
+    const ALL: &'static [Self] = &[
+        DirectionalMode::Diffuse,
+        DirectionalMode::Sh,
+        DirectionalMode::Histogram,
+    ];
+
+    fn name(self) -> &'static str {
+        match self {
+            DirectionalMode::Diffuse => "diffuse",
+            DirectionalMode::Sh => "sh",
+            DirectionalMode::Histogram => "histogram",
+        }
+    }
 }
 
 #[cfg(test)]

@@ -9,51 +9,14 @@
 //! coefficients per channel) or as a 20-strata histogram, chosen by [`DirectionalMode`]; only
 //! those slots pay for it.
 
-use crate::directional::{SH_COEFFS, STRATA, phong_zonal, sh_basis, sh_lobe_integral, strata};
-use crate::eye::EyeSamples;
+use crate::pipeline::directional::{
+    DirectionalMode, SH_COEFFS, phong_zonal, sh_basis, sh_lobe_integral, strata,
+};
+use crate::pipeline::eye::EyeSamples;
+use crate::pipeline::splat_tree::{LANES, PADDING, SplatTree};
 use crate::scene::Scene;
-use crate::splat_tree::{LANES, PADDING, SplatTree};
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
 use std::f32::consts::FRAC_1_PI;
-
-/// How the radiance map stores the direction of incident light at glossy samples (§8.1).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum DirectionalMode {
-    /// Irradiance only: glossy surfaces are shaded as if matte with their whole reflectance.
-    Diffuse,
-    /// 16 spherical-harmonic coefficients (bands 0–3) per channel at glossy samples.
-    #[default]
-    Sh,
-    /// 20 directional strata (dodecahedron vertices) per channel at glossy samples.
-    Histogram,
-}
-
-impl DirectionalMode {
-    pub const ALL: [DirectionalMode; 3] = [
-        DirectionalMode::Diffuse,
-        DirectionalMode::Sh,
-        DirectionalMode::Histogram,
-    ];
-
-    /// Floats per directional record (all three channels).
-    pub fn record_floats(self) -> usize {
-        match self {
-            DirectionalMode::Diffuse => 0,
-            DirectionalMode::Sh => 3 * SH_COEFFS,
-            DirectionalMode::Histogram => 3 * STRATA,
-        }
-    }
-
-    pub fn label(self) -> &'static str {
-        match self {
-            DirectionalMode::Diffuse => "diffuse (irradiance only)",
-            DirectionalMode::Sh => "spherical harmonics (16 per channel)",
-            DirectionalMode::Histogram => "histogram (20 strata)",
-        }
-    }
-}
 
 /// Marks a slot without a directional record.
 pub const NO_RECORD: u32 = u32::MAX;
@@ -376,7 +339,7 @@ impl RadianceMap {
         &mut self,
         scene: &Scene,
         eye: &EyeSamples,
-        values: &crate::cache::Interpolated,
+        values: &Interpolated,
         mode: DirectionalMode,
     ) {
         self.radiance.fill(Vec3::ZERO);
@@ -461,10 +424,61 @@ pub(crate) fn glossy_radiance(
     }
 }
 
+/// Interpolated incident light per eye sample.
+#[derive(Clone, Debug, Default)]
+pub struct Interpolated {
+    pub irradiance: Vec<Vec3>,
+    /// Per eye sample: its index among the glossy samples, or u32::MAX.
+    pub glossy_index: Vec<u32>,
+    /// Directional floats of the glossy samples (`floats` each).
+    pub directional: Vec<f32>,
+    pub floats: usize,
+    /// Compatible records covering each eye sample.
+    pub coverage: Vec<u32>,
+}
+
+impl Interpolated {
+    /// Zeroed values for `eye`, with directional room for its glossy samples.
+    pub fn zeroed(eye: &EyeSamples, floats: usize) -> Self {
+        let mut n = 0u32;
+        let glossy_index = (0..eye.len())
+            .map(|i| {
+                if floats > 0 && eye.is_glossy(i) {
+                    n += 1;
+                    n - 1
+                } else {
+                    u32::MAX
+                }
+            })
+            .collect();
+        Self {
+            irradiance: vec![Vec3::ZERO; eye.len()],
+            glossy_index,
+            directional: vec![0.0; n as usize * floats],
+            floats,
+            coverage: vec![0; eye.len()],
+        }
+    }
+
+    /// The directional floats of eye sample `i`, if it is glossy.
+    #[inline]
+    pub fn dir(&self, i: usize) -> Option<&[f32]> {
+        let g = self.glossy_index[i];
+        (g != u32::MAX)
+            .then(|| &self.directional[g as usize * self.floats..(g as usize + 1) * self.floats])
+    }
+
+    #[inline]
+    pub fn dir_mut(&mut self, i: usize) -> Option<&mut [f32]> {
+        let (g, f) = (self.glossy_index[i], self.floats);
+        (g != u32::MAX).then(|| &mut self.directional[g as usize * f..(g as usize + 1) * f])
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eye::EyeSample;
+    use crate::pipeline::eye::EyeSample;
     use crate::scene::{BuiltinScene, Scene};
 
     /// A NaN or infinite accumulator never reaches a pixel: the sample is dropped and counted.

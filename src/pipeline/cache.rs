@@ -11,8 +11,9 @@
 //! only (the speed-up of §8.3); the previewer reads them from the full radiance map, so moving
 //! ε re-runs the cache without re-splatting.
 
-use crate::eye::EyeSamples;
-use crate::radiance_map::DirectionalMode;
+use crate::pipeline::directional::DirectionalMode;
+use crate::pipeline::eye::EyeSamples;
+use crate::pipeline::radiance_map::{Accumulators, Channel, Interpolated};
 use crate::scene::Camera;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -128,57 +129,6 @@ pub struct Cache {
     /// Eye samples reached through specular chains: image-space neighbours say nothing about
     /// them, so each is valued on its own (full splat accuracy), not interpolated.
     pub own: Vec<(u32, RecordValue)>,
-}
-
-/// Interpolated incident light per eye sample.
-#[derive(Clone, Debug, Default)]
-pub struct Interpolated {
-    pub irradiance: Vec<Vec3>,
-    /// Per eye sample: its index among the glossy samples, or u32::MAX.
-    pub glossy_index: Vec<u32>,
-    /// Directional floats of the glossy samples (`floats` each).
-    pub directional: Vec<f32>,
-    pub floats: usize,
-    /// Compatible records covering each eye sample.
-    pub coverage: Vec<u32>,
-}
-
-impl Interpolated {
-    /// Zeroed values for `eye`, with directional room for its glossy samples.
-    pub fn zeroed(eye: &EyeSamples, floats: usize) -> Self {
-        let mut n = 0u32;
-        let glossy_index = (0..eye.len())
-            .map(|i| {
-                if floats > 0 && eye.is_glossy(i) {
-                    n += 1;
-                    n - 1
-                } else {
-                    u32::MAX
-                }
-            })
-            .collect();
-        Self {
-            irradiance: vec![Vec3::ZERO; eye.len()],
-            glossy_index,
-            directional: vec![0.0; n as usize * floats],
-            floats,
-            coverage: vec![0; eye.len()],
-        }
-    }
-
-    /// The directional floats of eye sample `i`, if it is glossy.
-    #[inline]
-    pub fn dir(&self, i: usize) -> Option<&[f32]> {
-        let g = self.glossy_index[i];
-        (g != u32::MAX)
-            .then(|| &self.directional[g as usize * self.floats..(g as usize + 1) * self.floats])
-    }
-
-    #[inline]
-    pub fn dir_mut(&mut self, i: usize) -> Option<&mut [f32]> {
-        let (g, f) = (self.glossy_index[i], self.floats);
-        (g != u32::MAX).then(|| &mut self.directional[g as usize * f..(g as usize + 1) * f])
-    }
 }
 
 /// Is the eye sample at (p, n, material) within the validity of `r`?
@@ -526,10 +476,57 @@ pub fn interpolate(
     out
 }
 
+/// Batch-averaged irradiance and directional floats of every eye sample's splat target, in the
+/// shape the cache's interpolation gives (for filtering without a cache).
+pub fn sample_values(
+    eye: &EyeSamples,
+    target_slot: &[u32],
+    acc: &Accumulators,
+    batches: u32,
+) -> Interpolated {
+    let floats = acc.mode.record_floats();
+    let inv_b = 1.0 / batches.max(1) as f32;
+    let mut out = Interpolated::zeroed(eye, floats);
+    for i in 0..eye.len() {
+        let slot = target_slot[eye.target[i] as usize] as usize;
+        out.irradiance[i] = Vec3::new(
+            acc.get(Channel::R, slot),
+            acc.get(Channel::G, slot),
+            acc.get(Channel::B, slot),
+        ) * inv_b;
+        if let (Some(r), Some(dst)) = (acc.record(slot), out.dir_mut(i)) {
+            for (o, v) in dst.iter_mut().zip(r) {
+                *o = v * inv_b;
+            }
+        }
+    }
+    out
+}
+
+/// A cache record's value from the sums at `slot` (§8.3): batch-averaged irradiance, the
+/// harmonic mean distance (SplatInfo) and the directional record.
+pub fn record_value(acc: &Accumulators, slot: usize, inv_b: f32) -> RecordValue {
+    let wsum = acc.get(Channel::Weight, slot);
+    let inv_d = acc.get(Channel::WeightedInvDist, slot);
+    RecordValue {
+        irradiance: Vec3::new(
+            acc.get(Channel::R, slot),
+            acc.get(Channel::G, slot),
+            acc.get(Channel::B, slot),
+        ) * inv_b,
+        // Where no photon ray reached the record, its radius falls back to the clamp.
+        harmonic_distance: if inv_d > 0.0 { wsum / inv_d } else { 0.0 },
+        directional: acc
+            .record(slot)
+            .map(|r| r.iter().map(|v| v * inv_b).collect())
+            .unwrap_or_default(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eye::EyeSample;
+    use crate::pipeline::eye::EyeSample;
 
     /// A 64×48 image of one plane facing the camera: one sample per pixel.
     fn plane_samples(w: u32, h: u32) -> (EyeSamples, Camera) {

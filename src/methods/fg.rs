@@ -8,26 +8,27 @@
 //! at the eye sample; everything else through a gather ray that lands on a non-specular surface
 //! (gather rays that meet emitters or specular surfaces add nothing: the terms above hold them).
 
-use super::Method;
-use super::compare::Rendered;
-use super::photon_map::{PhotonMap, build_maps, estimate_targets};
-use crate::direct::direct_light;
-use crate::eye::{EyePass, EyeSample, EyeSamples, EyeSettings, eye_pass};
 use crate::film::Film;
-use crate::photon::{
+use crate::methods::{Method, MethodStats, Step, Timings};
+use crate::pipeline::direct::direct_light;
+use crate::pipeline::directional::DirectionalMode;
+use crate::pipeline::eye::{EyePass, EyeSample, EyeSamples, EyeSettings, eye_pass};
+use crate::pipeline::photon::{
     Bandwidth, ClassBudgets, LightPassSettings, PhotonBatch, PhotonClass, light_pass, pilot,
 };
-use crate::radiance_map::{Accumulators, DirectionalMode, RadianceMap};
-use crate::render::{RenderSettings, Timings};
+use crate::pipeline::photon_map::{PhotonMap, build_maps, estimate_targets};
+use crate::pipeline::radiance_map::{Accumulators, RadianceMap};
+use crate::pipeline::splat::{prepare, splat};
+use crate::pipeline::splat_tree::SplatTree;
 use crate::sampling::Rng;
-use crate::scene::Scene;
-use crate::splat::{prepare, splat};
-use crate::splat_tree::SplatTree;
+use crate::scene::{Camera, Scene};
+use crate::settings::{MethodKind, RenderSettings};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
+/// How final gathering bounds its work.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FgSettings {
     /// Gather rays per eye sample.
@@ -45,19 +46,144 @@ impl Default for FgSettings {
     }
 }
 
-/// Render with final gathering; `method` is `Method::RsFg` or `Method::PmFg`.
-pub fn render_fg(
-    scene: &Arc<Scene>,
-    method: Method,
+/// Final gathering as a progressive method: every step is one independent pass (fresh
+/// photons and gather rays, seed advanced per pass) and the film is their mean.
+pub struct FinalGathering {
+    scene: Arc<Scene>,
+    settings: RenderSettings,
+    camera: Camera,
+    sum: Vec<Vec3>,
+    passes: u64,
+    photons: u64,
+    timings: Timings,
+}
+
+impl FinalGathering {
+    /// Final gathering over splatted rays (`settings.method` = rs-fg) or photon maps (pm-fg).
+    pub fn new(
+        scene: Arc<Scene>,
+        settings: RenderSettings,
+        camera: Camera,
+    ) -> Result<Self, String> {
+        if !matches!(settings.method, MethodKind::RsFg | MethodKind::PmFg) {
+            return Err(format!(
+                "{:?} is not a final-gathering method",
+                settings.method
+            ));
+        }
+        let n = (settings.width * settings.height) as usize;
+        Ok(Self {
+            scene,
+            settings,
+            camera,
+            sum: vec![Vec3::ZERO; n],
+            passes: 0,
+            photons: 0,
+            timings: Timings::default(),
+        })
+    }
+}
+
+impl Method for FinalGathering {
+    fn kind(&self) -> MethodKind {
+        self.settings.method
+    }
+
+    fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    fn step(&mut self) -> Step {
+        let s = RenderSettings {
+            seed: self.settings.seed.wrapping_add(self.passes * 0x9e37),
+            ..self.settings.clone()
+        };
+        let fg = FgSettings {
+            rays: s.fg_rays.max(1),
+            ..FgSettings::default()
+        };
+        let splatting = self.settings.method == MethodKind::RsFg;
+        let pass = gather_pass(&self.scene, &self.camera, splatting, &s, fg);
+        for (a, x) in self.sum.iter_mut().zip(&pass.rgb) {
+            *a += *x;
+        }
+        self.timings += pass.timings;
+        self.photons += pass.photons;
+        self.passes += 1;
+        Step::Traced
+    }
+
+    /// Gathering depends on the view: a new one starts from no passes.
+    fn set_view(
+        &mut self,
+        camera: Camera,
+        width: u32,
+        height: u32,
+        spp: u32,
+    ) -> Result<(), String> {
+        if width == 0 || height == 0 || spp == 0 {
+            return Err("width, height and samples per pixel must be positive".into());
+        }
+        self.settings.width = width;
+        self.settings.height = height;
+        self.settings.spp = spp;
+        self.camera = camera;
+        self.sum = vec![Vec3::ZERO; (width * height) as usize];
+        self.passes = 0;
+        Ok(())
+    }
+
+    fn update(&mut self, settings: &RenderSettings) -> Result<(), String> {
+        self.settings.photons = settings.photons;
+        self.settings.bandwidth = settings.bandwidth;
+        Ok(())
+    }
+
+    fn film(&mut self) -> Film {
+        let mut film = Film::new(self.settings.width, self.settings.height);
+        let inv = 1.0 / self.passes.max(1) as f32;
+        for (o, a) in film.rgb.iter_mut().zip(&self.sum) {
+            *o = *a * inv;
+        }
+        film
+    }
+
+    fn passes(&self) -> u64 {
+        self.passes
+    }
+
+    fn timings(&self) -> Timings {
+        self.timings
+    }
+
+    fn stats(&mut self) -> MethodStats {
+        MethodStats {
+            photons_traced: self.photons,
+            passes: self.passes,
+            ..MethodStats::default()
+        }
+    }
+}
+
+/// One gathering pass's image, time and photons.
+struct Pass {
+    rgb: Vec<Vec3>,
+    timings: Timings,
+    photons: u64,
+}
+
+/// One pass of final gathering over splatted rays (`splatting`) or photon maps.
+fn gather_pass(
+    scene: &Scene,
+    camera: &Camera,
+    splatting: bool,
     s: &RenderSettings,
     fg: FgSettings,
-) -> Result<Rendered, String> {
-    let splatting = match method {
-        Method::RsFg => true,
-        Method::PmFg => false,
-        other => return Err(format!("{other:?} is not a final-gathering method")),
-    };
-    let camera = scene.camera_or_error(s.camera.as_deref())?;
+) -> Pass {
     let (w, h) = (s.width, s.height);
     let n_pixels = (w * h) as usize;
     let mut timings = Timings::default();
@@ -70,7 +196,7 @@ pub fn render_fg(
         ..
     } = eye_pass(
         scene,
-        &camera,
+        camera,
         &EyeSettings {
             width: w,
             height: h,
@@ -191,15 +317,11 @@ pub fn render_fg(
         y0 = y1;
     }
     timings.t_splat += t.elapsed().as_secs_f64();
-    let mut film = Film::new(w, h);
-    film.rgb = image;
-    Ok(Rendered {
-        invalid: film.invalid_pixels() as u64,
-        film,
+    Pass {
+        rgb: image,
         timings,
         photons: batch.traced,
-        passes: 1,
-    })
+    }
 }
 
 /// Build a splat tree over `samples` (each its own target), fill accumulators with `fill`,

@@ -2,10 +2,10 @@
 //! timestamped stem. Each file is written atomically; if any fails, the snapshot's other files
 //! are removed so no partial snapshot remains.
 
-use super::display::{DisplayImage, ToneMap, ViewMode};
-use super::{Film, write_atomic, write_exr, write_png};
-use crate::render::RenderSettings;
+use crate::film::display::{DisplayImage, ToneMap, ViewMode};
+use crate::film::{Film, write_atomic, write_exr, write_png};
 use crate::scene::Camera;
+use crate::settings::RenderSettings;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};

@@ -560,7 +560,7 @@ fn exit_distance(scene: &Scene, o: Vec3, d: Vec3) -> f32 {
                 .max(scene.bounds_max.abs())
                 .max_element(),
     );
-    crate::splat_tree::clip(
+    crate::pipeline::splat_tree::clip(
         o.into(),
         d.into(),
         (scene.bounds_min - pad).into(),

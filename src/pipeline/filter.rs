@@ -5,6 +5,11 @@
 //! noise its splats leave: the fewer splats (the kernel-weight statistics of SplatInfo), the
 //! wider. Box sums come from summed-area tables, one per region over its bounding box.
 
+use crate::pipeline::cache::PixelGeometry;
+use crate::pipeline::eye::EyeSamples;
+use crate::pipeline::radiance_map::Interpolated;
+use crate::scene::Camera;
+
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
@@ -210,6 +215,82 @@ pub fn filter_channel(
                 if c > 0.0 {
                     values[p] = (sum.box_sum(ax, ay, bx, by) / c) as f32;
                 }
+            }
+        }
+    }
+}
+
+/// The image-space filter (§8.2) over per-sample incident light: each pixel's first eye sample
+/// stands for the pixel in the discontinuity buffer; every channel (irradiance RGB, then each
+/// directional float) is filtered within continuous regions; samples of a pixel that lie on
+/// its first sample's surface take the filtered values, others keep theirs.
+#[allow(clippy::too_many_arguments)]
+pub fn filter_samples(
+    eye: &EyeSamples,
+    geo: &PixelGeometry,
+    camera: &Camera,
+    splats: &[f32],
+    batches: u32,
+    params: FilterParams,
+    values: &mut Interpolated,
+) {
+    let n = geo.first.len();
+    let (w, h) = (geo.width as usize, geo.height as usize);
+    let rep = |p: usize| (geo.first[p] != u32::MAX).then(|| geo.first[p] as usize);
+    let d = Discontinuity {
+        width: geo.width,
+        height: geo.height,
+        position: (0..n)
+            .map(|p| rep(p).map_or(Vec3::ZERO, |i| eye.position[i]))
+            .collect(),
+        normal: (0..n)
+            .map(|p| rep(p).map_or(Vec3::ZERO, |i| eye.normal[i]))
+            .collect(),
+        material: (0..n)
+            .map(|p| rep(p).map_or(u32::MAX, |i| eye.material[i]))
+            .collect(),
+        depth: (0..n)
+            .map(|p| rep(p).map_or(0.0, |i| (eye.position[i] - camera.position).length()))
+            .collect(),
+    };
+    let (labels, regions) = segment(&d);
+    let radius = radii(splats, batches, params.strength);
+    let floats = values.floats;
+    let mut channel = vec![0.0f32; n];
+    // Samples that follow their pixel's filtered value: on its first primary sample's surface
+    // (pixels seen only through specular chains have none and are not filtered).
+    let follows: Vec<bool> = (0..eye.len())
+        .map(|i| {
+            let Some(f) = rep(eye.pixel[i] as usize) else {
+                return false;
+            };
+            eye.target[i] == eye.target[f]
+                || (eye.primary[i]
+                    && eye.material[i] == eye.material[f]
+                    && eye.normal[i].dot(eye.normal[f]) > 0.966)
+        })
+        .collect();
+    for c in 0..3 + floats {
+        let get = |i: usize| {
+            if c < 3 {
+                values.irradiance[i][c]
+            } else {
+                values.dir(i).map_or(0.0, |d| d[c - 3])
+            }
+        };
+        for (p, v) in channel.iter_mut().enumerate() {
+            *v = rep(p).map_or(0.0, get);
+        }
+        filter_channel(&labels, regions, w, h, &radius, &mut channel);
+        for i in 0..eye.len() {
+            if !follows[i] {
+                continue;
+            }
+            let v = channel[eye.pixel[i] as usize];
+            if c < 3 {
+                values.irradiance[i][c] = v;
+            } else if let Some(d) = values.dir_mut(i) {
+                d[c - 3] = v;
             }
         }
     }

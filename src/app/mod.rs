@@ -1,16 +1,19 @@
 //! The previewer window (egui/eframe): shows the worker's frames and sends it commands.
 //! It only draws and sends messages; all rendering happens on the `session` worker.
 
-use crate::cache::CacheParams;
+pub mod snapshot;
+
+use crate::app::snapshot::{SnapshotFiles, SnapshotMeta, utc_now, write_snapshot};
+use crate::choice::Choice;
 use crate::film::display::{DisplayImage, ToneMap, ViewMode, display};
 use crate::film::false_colour;
-use crate::film::snapshot::{SnapshotFiles, SnapshotMeta, utc_now, write_snapshot};
-use crate::filter::FilterParams;
-use crate::photon::BandwidthParams;
-use crate::radiance_map::DirectionalMode;
-use crate::render::DirectMode;
+use crate::pipeline::cache::CacheParams;
+use crate::pipeline::directional::DirectionalMode;
+use crate::pipeline::filter::FilterParams;
+use crate::pipeline::photon::BandwidthParams;
 use crate::scene::{Camera, Scene};
 use crate::session::{Command, Event, Frame, Session, SessionConfig};
+use crate::settings::DirectMode;
 use crossbeam_channel::{Receiver, unbounded};
 use egui::{Color32, Key, Modifiers, RichText, TextureHandle, TextureOptions, Vec2};
 use glam::Vec3;
@@ -650,10 +653,10 @@ impl App {
         let mut map = self.settings.radiance_map;
         ui.horizontal(|ui| {
             egui::ComboBox::from_label("Glossy radiance map")
-                .selected_text(map.label())
+                .selected_text(directional_label(map))
                 .show_ui(ui, |ui| {
-                    for m in DirectionalMode::ALL {
-                        ui.selectable_value(&mut map, m, m.label());
+                    for &m in DirectionalMode::ALL {
+                        ui.selectable_value(&mut map, m, directional_label(m));
                     }
                 })
                 .response
@@ -1043,6 +1046,15 @@ fn param_slider(
             *value = default;
         }
     });
+}
+
+/// The window's name for a directional mode (§8.1).
+fn directional_label(m: DirectionalMode) -> &'static str {
+    match m {
+        DirectionalMode::Diffuse => "diffuse (irradiance only)",
+        DirectionalMode::Sh => "spherical harmonics (16 per channel)",
+        DirectionalMode::Histogram => "histogram (20 strata)",
+    }
 }
 
 fn fmt3(c: Vec3) -> String {

@@ -2,8 +2,8 @@
 //! samples: the photon hit points of the same light pass in a balanced kd-tree, a global map
 //! (direct and indirect photons) and a caustic map, each queried with its own K.
 
-use crate::photon::{PhotonClass, PhotonRay};
-use crate::radiance_map::{Accumulators, Channel};
+use crate::pipeline::photon::{PhotonClass, PhotonRay};
+use crate::pipeline::radiance_map::{Accumulators, Channel};
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -208,7 +208,7 @@ const MAX_RECORD: usize = 60;
 
 /// Direct visualisation: the K-NN irradiance of both maps at every splat target, written into
 /// `acc` (flux = E, weight = 1, weighted bandwidth = the global gather radius, count = photons
-/// gathered), ready for [`crate::radiance_map::RadianceMap::resolve_from`] with one batch.
+/// gathered), ready for [`crate::pipeline::radiance_map::RadianceMap::resolve_from`] with one batch.
 /// Glossy targets with a directional record get the gathered photons' directions too (§8.1
 /// applied to photon mapping: each photon's ΔΦ/(πr²) deposited from where it came).
 #[allow(clippy::too_many_arguments)]
@@ -239,7 +239,7 @@ pub fn estimate_targets(
                 if directional && e.found > 0 {
                     let area = std::f32::consts::PI * e.radius * e.radius;
                     for ph in map.gathered(heap) {
-                        crate::splat::RayDirection::new(ph.dir, mode).deposit(
+                        crate::pipeline::splat::RayDirection::new(ph.dir, mode).deposit(
                             &mut rec[..floats],
                             ph.power / area,
                             mode,

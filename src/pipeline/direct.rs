@@ -7,7 +7,7 @@
 //! §9). With `--direct photons` this is not used and direct photons are splatted instead (the
 //! paper's way).
 
-use crate::eye::EyeSamples;
+use crate::pipeline::eye::EyeSamples;
 use crate::sampling::Rng;
 use crate::scene::{Hit, Scene};
 use glam::Vec3;

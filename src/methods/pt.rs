@@ -2,23 +2,30 @@
 //! importance sampling (power heuristic) over the same BSDFs and lights as the splatter.
 //! Progressive: each call adds samples per pixel; every sample has its own random stream.
 
-use crate::direct::{bsdf_emission_weight, power_heuristic};
 use crate::film::Film;
+use crate::methods::{Method, MethodStats, Step, Timings};
+use crate::pipeline::direct::{bsdf_emission_weight, power_heuristic};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
+use crate::settings::{MethodKind, RenderSettings};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::Arc;
+use std::time::Instant;
 
 /// Russian roulette starts after this many bounces.
 const RR_DEPTH: u32 = 3;
 
+/// The path tracer's own settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PtSettings {
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
     /// Path length limit (Russian roulette ends almost all paths long before).
     pub max_depth: u32,
+    /// Seed of every path's random stream.
     pub seed: u64,
     /// Paths end at their non-specular vertex after this many (emission found there still
     /// counts): `u32::MAX` for full global illumination, 1 for direct light and caustics only
@@ -51,29 +58,72 @@ pub fn max_diffuse_vertices_for(fractions: [f32; 3]) -> u32 {
     if fractions[1] > 0.0 { u32::MAX } else { 1 }
 }
 
+/// The progressive path tracer: per-pixel sums of independent paths.
 pub struct PathTracer {
+    /// The scene.
     pub scene: Arc<Scene>,
+    /// The camera.
     pub camera: Camera,
+    /// Its own settings.
     pub settings: PtSettings,
+    /// The render settings it was built from (`pt_spp` paths per pixel per step).
+    render: RenderSettings,
     sum: Vec<Vec3>,
     spp: u32,
     /// Contributions dropped because they were NaN or infinite.
     pub invalid: u64,
+    timings: Timings,
 }
 
 impl PathTracer {
+    /// A path tracer with no paths yet.
     pub fn new(scene: Arc<Scene>, camera: Camera, settings: PtSettings) -> Self {
+        let render = RenderSettings {
+            method: MethodKind::Pt,
+            width: settings.width,
+            height: settings.height,
+            seed: settings.seed,
+            ..RenderSettings::default()
+        };
+        Self::with_render(scene, camera, settings, render)
+    }
+
+    /// The reference for a render with `settings`: the same size, seed and transport
+    /// ([`PtSettings::matching`]); each step adds `settings.pt_spp` paths per pixel.
+    pub fn for_render(scene: Arc<Scene>, camera: Camera, settings: &RenderSettings) -> Self {
+        let pt = PtSettings::matching(
+            settings.width,
+            settings.height,
+            settings.seed,
+            settings.fractions,
+        );
+        let render = RenderSettings {
+            method: MethodKind::Pt,
+            ..settings.clone()
+        };
+        Self::with_render(scene, camera, pt, render)
+    }
+
+    fn with_render(
+        scene: Arc<Scene>,
+        camera: Camera,
+        settings: PtSettings,
+        render: RenderSettings,
+    ) -> Self {
         let n = (settings.width * settings.height) as usize;
         Self {
             scene,
             camera,
             settings,
+            render,
             sum: vec![Vec3::ZERO; n],
             spp: 0,
             invalid: 0,
+            timings: Timings::default(),
         }
     }
 
+    /// Paths traced through every pixel so far.
     pub fn samples_per_pixel(&self) -> u32 {
         self.spp
     }
@@ -131,6 +181,74 @@ impl PathTracer {
         }
         f.invalid_contributions = self.invalid;
         f
+    }
+}
+
+impl Method for PathTracer {
+    fn kind(&self) -> MethodKind {
+        MethodKind::Pt
+    }
+
+    fn settings(&self) -> &RenderSettings {
+        &self.render
+    }
+
+    fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    fn step(&mut self) -> Step {
+        let t = Instant::now();
+        self.add_samples(self.render.pt_spp.max(1));
+        self.timings.t_splat += t.elapsed().as_secs_f64();
+        Step::Traced
+    }
+
+    /// Paths depend on the view: a new one starts from no paths.
+    fn set_view(
+        &mut self,
+        camera: Camera,
+        width: u32,
+        height: u32,
+        spp: u32,
+    ) -> Result<(), String> {
+        if width == 0 || height == 0 {
+            return Err("width and height must be positive".into());
+        }
+        self.render.width = width;
+        self.render.height = height;
+        self.render.spp = spp;
+        self.settings.width = width;
+        self.settings.height = height;
+        self.camera = camera;
+        self.sum = vec![Vec3::ZERO; (width * height) as usize];
+        self.spp = 0;
+        self.invalid = 0;
+        Ok(())
+    }
+
+    /// Nothing the path tracer uses changes without a rebuild.
+    fn update(&mut self, _settings: &RenderSettings) -> Result<(), String> {
+        Ok(())
+    }
+
+    fn film(&mut self) -> Film {
+        PathTracer::film(self)
+    }
+
+    fn passes(&self) -> u64 {
+        self.spp as u64
+    }
+
+    fn timings(&self) -> Timings {
+        self.timings
+    }
+
+    fn stats(&mut self) -> MethodStats {
+        MethodStats {
+            passes: self.spp as u64,
+            ..MethodStats::default()
+        }
     }
 }
 

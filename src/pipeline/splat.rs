@@ -3,14 +3,15 @@
 //! frustum, weighted by cos θ at the sample.
 //!
 //! The leaf test runs 8 lanes at a time over the padded structure-of-arrays slots
-//! ([`crate::splat_tree::LANES`]); on x86-64 with AVX2 the whole subtree loop is compiled for
+//! ([`crate::pipeline::splat_tree::LANES`]); on x86-64 with AVX2 the whole subtree loop is compiled for
 //! AVX2 (chosen once per subtree, never per photon). Both paths compute the same IEEE
 //! operations, so they give identical results.
 
-use crate::directional::{FILTER_TAPS, SH_COEFFS, filter_taps, sh_basis};
-use crate::photon::{Bandwidth, PhotonRay};
-use crate::radiance_map::{AccView, AccumChunk, Accumulators, Channel, DirectionalMode, NO_RECORD};
-use crate::splat_tree::{Cone, LANES, PointChunk, SplatTree, Subtree, sphere_in_cone};
+use crate::pipeline::directional::DirectionalMode;
+use crate::pipeline::directional::{FILTER_TAPS, SH_COEFFS, filter_taps, sh_basis};
+use crate::pipeline::photon::{Bandwidth, PhotonRay};
+use crate::pipeline::radiance_map::{AccView, AccumChunk, Accumulators, Channel, NO_RECORD};
+use crate::pipeline::splat_tree::{Cone, LANES, PointChunk, SplatTree, Subtree, sphere_in_cone};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use std::f32::consts::{FRAC_2_PI, PI};
@@ -607,7 +608,7 @@ mod tests {
                     pdf_start: 0.0,
                     pdf_end: 1.0,
                     bounce: 1,
-                    class: crate::photon::PhotonClass::Indirect,
+                    class: crate::pipeline::photon::PhotonClass::Indirect,
                     lands: true,
                     end_normal: Vec3::Y,
                 };
@@ -682,7 +683,7 @@ mod tests {
             pdf_start: 1.0,
             pdf_end: 1.0,
             bounce: 1,
-            class: crate::photon::PhotonClass::Caustic,
+            class: crate::pipeline::photon::PhotonClass::Caustic,
             lands: true,
             end_normal: Vec3::Y,
         };

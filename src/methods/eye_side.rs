@@ -1,0 +1,146 @@
+//! The eye side of a render: everything that depends on the camera, the resolution and the
+//! samples per pixel — eye samples, splat targets and their kd-tree (§7.1), what the eye sees
+//! directly (emission through specular chains, NEE direct light) and the accumulators that
+//! photon rays are splatted into. Photon rays do not depend on it, so a new view builds a new
+//! eye side and re-splats the stored rays.
+
+use crate::methods::Timings;
+use crate::pipeline::direct::direct_light;
+use crate::pipeline::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
+use crate::pipeline::radiance_map::{Accumulators, Channel};
+use crate::pipeline::splat_tree::SplatTree;
+use crate::scene::{Camera, Scene};
+use crate::settings::{DirectMode, RenderSettings};
+use glam::Vec3;
+use std::time::Instant;
+
+/// Eye samples, splat targets, splat tree, direct light and accumulators of one view.
+pub struct EyeSide {
+    /// Eye samples (SoA, pixel order).
+    pub eye: EyeSamples,
+    /// Splat targets (eye samples of a pixel on one surface share one).
+    pub targets: SplatTargets,
+    /// The kd-tree over the splat targets (§7.1).
+    pub tree: SplatTree,
+    /// Per pixel: emission seen directly or through specular chains.
+    pub emitted: Vec<Vec3>,
+    /// Per pixel: NEE direct light (eye weights applied).
+    pub direct: Vec<Vec3>,
+    /// Eye samples whose NEE estimate was NaN or infinite (dropped).
+    pub invalid_direct: u64,
+    /// Accumulators for indirect and caustic photons.
+    pub acc_indirect: Accumulators,
+    /// Accumulators for direct photons (empty unless `--direct photons`).
+    pub acc_direct: Accumulators,
+}
+
+impl EyeSide {
+    /// Eye pass, splat tree and explicit direct light for one view (`settings`' width,
+    /// height and spp), timed into `timings` (T_E and T_D).
+    pub fn new(
+        scene: &Scene,
+        camera: &Camera,
+        settings: &RenderSettings,
+        timings: &mut Timings,
+    ) -> Result<Self, String> {
+        if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
+            return Err("width, height and samples per pixel must be positive".into());
+        }
+        let t = Instant::now();
+        let eye_settings = EyeSettings {
+            width: settings.width,
+            height: settings.height,
+            spp: settings.spp,
+            max_specular_depth: settings.max_specular_depth,
+            seed: settings.seed,
+            merge_targets: settings.merge_targets,
+        };
+        let EyePass {
+            samples: eye,
+            targets,
+            emitted,
+        } = eye_pass(scene, camera, &eye_settings);
+        let tree = SplatTree::build(&targets.position, &targets.normal);
+        timings.t_eye += t.elapsed().as_secs_f64();
+
+        let t = Instant::now();
+        let mut direct = vec![Vec3::ZERO; (settings.width * settings.height) as usize];
+        let mut invalid_direct = 0;
+        if settings.direct == DirectMode::Nee {
+            let (per_sample, invalid) =
+                direct_light(scene, &eye, settings.nee_samples, settings.seed);
+            invalid_direct = invalid;
+            for (i, l) in per_sample.iter().enumerate() {
+                direct[eye.pixel[i] as usize] += eye.weight[i] * *l;
+            }
+        }
+        timings.t_direct += t.elapsed().as_secs_f64();
+
+        let mode = settings.radiance_map;
+        let acc_direct = if settings.direct == DirectMode::Photons {
+            Accumulators::for_tree(&tree, &targets.glossy, mode)
+        } else {
+            Accumulators::default()
+        };
+        let acc_indirect = Accumulators::for_tree(&tree, &targets.glossy, mode);
+        Ok(Self {
+            eye,
+            targets,
+            tree,
+            emitted,
+            direct,
+            invalid_direct,
+            acc_indirect,
+            acc_direct,
+        })
+    }
+
+    /// Empty both accumulators (before a re-splat).
+    pub fn clear(&mut self) {
+        self.acc_indirect.clear();
+        self.acc_direct.clear();
+    }
+
+    /// Bytes held by eye samples, splat tree and accumulators.
+    pub fn memory_bytes(&self) -> usize {
+        self.eye.memory_bytes()
+            + self.tree.memory_bytes()
+            + self.acc_indirect.memory_bytes()
+            + self.acc_direct.memory_bytes()
+    }
+
+    /// Bytes of directional radiance-map records (§8.1) and the glossy splat targets owning
+    /// them.
+    pub fn directional_memory(&self) -> (usize, usize) {
+        (
+            self.acc_indirect.directional_bytes() + self.acc_direct.directional_bytes(),
+            self.targets.glossy.iter().filter(|&&g| g).count(),
+        )
+    }
+
+    /// Splatted irradiance E (eq. 5) at every splat target divided by `batches`, from the
+    /// indirect and caustic photons (`direct` = false) or from the direct photons.
+    pub fn target_irradiance(&self, direct: bool, batches: usize) -> Vec<Vec3> {
+        let acc = if direct {
+            &self.acc_direct
+        } else {
+            &self.acc_indirect
+        };
+        let b = batches.max(1) as f32;
+        self.tree
+            .target_slot
+            .iter()
+            .map(|&slot| {
+                let slot = slot as usize;
+                if acc.is_empty() {
+                    return Vec3::ZERO;
+                }
+                Vec3::new(
+                    acc.get(Channel::R, slot),
+                    acc.get(Channel::G, slot),
+                    acc.get(Channel::B, slot),
+                ) / b
+            })
+            .collect()
+    }
+}

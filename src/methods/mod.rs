@@ -1,0 +1,304 @@
+//! The rendering methods, one file each, behind one interface ([`Method`]) and one factory
+//! ([`build`]):
+//!
+//! | method | file | what it is |
+//! |---|---|---|
+//! | `rs` | [`rs`] | photon ray splatting (the paper), with the optional radiance cache (§8.3) and image-space filter (§8.2) |
+//! | `rc` | [`rc`] | radiance caching: indirect-diffuse photon rays splatted onto sparse cache records only (§8.3) |
+//! | `pm` | [`pm`] | photon mapping with K-NN density estimation (Jensen), on the same eye samples and photons |
+//! | `pt` | [`pt`] | the unbiased path tracer (NEE + MIS), the reference |
+//! | `rs-fg`, `pm-fg` | [`fg`] | final gathering (§8.4) over splatted rays or photon maps |
+//!
+//! rs, rc and pm share the eye side ([`eye_side::EyeSide`]), the stored photon rays
+//! ([`photon_store::PhotonStore`]) and the progressive batch loop
+//! ([`progressive::Progressive`]); each adds only how its film is resolved. The headless
+//! budget loop ([`render_method`]), `compare`, `bench` and the previewer's worker drive a
+//! `dyn Method` and never branch on which one it is. To add a method, write one file with a
+//! type implementing [`Method`] and add one line to [`build`].
+
+pub mod eye_side;
+pub mod fg;
+pub mod photon_store;
+pub mod pm;
+pub mod progressive;
+pub mod pt;
+pub mod rc;
+pub mod rs;
+
+use crate::film::Film;
+use crate::pipeline::cache::Cache;
+use crate::pipeline::photon::ClampCounts;
+use crate::pipeline::photon_map::PmStats;
+use crate::scene::{Camera, Scene};
+use crate::settings::{MethodKind, RenderSettings};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// What one [`Method::step`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// Re-worked stored data for a changed view or parameters (a re-splat): the image moves
+    /// back towards what it held before the change.
+    Resplatted,
+    /// Added new light: a photon batch, a path-tracing pass or a gathering pass.
+    Traced,
+}
+
+/// Seconds spent per phase (Table 2: T_E, T_L, T_S).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Timings {
+    /// T_E: eye pass and splat-tree build (final gathering: also its gather rays).
+    pub t_eye: f64,
+    /// Explicit direct light (NEE) at eye samples.
+    pub t_direct: f64,
+    /// T_L: pilot and light pass.
+    pub t_light: f64,
+    /// T_S: bandwidth and splatting, the cache pass, or the density estimate (the path
+    /// tracer's whole time is counted here).
+    pub t_splat: f64,
+    /// Folding accumulators into the film.
+    pub t_resolve: f64,
+}
+
+impl Timings {
+    /// ΣT over every phase.
+    pub fn total(&self) -> f64 {
+        self.t_eye + self.t_direct + self.t_light + self.t_splat + self.t_resolve
+    }
+}
+
+impl std::ops::AddAssign for Timings {
+    fn add_assign(&mut self, o: Self) {
+        self.t_eye += o.t_eye;
+        self.t_direct += o.t_direct;
+        self.t_light += o.t_light;
+        self.t_splat += o.t_splat;
+        self.t_resolve += o.t_resolve;
+    }
+}
+
+/// Counters and memory of a method, for the stats panel, `--stats` and `bench`. Fields a
+/// method does not have stay zero or `None`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MethodStats {
+    /// Photons traced (0 for the path tracer).
+    pub photons_traced: u64,
+    /// Stored photon rays over all stored batches.
+    pub photon_rays: usize,
+    /// Photon rays per class (direct, indirect, caustic) over all traced batches.
+    pub photon_rays_per_class: [u64; 3],
+    /// Bytes of the stored photon rays.
+    pub photon_ray_bytes: usize,
+    /// Units of work the image holds: photon batches, path-tracing or gathering passes.
+    pub passes: u64,
+    /// Batches dropped from the ray store (over budget) whose light the image still holds.
+    pub folded_batches: usize,
+    /// Batches whose rays are stored (re-splattable).
+    pub stored_batches: usize,
+    /// Bytes held by eye samples, splat tree and accumulators.
+    pub splat_bytes: usize,
+    /// Bytes of the directional radiance-map records (§8.1), included in `splat_bytes`.
+    pub directional_bytes: usize,
+    /// Splat targets on glossy surfaces (the ones with directional records).
+    pub glossy_targets: usize,
+    /// Eye samples of the current view.
+    pub eye_samples: usize,
+    /// Splat targets (eye samples after merging).
+    pub splat_targets: usize,
+    /// Nodes of the splat tree.
+    pub splat_tree_nodes: usize,
+    /// Eye samples tested for feasibility and accepted (Alg. 1).
+    pub tested_pairs: u64,
+    /// Eye samples that received energy.
+    pub accepted_pairs: u64,
+    /// ⟨D⟩ of the pilot (§6), the unit of eq. 7's lengths.
+    pub pilot_mean_length: Option<f32>,
+    /// Rays per class (direct, indirect, caustic) at the bandwidth bounds h_min and h_max.
+    pub bandwidth_clamps: Option<[ClampCounts; 3]>,
+    /// Gather statistics of photon mapping's last estimate.
+    pub pm: Option<PmStats>,
+    /// Radiance cache records of the last film.
+    pub cache_records: Option<usize>,
+    /// Records created per pass of the last cache.
+    pub cache_records_per_pass: Option<Vec<usize>>,
+}
+
+/// A rendering method: progressive work in steps, a view that can change, and a film.
+pub trait Method: Send {
+    /// Which method this is.
+    fn kind(&self) -> MethodKind;
+
+    /// The settings it renders with (the view's width, height and spp included).
+    fn settings(&self) -> &RenderSettings;
+
+    /// The camera it renders from.
+    fn camera(&self) -> &Camera;
+
+    /// One unit of progressive work (one photon batch, one re-splatted batch, one pass).
+    fn step(&mut self) -> Step;
+
+    /// True while stored work is being redone after a change (the next step re-splats).
+    fn catching_up(&self) -> bool {
+        false
+    }
+
+    /// A new camera, resolution or sample count. Methods with view-independent stored work
+    /// (photon rays) keep it and re-use it; the others start again.
+    fn set_view(&mut self, camera: Camera, width: u32, height: u32, spp: u32)
+    -> Result<(), String>;
+
+    /// Apply settings that need no re-trace: photons per batch, bandwidth (a re-splat), the
+    /// radiance map's directional mode, cache and filter parameters. The view fields are
+    /// ignored ([`Method::set_view`]); a change of method, direct light, fractions, seed or
+    /// specular depth needs a new method from [`build`] ([`needs_rebuild`]).
+    fn update(&mut self, settings: &RenderSettings) -> Result<(), String>;
+
+    /// Keep at most this many photon rays for re-splatting (older batches are folded).
+    fn set_ray_budget(&mut self, _rays: usize) {}
+
+    /// The image so far (resolving what the steps accumulated).
+    fn film(&mut self) -> Film;
+
+    /// Units of work whose light the film holds.
+    fn passes(&self) -> u64;
+
+    /// Time spent per phase.
+    fn timings(&self) -> Timings;
+
+    /// Counters and memory (may count bandwidth clamps, hence `&mut`).
+    fn stats(&mut self) -> MethodStats;
+
+    /// The radiance cache of the last film, if the method keeps one.
+    fn cache(&self) -> Option<&Cache> {
+        None
+    }
+}
+
+/// Build the method `settings.method` for `scene` seen by the settings' named camera (the
+/// scene's first when none is named).
+pub fn build(scene: Arc<Scene>, settings: RenderSettings) -> Result<Box<dyn Method>, String> {
+    let camera = scene.camera_or_error(settings.camera.as_deref())?;
+    build_for(scene, settings, camera)
+}
+
+/// Build the method `settings.method` for `scene` seen by `camera`. This is the one place
+/// that knows every method.
+pub fn build_for(
+    scene: Arc<Scene>,
+    settings: RenderSettings,
+    camera: Camera,
+) -> Result<Box<dyn Method>, String> {
+    Ok(match settings.method {
+        MethodKind::Rs => Box::new(rs::RaySplatting::new(scene, settings, camera)?),
+        MethodKind::Rc => Box::new(rc::RadianceCaching::new(scene, settings, camera)?),
+        MethodKind::Pm => Box::new(pm::PhotonMapping::new(scene, settings, camera)?),
+        MethodKind::Pt => Box::new(pt::PathTracer::for_render(scene, camera, &settings)),
+        MethodKind::RsFg | MethodKind::PmFg => {
+            Box::new(fg::FinalGathering::new(scene, settings, camera)?)
+        }
+    })
+}
+
+/// True when going from `old` to `new` changes what is traced, so the method must be built
+/// again rather than updated.
+pub fn needs_rebuild(old: &RenderSettings, new: &RenderSettings) -> bool {
+    old.method != new.method
+        || old.direct != new.direct
+        || old.fractions != new.fractions
+        || old.seed != new.seed
+        || old.max_specular_depth != new.max_specular_depth
+        || old.nee_samples != new.nee_samples
+        || old.merge_targets != new.merge_targets
+        || old.max_emitted_factor != new.max_emitted_factor
+        || old.pm_k != new.pm_k
+        || old.pm_caustic_k != new.pm_caustic_k
+        || old.fg_rays != new.fg_rays
+        || old.pt_spp != new.pt_spp
+}
+
+/// How long a headless render runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Budget {
+    /// One step: one photon batch, one pass of `pt_spp` paths per pixel, one gathering pass.
+    Fixed,
+    /// Steps until this many seconds are spent (at least one).
+    Seconds(f64),
+}
+
+/// A finished headless render and what it cost.
+pub struct Rendered {
+    /// The image.
+    pub film: Film,
+    /// Time per phase.
+    pub timings: Timings,
+    /// Counters and memory at the end.
+    pub stats: MethodStats,
+    /// Photons traced (0 for pt).
+    pub photons: u64,
+    /// Steps whose light the image holds.
+    pub passes: u64,
+    /// Pixels that are NaN or infinite.
+    pub invalid: u64,
+}
+
+/// Run `method` for `budget`, calling `progress` after every step.
+pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dyn Method)) {
+    let start = Instant::now();
+    loop {
+        method.step();
+        progress(&*method);
+        match budget {
+            Budget::Seconds(b) if start.elapsed().as_secs_f64() < b => continue,
+            _ => break,
+        }
+    }
+    while method.catching_up() {
+        method.step();
+    }
+}
+
+/// Render `scene` with the method `kind` and `settings` for `budget`. rs, rc and pm share the
+/// eye pass and the light pass for a given seed, so they see the same eye samples and photons.
+pub fn render_method(
+    scene: &Arc<Scene>,
+    kind: MethodKind,
+    settings: &RenderSettings,
+    budget: Budget,
+) -> Result<Rendered, String> {
+    let settings = RenderSettings {
+        method: kind,
+        ..settings.clone()
+    };
+    let mut m = build(scene.clone(), settings)?;
+    run(m.as_mut(), budget, |_| {});
+    Ok(finish(m.as_mut()))
+}
+
+/// The film, timings and counters of a method whose work is done.
+pub fn finish(m: &mut dyn Method) -> Rendered {
+    let film = m.film();
+    let stats = m.stats();
+    Rendered {
+        invalid: film.invalid_pixels() as u64,
+        film,
+        timings: m.timings(),
+        photons: stats.photons_traced,
+        passes: m.passes(),
+        stats,
+    }
+}
+
+/// Peak resident memory of this process in MB (Linux VmHWM; 0 where unavailable).
+pub fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map(|kb| kb / 1024.0)
+        .unwrap_or(0.0)
+}

@@ -1,0 +1,162 @@
+//! The stored photon rays: the pilot (§6), every traced batch with the class sizes M its
+//! bandwidth is computed for (eq. 8), and a ray budget beyond which the oldest batches are
+//! dropped. Photon rays are view-independent and bandwidth is a pure function of stored ray
+//! data, so the store is what lets a new view or new C/S/R re-splat without re-tracing.
+
+use crate::pipeline::photon::{
+    Bandwidth, BandwidthParams, ClampCounts, ClassBudgets, LightPassSettings, PhotonClass,
+    PhotonRay, Pilot, light_pass, pilot,
+};
+use crate::scene::Scene;
+use crate::settings::RenderSettings;
+
+/// One stored light pass with the class sizes M its bandwidth was computed for.
+pub struct StoredBatch {
+    /// The photon rays.
+    pub rays: Vec<PhotonRay>,
+    /// Stored rays per class over every batch up to and including this one (eq. 8's M).
+    pub m: [u64; 3],
+    /// Its rays at the bandwidth bounds under the parameters they were last counted for.
+    clamps: Option<(BandwidthParams, [ClampCounts; 3])>,
+}
+
+/// The pilot and the stored batches.
+pub struct PhotonStore {
+    pilot: Pilot,
+    batches: Vec<StoredBatch>,
+    /// Stored rays per class over all traced batches (each batch's M, eq. 8).
+    m_total: [u64; 3],
+    /// Photons traced (depends on thread count: the last wave may trace beyond the budget).
+    pub photons_traced: u64,
+    /// Photon paths and rays dropped for NaN or infinite values, over all batches.
+    pub invalid_photon_rays: u64,
+    /// Photons whose rays were kept; the next batch's photon indices start here.
+    photons_used: u64,
+    /// Keep at most this many photon rays; older batches are dropped ([`PhotonStore::fold`]).
+    pub max_stored_rays: usize,
+}
+
+impl PhotonStore {
+    /// An empty store with the pilot of `scene` (§6).
+    pub fn new(scene: &Scene, seed: u64) -> Self {
+        Self {
+            pilot: pilot(scene, seed),
+            batches: Vec::new(),
+            m_total: [0; 3],
+            photons_traced: 0,
+            invalid_photon_rays: 0,
+            photons_used: 0,
+            max_stored_rays: usize::MAX,
+        }
+    }
+
+    /// The pilot's statistics.
+    pub fn pilot(&self) -> &Pilot {
+        &self.pilot
+    }
+
+    /// The stored batches, oldest first.
+    pub fn batches(&self) -> &[StoredBatch] {
+        &self.batches
+    }
+
+    /// Trace one light pass of `settings.photons` stored rays (split by the fractions; direct
+    /// photons only when `with_direct`) and store it; returns its index.
+    pub fn trace(&mut self, scene: &Scene, settings: &RenderSettings, with_direct: bool) -> usize {
+        let budgets =
+            ClassBudgets::from_fractions(settings.photons, settings.fractions, with_direct);
+        let batch = light_pass(
+            scene,
+            &LightPassSettings {
+                budgets,
+                max_emitted_factor: settings.max_emitted_factor,
+                seed: settings.seed,
+                first_photon: self.photons_used,
+                units: self.pilot.units(),
+            },
+        );
+        self.photons_traced += batch.traced;
+        self.invalid_photon_rays += batch.invalid;
+        self.photons_used += batch.emitted.iter().copied().max().unwrap_or(0);
+        for c in 0..3 {
+            self.m_total[c] += batch.stored[c];
+        }
+        self.batches.push(StoredBatch {
+            rays: batch.rays,
+            m: self.m_total,
+            clamps: None,
+        });
+        self.batches.len() - 1
+    }
+
+    /// Drop the oldest batches beyond the ray budget (always keeping the newest); returns how
+    /// many were dropped. Their light stays wherever it was splatted until the next re-splat.
+    pub fn fold(&mut self) -> usize {
+        let mut stored = self.rays();
+        let mut drop = 0;
+        while self.batches.len() - drop > 1 && stored > self.max_stored_rays {
+            stored -= self.batches[drop].rays.len();
+            drop += 1;
+        }
+        self.batches.drain(..drop);
+        drop
+    }
+
+    /// Stored photon rays over all batches.
+    pub fn rays(&self) -> usize {
+        self.batches.iter().map(|b| b.rays.len()).sum()
+    }
+
+    /// Photon rays per class over all traced batches.
+    pub fn rays_per_class(&self) -> [u64; 3] {
+        self.m_total
+    }
+
+    /// Bytes of the stored rays.
+    pub fn memory_bytes(&self) -> usize {
+        self.rays() * std::mem::size_of::<PhotonRay>()
+    }
+
+    /// Eq. 8's bandwidth per class for class sizes `m`.
+    pub fn bandwidths(&self, params: &BandwidthParams, m: [u64; 3]) -> [Bandwidth; 3] {
+        let mean_r = self.pilot.mean_r(params.sensitivity_s);
+        PhotonClass::ALL.map(|c| Bandwidth::new(params, &self.pilot, m[c as usize], mean_r))
+    }
+
+    /// Photon mapping's largest gather radius: rs's h_max (eq. 8's upper bound from μC and R)
+    /// for the largest class stored, so both methods share one bound that follows the
+    /// lighting's scale, never the bounding box.
+    pub fn largest_h_max(&self, params: &BandwidthParams) -> f32 {
+        let bw = self.bandwidths(params, self.m_total);
+        PhotonClass::ALL
+            .iter()
+            .filter(|&&c| self.m_total[c as usize] > 0)
+            .map(|&c| bw[c as usize].h_max)
+            .fold(0.0f32, f32::max)
+            .max(bw[PhotonClass::Indirect as usize].h_max)
+    }
+
+    /// Rays of each class (direct, indirect, caustic) whose cones sit at h_min or h_max under
+    /// `params`, over the stored batches (each with its own M). Each batch is counted once
+    /// per parameter set, so the previewer can ask every frame.
+    pub fn clamps(&mut self, params: &BandwidthParams) -> [ClampCounts; 3] {
+        let mut out = [ClampCounts::default(); 3];
+        for i in 0..self.batches.len() {
+            let counts = match self.batches[i].clamps {
+                Some((p, c)) if p == *params => c,
+                _ => {
+                    let b = &self.batches[i];
+                    let bw = self.bandwidths(params, b.m);
+                    let c =
+                        PhotonClass::ALL.map(|c| ClampCounts::count(&b.rays, &bw[c as usize], c));
+                    self.batches[i].clamps = Some((*params, c));
+                    c
+                }
+            };
+            for c in 0..3 {
+                out[c] += counts[c];
+            }
+        }
+        out
+    }
+}

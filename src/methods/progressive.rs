@@ -1,0 +1,479 @@
+//! The progressive loop that rs, rc and pm share ([`Progressive`]): trace a batch of photon
+//! rays and splat it with the bandwidth for the total M so far, or re-splat one stored batch
+//! after a change of C/S/R or of the view; and [`PhotonMethod`], which wraps it with a
+//! method's own way of resolving the film (a [`Resolver`]: rs, rc or pm).
+//!
+//! Re-splatting is progressive: [`Progressive::step`] splats one stored batch (newest first)
+//! per call, and the film averages over the batches splatted so far.
+
+use crate::film::Film;
+use crate::methods::eye_side::EyeSide;
+use crate::methods::photon_store::PhotonStore;
+use crate::methods::{Method, MethodStats, Step, Timings};
+use crate::pipeline::cache::Cache;
+use crate::pipeline::eye::{EyeSamples, SplatTargets};
+use crate::pipeline::photon::{Bandwidth, BandwidthParams, PhotonRay};
+use crate::pipeline::photon_map::PmStats;
+use crate::pipeline::radiance_map::RadianceMap;
+use crate::pipeline::splat::{SplatCounters, prepare, splat};
+use crate::scene::{Camera, Scene};
+use crate::settings::{DirectMode, MethodKind, RenderSettings};
+use glam::Vec3;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Eye side, photon store and the batch bookkeeping of the photon-based methods.
+pub struct Progressive {
+    /// The scene.
+    pub scene: Arc<Scene>,
+    /// The settings (the view's width, height and spp included).
+    pub settings: RenderSettings,
+    /// The camera.
+    pub camera: Camera,
+    /// Everything that depends on the view.
+    pub side: EyeSide,
+    /// The stored photon rays.
+    pub store: PhotonStore,
+    /// Classes (direct, indirect, caustic) splatted onto every splat target as batches
+    /// arrive; none for photon mapping, which gathers when the film is made.
+    splatted_classes: [bool; 3],
+    /// Stored batches (indices into the store) still to be re-splatted, next last.
+    resplat_queue: Vec<usize>,
+    /// Batches whose light the accumulators hold.
+    splatted: usize,
+    /// Batches dropped from the store (over budget) whose light the accumulators still hold.
+    folded: usize,
+    /// Counts every change of the accumulated light (a batch traced or re-splatted, a view).
+    pub generation: u64,
+    /// Splatting counters.
+    pub counters: SplatCounters,
+    /// Time per phase.
+    pub timings: Timings,
+}
+
+impl Progressive {
+    /// Eye pass, splat tree, direct light and pilot for `scene` as seen by `camera`;
+    /// `splatted_classes` are splatted onto every target as batches arrive.
+    pub fn new(
+        scene: Arc<Scene>,
+        settings: RenderSettings,
+        camera: Camera,
+        splatted_classes: [bool; 3],
+    ) -> Result<Self, String> {
+        let mut timings = Timings::default();
+        let side = EyeSide::new(&scene, &camera, &settings, &mut timings)?;
+        let t = Instant::now();
+        let store = PhotonStore::new(&scene, settings.seed);
+        timings.t_light = t.elapsed().as_secs_f64();
+        Ok(Self {
+            scene,
+            settings,
+            camera,
+            side,
+            store,
+            splatted_classes,
+            resplat_queue: Vec::new(),
+            splatted: 0,
+            folded: 0,
+            generation: 0,
+            counters: SplatCounters::default(),
+            timings,
+        })
+    }
+
+    /// Batches whose light the image holds (stored and splatted, plus folded).
+    pub fn batch_count(&self) -> usize {
+        self.splatted + self.folded
+    }
+
+    /// True while stored batches wait to be re-splatted after a parameter or view change.
+    pub fn resplat_pending(&self) -> bool {
+        !self.resplat_queue.is_empty()
+    }
+
+    /// Direct light comes from splatted direct photons.
+    pub fn splat_direct(&self) -> bool {
+        self.settings.direct == DirectMode::Photons
+    }
+
+    /// Eq. 8's bandwidth per class for class sizes `m` under the current C, S, R.
+    pub fn bandwidths(&self, m: [u64; 3]) -> [Bandwidth; 3] {
+        self.store.bandwidths(&self.settings.bandwidth, m)
+    }
+
+    /// Do one unit of work: re-splat the next stored batch if a re-splat is pending,
+    /// otherwise trace and splat a new batch.
+    pub fn step(&mut self) -> Step {
+        if let Some(b) = self.resplat_queue.pop() {
+            let t = Instant::now();
+            let batch = &self.store.batches()[b];
+            let bw = self.bandwidths(batch.m);
+            self.counters += splat_rays(
+                &mut self.side,
+                &batch.rays,
+                &bw,
+                self.splatted_classes,
+                self.settings.direct == DirectMode::Photons,
+                self.settings.radiance_map,
+            );
+            self.splatted += 1;
+            self.generation += 1;
+            self.timings.t_splat += t.elapsed().as_secs_f64();
+            Step::Resplatted
+        } else {
+            self.run_batch();
+            Step::Traced
+        }
+    }
+
+    /// Trace one light pass of M photons, splat it with the bandwidth for the total M so
+    /// far. Finishes a pending re-splat first.
+    pub fn run_batch(&mut self) {
+        while self.resplat_pending() {
+            self.step();
+        }
+        let t = Instant::now();
+        let b = self
+            .store
+            .trace(&self.scene, &self.settings, self.splat_direct());
+        self.timings.t_light += t.elapsed().as_secs_f64();
+
+        let t = Instant::now();
+        let batch = &self.store.batches()[b];
+        let bw = self.bandwidths(batch.m);
+        self.counters += splat_rays(
+            &mut self.side,
+            &batch.rays,
+            &bw,
+            self.splatted_classes,
+            self.settings.direct == DirectMode::Photons,
+            self.settings.radiance_map,
+        );
+        self.splatted += 1;
+        let dropped = self.store.fold();
+        self.folded += dropped;
+        self.splatted -= dropped;
+        self.generation += 1;
+        self.timings.t_splat += t.elapsed().as_secs_f64();
+    }
+
+    /// Start re-splatting every stored batch with new bandwidth parameters (no re-tracing).
+    /// Folded batches cannot be re-splatted: their light leaves the image.
+    pub fn begin_resplat(&mut self, params: BandwidthParams) {
+        self.settings.bandwidth = params;
+        self.side.clear();
+        self.splatted = 0;
+        self.folded = 0;
+        self.generation += 1;
+        // Newest first: it has the smallest bandwidth, so the first frame is the sharpest.
+        self.resplat_queue = (0..self.store.batches().len()).collect();
+    }
+
+    /// A new camera, resolution or sample count: new eye pass and splat tree, then a
+    /// progressive re-splat of the stored rays (photon rays do not depend on the view).
+    pub fn set_view(
+        &mut self,
+        camera: Camera,
+        width: u32,
+        height: u32,
+        spp: u32,
+    ) -> Result<(), String> {
+        let mut settings = self.settings.clone();
+        settings.width = width;
+        settings.height = height;
+        settings.spp = spp;
+        self.side = EyeSide::new(&self.scene, &camera, &settings, &mut self.timings)?;
+        self.settings = settings;
+        self.camera = camera;
+        self.begin_resplat(self.settings.bandwidth);
+        Ok(())
+    }
+
+    /// Apply settings that need no re-trace ([`Method::update`]).
+    pub fn update(&mut self, s: &RenderSettings) -> Result<(), String> {
+        self.settings.photons = s.photons;
+        self.settings.cache = s.cache;
+        self.settings.cache_on = s.cache_on;
+        self.settings.filter = s.filter;
+        if s.radiance_map != self.settings.radiance_map {
+            // New accumulators with the new directional records, then a re-splat.
+            self.settings.radiance_map = s.radiance_map;
+            self.settings.bandwidth = s.bandwidth;
+            let (w, h, spp) = (self.settings.width, self.settings.height, self.settings.spp);
+            return self.set_view(self.camera.clone(), w, h, spp);
+        }
+        if s.bandwidth != self.settings.bandwidth {
+            self.begin_resplat(s.bandwidth);
+        }
+        Ok(())
+    }
+
+    /// Resolve `acc_indirect` into a radiance map, averaged over `batches`.
+    pub fn resolve_indirect(&self, batches: u32) -> RadianceMap {
+        let side = &self.side;
+        let mut map = RadianceMap::new(self.settings.width, self.settings.height);
+        map.resolve_from(
+            &self.scene,
+            &side.eye,
+            &side.tree.target_slot,
+            &side.acc_indirect,
+            batches,
+        );
+        map
+    }
+
+    /// Compose the film: emission + direct light (NEE, or splatted direct photons when
+    /// `direct_photons`) + the indirect radiance map, with AOVs.
+    pub fn compose(&self, map: &RadianceMap, batches: u32, direct_photons: bool) -> Film {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let side = &self.side;
+        let mut film = Film::new(w, h);
+        let mut direct = side.direct.clone();
+        if direct_photons {
+            let mut dmap = RadianceMap::new(w, h);
+            dmap.resolve_from(
+                &self.scene,
+                &side.eye,
+                &side.tree.target_slot,
+                &side.acc_direct,
+                batches,
+            );
+            film.invalid_contributions += dmap.invalid;
+            for (d, s) in direct.iter_mut().zip(&dmap.radiance) {
+                *d += *s;
+            }
+        }
+        film.invalid_contributions +=
+            map.invalid + side.invalid_direct + self.store.invalid_photon_rays;
+        for (i, (d, e)) in direct.iter().zip(&side.emitted).enumerate() {
+            let (mut d, mut ind) = (*d + *e, map.radiance[i]);
+            // The last guard: nothing non-finite reaches the film.
+            if !(d + ind).is_finite() {
+                film.invalid_contributions += 1;
+                (d, ind) = (Vec3::ZERO, Vec3::ZERO);
+            }
+            let info = &map.info[i];
+            film.direct[i] = d;
+            film.indirect[i] = ind;
+            film.rgb[i] = d + ind;
+            film.bandwidth[i] = info.mean_bandwidth;
+            film.kernel_weight[i] = info.kernel_weight;
+            film.harmonic_distance[i] = info.harmonic_mean_distance;
+            film.splats[i] = info.splats;
+        }
+        film
+    }
+
+    /// The counters every photon-based method shares.
+    pub fn stats(&mut self) -> MethodStats {
+        let (directional_bytes, glossy_targets) = self.side.directional_memory();
+        let clamps = self.store.clamps(&self.settings.bandwidth);
+        MethodStats {
+            photons_traced: self.store.photons_traced,
+            photon_rays: self.store.rays(),
+            photon_rays_per_class: self.store.rays_per_class(),
+            photon_ray_bytes: self.store.memory_bytes(),
+            passes: self.batch_count() as u64,
+            folded_batches: self.folded,
+            stored_batches: self.store.batches().len(),
+            splat_bytes: self.side.memory_bytes(),
+            directional_bytes,
+            glossy_targets,
+            eye_samples: self.side.eye.len(),
+            splat_targets: self.side.tree.samples,
+            splat_tree_nodes: self.side.tree.nodes.len(),
+            tested_pairs: self.counters.tested,
+            accepted_pairs: self.counters.accepted,
+            pilot_mean_length: Some(self.store.pilot().mean_length),
+            bandwidth_clamps: Some(clamps),
+            ..MethodStats::default()
+        }
+    }
+}
+
+/// Splat `rays` of the `classes` (direct, indirect, caustic) onto the eye side's targets
+/// (direct photons, when `direct_photons`, into their own accumulators).
+fn splat_rays(
+    side: &mut EyeSide,
+    rays: &[PhotonRay],
+    bw: &[Bandwidth; 3],
+    classes: [bool; 3],
+    direct_photons: bool,
+    mode: crate::pipeline::directional::DirectionalMode,
+) -> SplatCounters {
+    let mut counters = SplatCounters::default();
+    if classes == [false; 3] {
+        return counters;
+    }
+    let indirect = prepare(rays, bw, classes, mode);
+    counters += splat(&side.tree, &indirect, &mut side.acc_indirect);
+    if direct_photons {
+        let direct = prepare(rays, bw, [true, false, false], mode);
+        counters += splat(&side.tree, &direct, &mut side.acc_direct);
+    }
+    counters
+}
+
+/// How a photon-based method turns its accumulated light into a film.
+pub trait Resolver: Send {
+    /// Which method this resolver makes.
+    const KIND: MethodKind;
+    /// Classes (direct, indirect, caustic) splatted onto every splat target as batches
+    /// arrive (direct photons go to their own accumulators when `--direct photons`).
+    const SPLATTED: [bool; 3];
+
+    /// The film from the core's state (may build a cache or a density estimate, timed into
+    /// the core's T_S).
+    fn film(&mut self, core: &mut Progressive) -> Film;
+
+    /// Units of work the film holds.
+    fn passes(&self, core: &Progressive) -> u64 {
+        core.batch_count() as u64
+    }
+
+    /// The radiance cache of the last film, if any.
+    fn cache(&self) -> Option<&Cache> {
+        None
+    }
+
+    /// Photon mapping's gather statistics, if any.
+    fn pm_stats(&self) -> Option<PmStats> {
+        None
+    }
+}
+
+/// A photon-based method: the shared progressive core and its own resolver.
+pub struct PhotonMethod<R> {
+    /// Eye side, photon store and batch bookkeeping.
+    pub core: Progressive,
+    /// How the film is made.
+    pub resolver: R,
+}
+
+impl<R: Resolver + Default> PhotonMethod<R> {
+    /// Eye pass, splat tree, direct light and pilot for `scene` as seen by `camera`.
+    pub fn new(
+        scene: Arc<Scene>,
+        settings: RenderSettings,
+        camera: Camera,
+    ) -> Result<Self, String> {
+        let settings = RenderSettings {
+            method: R::KIND,
+            ..settings
+        };
+        Ok(Self {
+            core: Progressive::new(scene, settings, camera, R::SPLATTED)?,
+            resolver: R::default(),
+        })
+    }
+
+    /// As [`PhotonMethod::new`], from the settings' named camera (or the scene's first).
+    pub fn open(scene: Arc<Scene>, settings: RenderSettings) -> Result<Self, String> {
+        let camera = scene.camera_or_error(settings.camera.as_deref())?;
+        Self::new(scene, settings, camera)
+    }
+}
+
+impl<R: Resolver> PhotonMethod<R> {
+    /// Trace and splat one batch (after any pending re-splat).
+    pub fn run_batch(&mut self) {
+        self.core.run_batch();
+    }
+
+    /// Re-splat every stored batch with new bandwidth parameters, all at once.
+    pub fn resplat(&mut self, params: BandwidthParams) {
+        self.core.begin_resplat(params);
+        while self.core.resplat_pending() {
+            self.core.step();
+        }
+    }
+
+    /// Batches whose light the image holds.
+    pub fn batch_count(&self) -> usize {
+        self.core.batch_count()
+    }
+
+    /// The eye samples of the current view.
+    pub fn eye_samples(&self) -> &EyeSamples {
+        &self.core.side.eye
+    }
+
+    /// The splat targets of the current view.
+    pub fn targets(&self) -> &SplatTargets {
+        &self.core.side.targets
+    }
+
+    /// Batch-averaged splatted irradiance E (eq. 5) at every splat target, from the indirect
+    /// and caustic photons (`direct` = false) or from the direct photons (`direct` = true).
+    pub fn target_irradiance(&self, direct: bool) -> Vec<Vec3> {
+        self.core
+            .side
+            .target_irradiance(direct, self.core.batch_count())
+    }
+}
+
+impl<R: Resolver> Method for PhotonMethod<R> {
+    fn kind(&self) -> MethodKind {
+        R::KIND
+    }
+
+    fn settings(&self) -> &RenderSettings {
+        &self.core.settings
+    }
+
+    fn camera(&self) -> &Camera {
+        &self.core.camera
+    }
+
+    fn step(&mut self) -> Step {
+        self.core.step()
+    }
+
+    fn catching_up(&self) -> bool {
+        self.core.resplat_pending()
+    }
+
+    fn set_view(
+        &mut self,
+        camera: Camera,
+        width: u32,
+        height: u32,
+        spp: u32,
+    ) -> Result<(), String> {
+        self.core.set_view(camera, width, height, spp)
+    }
+
+    fn update(&mut self, settings: &RenderSettings) -> Result<(), String> {
+        self.core.update(settings)
+    }
+
+    fn set_ray_budget(&mut self, rays: usize) {
+        self.core.store.max_stored_rays = rays;
+    }
+
+    fn film(&mut self) -> Film {
+        self.resolver.film(&mut self.core)
+    }
+
+    fn passes(&self) -> u64 {
+        self.resolver.passes(&self.core)
+    }
+
+    fn timings(&self) -> Timings {
+        self.core.timings
+    }
+
+    fn stats(&mut self) -> MethodStats {
+        let mut s = self.core.stats();
+        s.pm = self.resolver.pm_stats();
+        if let Some(c) = self.resolver.cache() {
+            s.cache_records = Some(c.records.len());
+            s.cache_records_per_pass = Some(c.per_pass.clone());
+        }
+        s
+    }
+
+    fn cache(&self) -> Option<&Cache> {
+        self.resolver.cache()
+    }
+}

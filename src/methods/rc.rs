@@ -1,0 +1,117 @@
+//! rc: radiance caching (§8.3). Caustic photon rays are splatted onto every splat target as
+//! batches arrive, as in rs (caustics are sharp by nature); indirect-diffuse light is splatted
+//! only onto sparse cache records, picked in image-space passes by the error ε when the film is
+//! made, and interpolated between them.
+
+use crate::film::Film;
+use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
+use crate::pipeline::cache::{self, Cache, PixelGeometry, record_value};
+use crate::pipeline::filter::filter_samples;
+use crate::pipeline::radiance_map::Accumulators;
+use crate::pipeline::splat::{SplatBatch, SplatCounters, prepare, splat};
+use crate::pipeline::splat_tree::SplatTree;
+use crate::settings::MethodKind;
+use glam::Vec3;
+use std::time::Instant;
+
+/// Radiance caching.
+pub type RadianceCaching = PhotonMethod<RcFilm>;
+
+/// rc's film: the cache built by splatting, interpolated, plus the splatted caustics.
+#[derive(Default)]
+pub struct RcFilm {
+    cache: Option<Cache>,
+}
+
+impl Resolver for RcFilm {
+    const KIND: MethodKind = MethodKind::Rc;
+    const SPLATTED: [bool; 3] = [false, false, true];
+
+    fn film(&mut self, core: &mut Progressive) -> Film {
+        let t = Instant::now();
+        let b = core.batch_count() as u32;
+        // The cache pass counts as splatting (T_S), not as resolving.
+        let tc = Instant::now();
+        let cache = cache_by_splatting(core);
+        let cache_time = tc.elapsed().as_secs_f64();
+        core.timings.t_splat += cache_time;
+        // The caustics, splatted onto every target.
+        let mut map = core.resolve_indirect(b);
+        let caustics = map.radiance.clone();
+        let side = &core.side;
+        let geo = PixelGeometry::new(&side.eye, core.settings.width, core.settings.height);
+        let mode = side.acc_indirect.mode;
+        let mut values = cache::interpolate(&cache, &side.eye, &geo, mode);
+        let filter = core.settings.filter;
+        if filter.enabled {
+            // No splat statistics exist at interpolated samples: the filter's default radius.
+            let splats = vec![0.0; map.info.len()];
+            filter_samples(
+                &side.eye,
+                &geo,
+                &core.camera,
+                &splats,
+                b,
+                filter,
+                &mut values,
+            );
+        }
+        map.resolve_interpolated(&core.scene, &side.eye, &values, mode);
+        for (m, c) in map.radiance.iter_mut().zip(caustics) {
+            *m += c;
+        }
+        self.cache = Some(cache);
+        let film = core.compose(&map, b, core.splat_direct());
+        core.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;
+        film
+    }
+
+    fn cache(&self) -> Option<&Cache> {
+        self.cache.as_ref()
+    }
+}
+
+/// Every pass of the cache splats the stored indirect photon rays onto its new records only.
+fn cache_by_splatting(core: &mut Progressive) -> Cache {
+    let (w, h) = (core.settings.width, core.settings.height);
+    let geo = PixelGeometry::new(&core.side.eye, w, h);
+    let mode = core.settings.radiance_map;
+    // Rays are prepared once for every pass.
+    let batches: Vec<SplatBatch> = core
+        .store
+        .batches()
+        .iter()
+        .map(|b| prepare(&b.rays, &core.bandwidths(b.m), [false, true, false], mode))
+        .collect();
+    let inv_b = 1.0 / batches.len().max(1) as f32;
+    let side = &core.side;
+    let mut counters = SplatCounters::default();
+    let cache = cache::build(
+        &side.eye,
+        &geo,
+        &core.camera,
+        &core.settings.cache,
+        |samples| {
+            if samples.is_empty() {
+                return Vec::new();
+            }
+            let targets: Vec<usize> = samples
+                .iter()
+                .map(|&i| side.eye.target[i as usize] as usize)
+                .collect();
+            let pos: Vec<Vec3> = targets.iter().map(|&t| side.targets.position[t]).collect();
+            let nrm: Vec<Vec3> = targets.iter().map(|&t| side.targets.normal[t]).collect();
+            let glossy: Vec<bool> = targets.iter().map(|&t| side.targets.glossy[t]).collect();
+            let tree = SplatTree::build(&pos, &nrm);
+            let mut acc = Accumulators::for_tree(&tree, &glossy, mode);
+            for batch in &batches {
+                counters += splat(&tree, batch, &mut acc);
+            }
+            (0..samples.len())
+                .map(|k| record_value(&acc, tree.target_slot[k] as usize, inv_b))
+                .collect()
+        },
+    );
+    core.counters += counters;
+    cache
+}
