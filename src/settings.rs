@@ -190,6 +190,48 @@ fn one() -> u32 {
     1
 }
 
+impl RenderSettings {
+    /// An error naming the first setting outside its range of [`limits`] (or fractions that
+    /// cannot be normalised), for settings that must be right before any work starts.
+    pub fn validate(&self) -> Result<(), String> {
+        use limits::*;
+        fn check<T: Copy + PartialOrd + std::fmt::Display>(
+            name: &str,
+            limit: Limit<T>,
+            v: T,
+        ) -> Result<(), String> {
+            if limit.contains(v) {
+                Ok(())
+            } else {
+                Err(format!(
+                    "{name} must be in {}..={}, got {v}",
+                    limit.min, limit.max
+                ))
+            }
+        }
+        check("width", RESOLUTION, self.width)?;
+        check("height", RESOLUTION, self.height)?;
+        // The path tracer takes no eye samples (`pt_spp` is its count).
+        if self.method != MethodKind::Pt {
+            check("samples per pixel", SPP, self.spp)?;
+        }
+        check("paths per pixel", PT_SPP, self.pt_spp)?;
+        check("photons per batch", PHOTONS, self.photons)?;
+        check("C", SMOOTHNESS_C, self.bandwidth.smoothness_c)?;
+        check("S", SENSITIVITY_S, self.bandwidth.sensitivity_s)?;
+        check("R", MAX_BANDWIDTH_R, self.bandwidth.max_bandwidth_r)?;
+        check("specular depth", SPECULAR_DEPTH, self.max_specular_depth)?;
+        check("NEE samples", NEE_SAMPLES, self.nee_samples)?;
+        check("K", PM_K, self.pm_k)?;
+        check("caustic K", PM_K, self.pm_caustic_k)?;
+        check("gather rays", FG_RAYS, self.fg_rays)?;
+        check("cache error", CACHE_ERROR, self.cache.error)?;
+        check("cache records", MIN_RECORDS, self.cache.min_records)?;
+        check("filter strength", FILTER_STRENGTH, self.filter.strength)?;
+        normalised_fractions(self.fractions).map(|_| ())
+    }
+}
+
 /// Photon fractions scaled to sum to 1; an error when one is negative or not finite, or all
 /// are zero.
 pub fn normalised_fractions(f: [f32; 3]) -> Result<[f32; 3], String> {
@@ -331,6 +373,36 @@ mod tests {
         .within_limits();
         assert_eq!(s.spp, 1);
         assert_eq!(s.fractions, RenderSettings::default().fractions);
+    }
+
+    #[test]
+    fn validate_names_the_setting_and_its_range() {
+        assert!(RenderSettings::default().validate().is_ok());
+        let e = RenderSettings {
+            width: 4_294_967_295,
+            ..RenderSettings::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert_eq!(e, "width must be in 8..=4096, got 4294967295");
+        let e = RenderSettings {
+            cache: CacheParams {
+                error: f32::NAN,
+                min_records: 4,
+            },
+            ..RenderSettings::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert!(e.starts_with("cache error must be in"), "{e}");
+        // Whatever within_limits gives is valid.
+        let wild = RenderSettings {
+            spp: 0,
+            photons: u64::MAX,
+            fractions: [f32::NAN, 0.0, 0.0],
+            ..RenderSettings::default()
+        };
+        assert!(wild.within_limits().validate().is_ok());
     }
 
     #[test]

@@ -161,7 +161,6 @@ fn pm_and_rs_converge_to_the_path_tracer() {
                 &scene,
                 method,
                 &RenderSettings {
-                    pt_spp: 0,
                     ..(&s).clone()
                 },
                 Budget::Fixed,
@@ -215,7 +214,6 @@ fn final_gathering_agrees_with_the_path_tracer() {
             &scene,
             method,
             &RenderSettings {
-                pt_spp: 0,
                 ..(&base).clone()
             },
             Budget::Fixed,
@@ -272,7 +270,6 @@ fn glass_refraction_agrees_between_path_tracer_and_eye_pass() {
         &scene,
         MethodKind::Rs,
         &RenderSettings {
-            pt_spp: 0,
             ..(&settings).clone()
         },
         Budget::Fixed,
@@ -500,7 +497,6 @@ fn without_indirect_photons_the_path_tracer_renders_direct_light_and_caustics() 
             &scene,
             method,
             &RenderSettings {
-                pt_spp: 0,
                 ..(&settings).clone()
             },
             Budget::Fixed,

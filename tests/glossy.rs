@@ -73,7 +73,6 @@ fn glossy_plate_matches_the_path_tracer_in_both_directional_modes() {
             &scene,
             method,
             &RenderSettings {
-                pt_spp: 0,
                 ..(&s).clone()
             },
             Budget::Fixed,

@@ -18,6 +18,7 @@
 
 pub mod eye_side;
 pub mod fg;
+pub mod memory;
 pub mod photon_store;
 pub mod pm;
 pub mod progressive;
@@ -183,12 +184,15 @@ pub fn build(scene: Arc<Scene>, settings: RenderSettings) -> Result<Box<dyn Meth
 }
 
 /// Build the method `settings.method` for `scene` seen by `camera`. This is the one place
-/// that knows every method.
+/// that knows every method. Settings outside their limits, or a render that would not fit
+/// in memory, are refused here, before anything is allocated.
 pub fn build_for(
     scene: Arc<Scene>,
     settings: RenderSettings,
     camera: Camera,
 ) -> Result<Box<dyn Method>, String> {
+    settings.validate()?;
+    memory::check(&settings, memory::available_bytes())?;
     Ok(match settings.method {
         MethodKind::Rs => Box::new(rs::RaySplatting::new(scene, settings, camera)?),
         MethodKind::Rc => Box::new(rc::RadianceCaching::new(scene, settings, camera)?),

@@ -326,11 +326,6 @@ pub trait Resolver: Send {
     /// the core's T_S).
     fn film(&mut self, core: &mut Progressive) -> Film;
 
-    /// Units of work the film holds.
-    fn passes(&self, core: &Progressive) -> u64 {
-        core.batch_count() as u64
-    }
-
     /// The radiance cache of the last film, if any.
     fn cache(&self) -> Option<&Cache> {
         None
@@ -456,7 +451,7 @@ impl<R: Resolver> Method for PhotonMethod<R> {
     }
 
     fn passes(&self) -> u64 {
-        self.resolver.passes(&self.core)
+        self.core.batch_count() as u64
     }
 
     fn timings(&self) -> Timings {

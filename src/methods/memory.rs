@@ -1,0 +1,101 @@
+//! How much memory a render will need, estimated from its settings before anything is
+//! allocated, so that an image size or sample count that cannot fit is refused with one line
+//! instead of aborting the process.
+
+use crate::pipeline::photon::PhotonRay;
+use crate::settings::{MethodKind, RenderSettings};
+
+/// Bytes per pixel of the film (rgb and the AOVs), the radiance map and the displayed image.
+const PER_PIXEL: u64 = 256;
+/// Bytes per eye sample: the sample (SoA), its splat target, tree share and accumulators.
+/// Glossy samples' directional records (up to 48 floats) are counted for every sample, an
+/// upper bound for scenes full of glossy surfaces.
+const PER_EYE_SAMPLE: u64 = 101 + 32 + 16 + 2 * 28 + 48 * 4;
+/// Gather hits a final-gathering band holds at once (`fg::FgSettings::max_band_samples`) and
+/// their bytes each.
+const FG_BAND_BYTES: u64 = 2_000_000 * (101 + 32 + 16 + 28);
+
+/// The estimated peak bytes of a render with `settings` (one batch of photons in flight and
+/// one stored; the previewer's ray budget adds its own, bounded, store).
+pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
+    let pixels = settings.width as u64 * settings.height as u64;
+    let film = pixels.saturating_mul(PER_PIXEL);
+    let eye = pixels
+        .saturating_mul(settings.spp as u64)
+        .saturating_mul(PER_EYE_SAMPLE);
+    let photons = settings
+        .photons
+        .saturating_mul(2 * std::mem::size_of::<PhotonRay>() as u64);
+    match settings.method {
+        MethodKind::Pt => film,
+        MethodKind::RsFg | MethodKind::PmFg => film
+            .saturating_add(eye)
+            .saturating_add(photons)
+            .saturating_add(FG_BAND_BYTES),
+        MethodKind::Rs | MethodKind::Rc | MethodKind::Pm => {
+            film.saturating_add(eye).saturating_add(photons)
+        }
+    }
+}
+
+/// Bytes this machine can still give (Linux MemAvailable), if known.
+pub fn available_bytes() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let kb: u64 = info
+        .lines()
+        .find(|l| l.starts_with("MemAvailable:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
+    Some(kb * 1024)
+}
+
+/// An error with the estimate when a render with `settings` would not fit in `available`
+/// bytes.
+pub fn check(settings: &RenderSettings, available: Option<u64>) -> Result<(), String> {
+    let need = estimate_bytes(settings);
+    match available {
+        Some(have) if need > have => Err(format!(
+            "this render needs about {} ({}×{} pixels × {} samples, {} photons per batch) but \
+             {} are available; lower the size, samples or photons",
+            gib(need),
+            settings.width,
+            settings.height,
+            settings.spp,
+            settings.photons,
+            gib(have)
+        )),
+        _ => Ok(()),
+    }
+}
+
+fn gib(bytes: u64) -> String {
+    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_render_fits_and_a_huge_one_does_not() {
+        let s = RenderSettings::default();
+        // 500×500×4 and 200k photons: tens of MB, as measured (docs/benchmarks.md).
+        let mb = estimate_bytes(&s) as f64 / 1e6;
+        assert!((50.0..1000.0).contains(&mb), "{mb} MB");
+        assert!(check(&s, Some(8 << 30)).is_ok());
+        let huge = RenderSettings {
+            width: 4096,
+            height: 4096,
+            spp: 64,
+            ..s
+        };
+        let e = check(&huge, Some(8 << 30)).unwrap_err();
+        assert!(
+            e.contains("4096×4096") && e.contains("8.0 GiB are available"),
+            "{e}"
+        );
+        assert!(check(&huge, None).is_ok(), "unknown memory is not refused");
+    }
+}
