@@ -145,7 +145,7 @@ fn pm_and_rs_converge_to_the_path_tracer() {
         MethodKind::Pt,
         &RenderSettings {
             pt_spp: 1024,
-            ..(&base).clone()
+            ..base.clone()
         },
         Budget::Fixed,
     )
@@ -161,7 +161,7 @@ fn pm_and_rs_converge_to_the_path_tracer() {
                 &scene,
                 method,
                 &RenderSettings {
-                    ..(&s).clone()
+                    ..s.clone()
                 },
                 Budget::Fixed,
             )
@@ -202,7 +202,7 @@ fn final_gathering_agrees_with_the_path_tracer() {
         MethodKind::Pt,
         &RenderSettings {
             pt_spp: 1024,
-            ..(&base).clone()
+            ..base.clone()
         },
         Budget::Fixed,
     )
@@ -214,7 +214,7 @@ fn final_gathering_agrees_with_the_path_tracer() {
             &scene,
             method,
             &RenderSettings {
-                ..(&base).clone()
+                ..base.clone()
             },
             Budget::Fixed,
         )
@@ -270,7 +270,7 @@ fn glass_refraction_agrees_between_path_tracer_and_eye_pass() {
         &scene,
         MethodKind::Rs,
         &RenderSettings {
-            ..(&settings).clone()
+            ..settings.clone()
         },
         Budget::Fixed,
     )
@@ -281,7 +281,7 @@ fn glass_refraction_agrees_between_path_tracer_and_eye_pass() {
         MethodKind::Pt,
         &RenderSettings {
             pt_spp: 512,
-            ..(&settings).clone()
+            ..settings.clone()
         },
         Budget::Fixed,
     )
@@ -368,7 +368,7 @@ fn furnace_error(scene: &Arc<Scene>, method: MethodKind, s: &RenderSettings) -> 
         method,
         &RenderSettings {
             pt_spp: 256,
-            ..(s).clone()
+            ..s.clone()
         },
         Budget::Fixed,
     )
@@ -470,7 +470,7 @@ fn without_indirect_photons_the_path_tracer_renders_direct_light_and_caustics() 
         MethodKind::Pt,
         &RenderSettings {
             pt_spp: 256,
-            ..(&settings).clone()
+            ..settings.clone()
         },
         Budget::Fixed,
     )
@@ -497,7 +497,7 @@ fn without_indirect_photons_the_path_tracer_renders_direct_light_and_caustics() 
             &scene,
             method,
             &RenderSettings {
-                ..(&settings).clone()
+                ..settings.clone()
             },
             Budget::Fixed,
         )

@@ -220,7 +220,7 @@ fn check(bytes: &[u8]) -> Result<bool, String> {
             MethodKind::Pt,
             &RenderSettings {
                 pt_spp: 1,
-                ..(&settings).clone()
+                ..settings.clone()
             },
             Budget::Fixed,
         )?;

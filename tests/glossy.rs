@@ -57,7 +57,7 @@ fn glossy_plate_matches_the_path_tracer_in_both_directional_modes() {
         MethodKind::Pt,
         &RenderSettings {
             pt_spp: 1024,
-            ..(&base).clone()
+            ..base.clone()
         },
         Budget::Fixed,
     )
@@ -73,7 +73,7 @@ fn glossy_plate_matches_the_path_tracer_in_both_directional_modes() {
             &scene,
             method,
             &RenderSettings {
-                ..(&s).clone()
+                ..s.clone()
             },
             Budget::Fixed,
         )

@@ -23,7 +23,7 @@ fn render(scene: &Arc<Scene>, method: MethodKind, s: &RenderSettings, spp: u32) 
         method,
         &RenderSettings {
             pt_spp: spp,
-            ..(s).clone()
+            ..s.clone()
         },
         Budget::Fixed,
     )

@@ -54,7 +54,7 @@ fn render_all(scene: Scene) {
             method,
             &RenderSettings {
                 pt_spp: 2,
-                ..(&base).clone()
+                ..base.clone()
             },
             Budget::Fixed,
         )

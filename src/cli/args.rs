@@ -1,0 +1,281 @@
+//! The argument groups of a render, flattened into [`RenderArgs`] (which `render` takes and
+//! `compare` flattens in turn). Every default is read from the library's `Default` impls
+//! ([`RenderSettings`], [`BandwidthParams`], [`CacheParams`], [`FilterParams`]), so that the
+//! command line starts from the same settings as the window and the worker.
+
+use super::choice;
+use clap::Args;
+use raysplat::choice::Choice;
+use raysplat::methods::Budget;
+use raysplat::pipeline::cache::CacheParams;
+use raysplat::pipeline::directional::DirectionalMode;
+use raysplat::pipeline::filter::FilterParams;
+use raysplat::pipeline::photon::BandwidthParams;
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
+use std::path::PathBuf;
+
+/// Everything `render` takes: the scene and the groups below, in the order `--help` lists them.
+#[derive(Args, Clone, Debug)]
+pub struct RenderArgs {
+    /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic |
+    /// builtin:glossy.
+    /// Without it, the embedded CORNELL BOX I.
+    pub scene: Option<String>,
+    #[command(flatten)]
+    pub image: ImageArgs,
+    #[command(flatten)]
+    pub photons: PhotonArgs,
+    // The seed of every random stream: images depend on it and the settings only.
+    #[arg(long, default_value_t = RenderSettings::default().seed)]
+    pub seed: u64,
+    #[command(flatten)]
+    pub direct: DirectArgs,
+    #[command(flatten)]
+    pub output: OutputArgs,
+    #[command(flatten)]
+    pub run: RunArgs,
+    #[command(flatten)]
+    pub method: MethodArgs,
+    #[command(flatten)]
+    pub cache_filter: CacheFilterArgs,
+}
+
+/// The image: its size and eye samples per pixel.
+#[derive(Args, Clone, Debug)]
+pub struct ImageArgs {
+    #[arg(long, default_value_t = RenderSettings::default().width)]
+    pub width: u32,
+    #[arg(long, default_value_t = RenderSettings::default().height)]
+    pub height: u32,
+    /// Eye samples per pixel (paths per pixel for --method pt).
+    #[arg(long, default_value_t = RenderSettings::default().spp)]
+    pub spp: u32,
+}
+
+/// The photons of a batch and their bandwidths (eq. 8).
+#[derive(Args, Clone, Debug)]
+pub struct PhotonArgs {
+    /// M: stored photon rays per batch.
+    #[arg(long, default_value_t = RenderSettings::default().photons)]
+    pub photons: u64,
+    /// Fractions of M for direct, indirect-diffuse and caustic photons (Table 2).
+    #[arg(long, value_delimiter = ',', default_values_t = RenderSettings::default().fractions)]
+    pub fractions: Vec<f32>,
+    /// C: smoothness (eq. 8).
+    #[arg(long, default_value_t = BandwidthParams::default().smoothness_c)]
+    pub c: f32,
+    /// S: bandwidth sensitivity in (0, 1] (eq. 8).
+    #[arg(long, default_value_t = BandwidthParams::default().sensitivity_s)]
+    pub s: f32,
+    /// R in (0, 1]: bandwidth range; every h lies within [R·h̄, h̄/R] of the typical bandwidth.
+    #[arg(long, default_value_t = BandwidthParams::default().max_bandwidth_r)]
+    pub r: f32,
+}
+
+/// How direct light reaches the eye samples.
+#[derive(Args, Clone, Debug)]
+pub struct DirectArgs {
+    /// Direct light: nee (light and BSDF samples at eye samples) or photons (splatted).
+    #[arg(long, default_value = RenderSettings::default().direct.name(), value_parser = choice::<DirectMode>())]
+    pub direct: DirectMode,
+    /// Light samples per eye sample for --direct nee.
+    #[arg(long, default_value_t = RenderSettings::default().nee_samples)]
+    pub nee_samples: u32,
+}
+
+/// The files a render writes.
+#[derive(Args, Clone, Debug)]
+pub struct OutputArgs {
+    #[arg(long, default_value = "out.exr")]
+    pub out: PathBuf,
+    /// Also write a tone-mapped sRGB PNG.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Exposure for the PNG (and for `compare`'s montage), in stops.
+    #[arg(long, default_value_t = 0.0)]
+    pub exposure: f32,
+    /// Write timings and counters as JSON.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+}
+
+/// How long, from where and on how many threads.
+#[derive(Args, Clone, Debug)]
+pub struct RunArgs {
+    /// Render progressively in batches of --photons until this many seconds are spent.
+    #[arg(long)]
+    pub time_budget: Option<f64>,
+    /// Camera by name (default: the scene's first).
+    #[arg(long)]
+    pub camera: Option<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// The method and the settings only some methods read.
+#[derive(Args, Clone, Debug)]
+pub struct MethodArgs {
+    /// rs, rc, pm, pt, rs-fg or pm-fg.
+    #[arg(long, default_value = RenderSettings::default().method.name(), value_parser = choice::<MethodKind>())]
+    pub method: MethodKind,
+    /// K of the global photon map (--method pm).
+    #[arg(long, default_value_t = RenderSettings::default().pm_k)]
+    pub pm_k: usize,
+    /// K of the caustic photon map (--method pm).
+    #[arg(long, default_value_t = RenderSettings::default().pm_caustic_k)]
+    pub pm_caustic_k: usize,
+    /// Gather rays per eye sample (--method rs-fg, pm-fg).
+    #[arg(long, default_value_t = RenderSettings::default().fg_rays)]
+    pub fg_rays: u32,
+    /// Splat onto every eye sample instead of sharing one splat target among the samples of
+    /// a pixel that lie on the same surface.
+    #[arg(long)]
+    pub no_merge: bool,
+    /// Directional storage at glossy surfaces (§8.1): diffuse (irradiance only), sh
+    /// (16 spherical-harmonic coefficients per channel) or histogram (20 strata).
+    #[arg(long, default_value = RenderSettings::default().radiance_map.name(), value_parser = choice::<DirectionalMode>())]
+    pub radiance_map: DirectionalMode,
+}
+
+/// The radiance cache (§8.3) and the image-space filter (§8.2).
+#[derive(Args, Clone, Debug)]
+pub struct CacheFilterArgs {
+    /// ε, the radiance cache error (§8.3): records are valid up to ε × their harmonic mean
+    /// distance. Used by --method rc, and by rs with --cache.
+    #[arg(long, default_value_t = CacheParams::default().error)]
+    pub cache_error: f32,
+    /// Every pixel is covered by at least this many cache records.
+    #[arg(long, default_value_t = CacheParams::default().min_records)]
+    pub min_records: u32,
+    /// rs: resolve the full radiance map through the radiance cache (as the previewer does).
+    #[arg(long)]
+    pub cache: bool,
+    /// Filter the indirect light in image space within continuous regions (§8.2).
+    #[arg(long)]
+    pub filter: bool,
+    /// Scale of the filter's box radius (1 = as the splat statistics ask).
+    #[arg(long, default_value_t = FilterParams::default().strength)]
+    pub filter_strength: f32,
+}
+
+impl RenderArgs {
+    /// The settings the arguments describe, or a one-line error naming the bad flag.
+    pub fn settings(&self) -> Result<RenderSettings, String> {
+        let bandwidth = self.photons.bandwidth()?;
+        let fractions = self.photons.fractions()?;
+        let (image, method) = (&self.image, &self.method);
+        Ok(RenderSettings {
+            width: image.width,
+            height: image.height,
+            spp: image.spp,
+            photons: self.photons.photons,
+            fractions,
+            bandwidth,
+            seed: self.seed,
+            direct: self.direct.direct,
+            nee_samples: self.direct.nee_samples,
+            camera: self.run.camera.clone(),
+            merge_targets: !method.no_merge,
+            method: method.method,
+            pm_k: method.pm_k,
+            pm_caustic_k: method.pm_caustic_k,
+            fg_rays: method.fg_rays,
+            radiance_map: method.radiance_map,
+            pt_spp: image.spp,
+            cache: self.cache_filter.cache(),
+            cache_on: self.cache_filter.cache,
+            filter: self.cache_filter.filter(),
+            ..RenderSettings::default()
+        })
+    }
+}
+
+impl PhotonArgs {
+    /// C, S and R, checked: C > 0, S and R in (0, 1].
+    fn bandwidth(&self) -> Result<BandwidthParams, String> {
+        let positive = |x: f32| x.is_finite() && x > 0.0;
+        if !positive(self.s) || self.s > 1.0 {
+            return Err(format!("--s must be in (0, 1], got {}", self.s));
+        }
+        if !positive(self.c) {
+            return Err(format!("--c must be positive, got {}", self.c));
+        }
+        if !positive(self.r) || self.r > 1.0 {
+            return Err(format!(
+                "--r must be in (0, 1] (every bandwidth within [R·h̄, h̄/R] of the typical one), got {}",
+                self.r
+            ));
+        }
+        Ok(BandwidthParams {
+            smoothness_c: self.c,
+            sensitivity_s: self.s,
+            max_bandwidth_r: self.r,
+        })
+    }
+
+    /// The three fractions, as given: non-negative and not all zero.
+    fn fractions(&self) -> Result<[f32; 3], String> {
+        let [f0, f1, f2] = self.fractions[..] else {
+            return Err(format!(
+                "--fractions takes three numbers (direct, indirect, caustic), got {}",
+                self.fractions.len()
+            ));
+        };
+        let f = [f0, f1, f2];
+        if f.iter().any(|x| x.is_nan() || *x < 0.0) || f.iter().sum::<f32>() <= 0.0 {
+            return Err("--fractions must be three non-negative numbers, not all zero".into());
+        }
+        Ok(f)
+    }
+}
+
+impl RunArgs {
+    /// `--time-budget` seconds, or one fixed batch.
+    pub fn budget(&self) -> Budget {
+        match self.time_budget {
+            Some(b) => Budget::Seconds(b),
+            None => Budget::Fixed,
+        }
+    }
+}
+
+impl CacheFilterArgs {
+    fn cache(&self) -> CacheParams {
+        CacheParams {
+            error: self.cache_error,
+            min_records: self.min_records.max(1),
+        }
+    }
+
+    fn filter(&self) -> FilterParams {
+        FilterParams {
+            enabled: self.filter,
+            strength: self.filter_strength,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Probe {
+        #[command(flatten)]
+        render: RenderArgs,
+    }
+
+    /// With no flags, the settings are the library's defaults (the path tracer takes --spp).
+    #[test]
+    fn no_flags_give_the_default_settings() {
+        let args = Probe::try_parse_from(["raysplat"]).unwrap().render;
+        let d = RenderSettings::default();
+        assert_eq!(
+            args.settings().unwrap(),
+            RenderSettings { pt_spp: d.spp, ..d }
+        );
+        assert_eq!(args.run.budget(), Budget::Fixed);
+    }
+}

@@ -1,0 +1,357 @@
+//! `bench`: Table 2's CORNELL BOX I rows (rs and rc, with direct photons and with NEE), §8.1's
+//! glossy rows (one per directional mode) and the previewer's latencies; one line per row on
+//! stdout and, with `--json`, the rows merged into a JSON file (docs/benchmarks.md quotes both).
+
+use super::set_threads;
+use clap::Args;
+use glam::Vec3;
+use raysplat::choice::Choice;
+use raysplat::methods::{Budget, MethodStats, Timings, peak_rss_mb, render_method};
+use raysplat::pipeline::cache::CacheParams;
+use raysplat::pipeline::directional::DirectionalMode;
+use raysplat::pipeline::photon::BandwidthParams;
+use raysplat::scene::{BuiltinScene, Scene};
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
+use serde_json::json;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Write (or update) the rows as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Repetitions; the fastest run is reported.
+    #[arg(long, default_value_t = 3)]
+    runs: u32,
+    #[arg(long)]
+    threads: Option<usize>,
+    /// A path-traced EXR of builtin:glossy at 500×500 (`raysplat render builtin:glossy
+    /// --method pt --spp 1024 --width 500 --height 500`): the glossy rows report relMSE to it.
+    #[arg(long)]
+    glossy_reference: Option<PathBuf>,
+    /// A path-traced EXR of CORNELL BOX I at 500×500 (`raysplat render --method pt --spp 512`):
+    /// the Table 2 rows report relMSE to it.
+    #[arg(long)]
+    cornell_reference: Option<PathBuf>,
+}
+
+/// The rows, by name, as they go into the JSON file's `rows`.
+type Rows = serde_json::Map<String, serde_json::Value>;
+
+/// The fastest of a Table 2 row's runs.
+struct BenchRun {
+    timings: Timings,
+    stats: MethodStats,
+    rel_mse: f64,
+}
+
+/// The fastest (in splat and resolve time) of a glossy row's runs, and the directional memory.
+struct GlossyRun {
+    timings: Timings,
+    rel_mse: f64,
+    directional_bytes: usize,
+    glossy_targets: usize,
+}
+
+/// The previewer's latencies, in milliseconds.
+struct PreviewLatencies {
+    first_image: f64,
+    resplat: f64,
+    resplat_full: f64,
+    camera: f64,
+}
+
+/// Table 2's CORNELL BOX I settings: 500×500×4, M = 200,000, (0.3, 0.6, 0.1), C = 1, S = 0.4, R = 0.2.
+fn cornell1_settings(direct: DirectMode) -> RenderSettings {
+    RenderSettings {
+        direct,
+        ..RenderSettings::default()
+    }
+}
+
+/// Table 2's RC row: C = 0.6, S = 0.3, ε = 0.7.
+fn cornell1_rc_settings(direct: DirectMode) -> RenderSettings {
+    RenderSettings {
+        method: MethodKind::Rc,
+        bandwidth: BandwidthParams {
+            smoothness_c: 0.6,
+            sensitivity_s: 0.3,
+            max_bandwidth_r: 0.2,
+        },
+        cache: CacheParams {
+            error: 0.7,
+            ..Default::default()
+        },
+        ..cornell1_settings(direct)
+    }
+}
+
+/// Every row, printed and (with `--json`) written.
+pub fn run(args: BenchArgs) -> Result<(), String> {
+    set_threads(args.threads)?;
+    let mut rows = Rows::new();
+    cornell_bench(&args, &mut rows)?;
+    glossy_bench(&args, &mut rows)?;
+    preview_bench()?.report(&mut rows);
+    if let Some(path) = &args.json {
+        write_json(path, rows)?;
+    }
+    Ok(())
+}
+
+/// `rows` merged into the JSON file at `path`, keeping rows other benchmarks wrote into it.
+fn write_json(path: &std::path::Path, rows: Rows) -> Result<(), String> {
+    let mut doc: serde_json::Value = std::fs::read(path)
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .filter(|v: &serde_json::Value| v.is_object())
+        .unwrap_or_else(|| json!({}));
+    if !doc["rows"].is_object() {
+        doc["rows"] = json!({});
+    }
+    for (k, v) in rows {
+        doc["rows"][k] = v;
+    }
+    doc["threads"] = json!(rayon::current_num_threads());
+    doc["version"] = json!(env!("CARGO_PKG_VERSION"));
+    let bytes = serde_json::to_vec_pretty(&doc).map_err(|e| e.to_string())?;
+    raysplat::film::write_atomic(path, &bytes)?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}
+
+/// A reference EXR's pixels; it must have the benchmarks' size (500×500), `what` names it in
+/// the error.
+fn read_reference(path: Option<&PathBuf>, what: &str) -> Result<Option<Vec<Vec3>>, String> {
+    let Some(path) = path else { return Ok(None) };
+    let (w, h, px) = raysplat::film::read_exr(path)?;
+    let size = RenderSettings::default();
+    if (w, h) != (size.width, size.height) {
+        return Err(format!(
+            "{}: the {what} reference must be {}×{}",
+            path.display(),
+            size.width,
+            size.height
+        ));
+    }
+    Ok(Some(px))
+}
+
+/// relMSE to the reference, NaN without one.
+fn rel_mse(image: &[Vec3], reference: Option<&[Vec3]>) -> f64 {
+    reference.map_or(f64::NAN, |px| raysplat::film::rel_mse(image, px))
+}
+
+/// JSON null for a NaN relMSE (no reference).
+fn rel_mse_json(err: f64) -> serde_json::Value {
+    if err.is_finite() {
+        json!(err)
+    } else {
+        json!(null)
+    }
+}
+
+/// Table 2's CORNELL BOX I rows: the fastest of `--runs` runs each.
+fn cornell_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), String> {
+    let scene = Arc::new(Scene::default_scene());
+    let reference = read_reference(args.cornell_reference.as_ref(), "CORNELL BOX I")?;
+    for (name, settings) in [
+        ("cornell1_rs", cornell1_settings(DirectMode::Photons)),
+        ("cornell1_rs_nee", cornell1_settings(DirectMode::Nee)),
+        ("cornell1_rc", cornell1_rc_settings(DirectMode::Photons)),
+        ("cornell1_rc_nee", cornell1_rc_settings(DirectMode::Nee)),
+    ] {
+        let mut best: Option<BenchRun> = None;
+        for _ in 0..args.runs.max(1) {
+            let r = render_method(&scene, settings.method, &settings, Budget::Fixed)?;
+            if r.invalid > 0 {
+                return Err(format!("{name}: the image has NaN or infinite pixels"));
+            }
+            let rel_mse = rel_mse(&r.film.rgb, reference.as_deref());
+            if best
+                .as_ref()
+                .is_none_or(|b| r.timings.total() < b.timings.total())
+            {
+                best = Some(BenchRun {
+                    timings: r.timings,
+                    stats: r.stats,
+                    rel_mse,
+                });
+            }
+        }
+        let best = best.expect("at least one run");
+        let (t, stats) = (best.timings, &best.stats);
+        let (tested, accepted) = (stats.tested_pairs, stats.accepted_pairs);
+        let records = stats.cache_records.unwrap_or(0);
+        let ratio = accepted as f64 / tested.max(1) as f64;
+        println!(
+            "{name:<16} T_E {:.3}  T_D {:.3}  T_L {:.3}  T_S {:.3}  ΣT {:.3} s  peak {:.0} MB  accepted/tested {:.2}  relMSE {:.4}{}",
+            t.t_eye,
+            t.t_direct,
+            t.t_light,
+            t.t_splat + t.t_resolve,
+            t.total(),
+            peak_rss_mb(),
+            ratio,
+            best.rel_mse,
+            if records > 0 {
+                format!("  {records} records")
+            } else {
+                String::new()
+            }
+        );
+        rows.insert(
+            name.to_string(),
+            json!({
+                "t_eye": t.t_eye,
+                "t_direct": t.t_direct,
+                "t_light": t.t_light,
+                "t_splat": t.t_splat + t.t_resolve,
+                "t_total": t.total(),
+                "peak_rss_mb": peak_rss_mb(),
+                "tested_pairs": tested,
+                "accepted_pairs": accepted,
+                "accepted_ratio": ratio,
+                "rel_mse": rel_mse_json(best.rel_mse),
+                "cache_records": records,
+            }),
+        );
+    }
+    Ok(())
+}
+
+/// §8.1 on the glossy Cornell box (500×500×4, M = 200,000, direct photons so that every
+/// glossy reflection goes through the radiance map): splat and resolve time and directional
+/// memory of the diffuse, SH and histogram modes, and relMSE to a path-traced reference.
+fn glossy_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), String> {
+    let scene = Arc::new(Scene::builtin(BuiltinScene::CornellGlossy));
+    let reference = read_reference(args.glossy_reference.as_ref(), "glossy")?;
+    for &mode in DirectionalMode::ALL {
+        let settings = RenderSettings {
+            direct: DirectMode::Photons,
+            radiance_map: mode,
+            ..RenderSettings::default()
+        };
+        let splat_time = |t: &Timings| t.t_splat + t.t_resolve;
+        let mut best: Option<GlossyRun> = None;
+        for _ in 0..args.runs.max(1) {
+            let r = render_method(&scene, settings.method, &settings, Budget::Fixed)?;
+            let run = GlossyRun {
+                timings: r.timings,
+                rel_mse: rel_mse(&r.film.rgb, reference.as_deref()),
+                directional_bytes: r.stats.directional_bytes,
+                glossy_targets: r.stats.glossy_targets,
+            };
+            // The memory is the last run's; the times and error the fastest run's.
+            best = Some(match best {
+                Some(b) if splat_time(&run.timings) >= splat_time(&b.timings) => GlossyRun {
+                    directional_bytes: run.directional_bytes,
+                    glossy_targets: run.glossy_targets,
+                    ..b
+                },
+                _ => run,
+            });
+        }
+        let best = best.expect("at least one run");
+        let t = best.timings;
+        let name = format!(
+            "glossy_{}",
+            serde_json::to_value(mode)
+                .map_err(|e| e.to_string())?
+                .as_str()
+                .unwrap_or("?")
+        );
+        println!(
+            "{name:<16} T_S {:.3}  resolve {:.3}  ΣT {:.3} s  directional {:.1} MB ({} glossy targets)  relMSE {:.4}",
+            t.t_splat,
+            t.t_resolve,
+            t.total(),
+            best.directional_bytes as f64 / 1e6,
+            best.glossy_targets,
+            best.rel_mse
+        );
+        rows.insert(
+            name,
+            json!({
+                "t_splat": t.t_splat,
+                "t_resolve": t.t_resolve,
+                "t_total": t.total(),
+                "directional_bytes": best.directional_bytes,
+                "glossy_targets": best.glossy_targets,
+                "rel_mse": rel_mse_json(best.rel_mse),
+            }),
+        );
+    }
+    Ok(())
+}
+
+/// The previewer's latencies, driving the worker without a window (500×500×1, 20k photons per
+/// batch, the embedded CORNELL BOX I).
+fn preview_bench() -> Result<PreviewLatencies, String> {
+    use raysplat::session::{Command as C, Frame, Session, SessionConfig};
+    let timeout = Duration::from_secs(60);
+    let wait = |s: &Session, pred: &dyn Fn(&Frame) -> bool| -> Result<Frame, String> {
+        let start = Instant::now();
+        while start.elapsed() < timeout {
+            if let Some(f) = s.wait_frame(Duration::from_millis(20))
+                && pred(&f)
+            {
+                return Ok(f);
+            }
+        }
+        Err("the worker published no frame in time".into())
+    };
+    let config = SessionConfig::default();
+    let t = Instant::now();
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+    wait(&session, &|f| f.stats.batches >= 1)?;
+    let first_image = t.elapsed().as_secs_f64() * 1e3;
+    // Store about 200k rays (with NEE, 70% of each batch's M is stored), then stop tracing.
+    let f = wait(&session, &|f| f.stats.photon_rays >= 200_000)?;
+    session.send(C::Pause);
+    let f = wait(&session, &|g| g.stats.paused && g.seq > f.seq)?;
+    let mut params = f.settings.bandwidth;
+    params.smoothness_c = 0.7;
+    let t = Instant::now();
+    session.send(C::SetBandwidth(params));
+    let g = wait(&session, &|g| g.generation > f.generation)?;
+    let resplat = t.elapsed().as_secs_f64() * 1e3;
+    wait(&session, &|h| {
+        h.generation == g.generation && !h.stats.resplat_pending
+    })?;
+    let resplat_full = t.elapsed().as_secs_f64() * 1e3;
+    let mut camera = g.camera.clone();
+    camera.position += camera.right() * 0.05;
+    let t = Instant::now();
+    session.send(C::SetCamera {
+        camera,
+        interactive: true,
+    });
+    wait(&session, &|h| {
+        h.generation > g.generation && h.stats.batches >= 1
+    })?;
+    let camera = t.elapsed().as_secs_f64() * 1e3;
+    Ok(PreviewLatencies {
+        first_image,
+        resplat,
+        resplat_full,
+        camera,
+    })
+}
+
+impl PreviewLatencies {
+    /// One line and one row (`{"ms": …}`) per latency.
+    fn report(&self, rows: &mut Rows) {
+        for (name, ms) in [
+            ("preview_first_image_ms", self.first_image),
+            ("preview_resplat_ms", self.resplat),
+            ("preview_resplat_full_ms", self.resplat_full),
+            ("preview_camera_ms", self.camera),
+        ] {
+            println!("{name:<24} {ms:8.0} ms");
+            rows.insert(name.to_string(), json!({ "ms": ms }));
+        }
+    }
+}

@@ -1,0 +1,215 @@
+//! `compare`: several methods with the same settings, photons and eye samples, against a
+//! reference (a given EXR, or the path tracer at high spp): a table, each image and its error
+//! map, Fig. 10's montage and compare.json.
+
+use super::args::RenderArgs;
+use super::{choice, load_scene, set_threads};
+use clap::Args;
+use glam::Vec3;
+use raysplat::choice::Choice;
+use raysplat::film::error::{error_map, mean_bias, rmse};
+use raysplat::methods::{Budget, render_method};
+use raysplat::scene::Scene;
+use raysplat::settings::{MethodKind, RenderSettings};
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+#[derive(Args)]
+pub struct CompareArgs {
+    #[command(flatten)]
+    render: RenderArgs,
+    /// Methods to compare.
+    #[arg(long, value_delimiter = ',', default_value = "rs,pm,pt", value_parser = choice::<MethodKind>())]
+    methods: Vec<MethodKind>,
+    /// Reference image (linear EXR of the same size); without it the path tracer renders one.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Paths per pixel of the path-traced reference.
+    #[arg(long, default_value_t = 512)]
+    ref_spp: u32,
+    /// Paths per pixel of the pt method in the comparison (without --time-budget).
+    #[arg(long, default_value_t = 16)]
+    pt_spp: u32,
+    #[arg(long, default_value = "compare")]
+    out_dir: PathBuf,
+}
+
+/// One row of `compare`'s table (Table 2's phases plus errors).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct CompareRow {
+    t_eye: f64,
+    t_light: f64,
+    t_splat: f64,
+    t_total: f64,
+    rmse: f64,
+    relmse: f64,
+    /// Image mean over reference mean, minus 1 (luminance): the method's overall bias.
+    mean_bias: f64,
+    photons: u64,
+    passes: u64,
+}
+
+/// One column of the montage: a tone-mapped image over its error map (8-bit sRGB).
+struct MontageColumn {
+    image: Vec<u8>,
+    error: Vec<u8>,
+}
+
+/// Every method with the same settings, against a reference.
+pub fn run(args: CompareArgs) -> Result<(), String> {
+    set_threads(args.render.run.threads)?;
+    let settings = args.render.settings()?;
+    let scene = Arc::new(load_scene(args.render.scene.as_deref())?);
+    std::fs::create_dir_all(&args.out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", args.out_dir.display()))?;
+    let reference = reference(&args, &scene, &settings)?;
+    let budget = args.render.run.budget();
+    let settings = RenderSettings {
+        pt_spp: args.pt_spp,
+        ..settings
+    };
+    let exposure = args.render.output.exposure;
+    let mut rows = serde_json::Map::new();
+    // Fig. 10's montage: each method's image above its relative-error map, the reference last.
+    let mut montage: Vec<MontageColumn> = Vec::new();
+    println!(
+        "{:<6} {:>8} {:>8} {:>8} {:>8} {:>10} {:>10} {:>8}",
+        "method", "T_E", "T_L", "T_S", "ΣT", "RMSE", "relMSE", "bias"
+    );
+    for &m in &args.methods {
+        let r = render_method(&scene, m, &settings, budget)?;
+        let t = r.timings;
+        let row = CompareRow {
+            t_eye: t.t_eye + t.t_direct,
+            t_light: t.t_light,
+            t_splat: t.t_splat + t.t_resolve,
+            t_total: t.total(),
+            rmse: rmse(&r.film.rgb, &reference),
+            relmse: raysplat::film::rel_mse(&r.film.rgb, &reference),
+            mean_bias: mean_bias(&r.film.rgb, &reference),
+            photons: r.photons,
+            passes: r.passes,
+        };
+        println!(
+            "{:<6} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.5} {:>10.5} {:>+7.2}%",
+            m.name(),
+            row.t_eye,
+            row.t_light,
+            row.t_splat,
+            row.t_total,
+            row.rmse,
+            row.relmse,
+            row.mean_bias * 100.0
+        );
+        r.film
+            .write_exr(&args.out_dir.join(format!("{}.exr", m.name())))?;
+        raysplat::film::write_png(
+            &args.out_dir.join(format!("{}_error.png", m.name())),
+            settings.width,
+            settings.height,
+            &error_map(&r.film.rgb, &reference),
+        )?;
+        rows.insert(
+            m.name().to_string(),
+            serde_json::to_value(&row).map_err(|e| e.to_string())?,
+        );
+        montage.push(MontageColumn {
+            image: raysplat::film::tonemap(&r.film.rgb, exposure),
+            error: error_map(&r.film.rgb, &reference),
+        });
+    }
+    montage.push(MontageColumn {
+        image: raysplat::film::tonemap(&reference, exposure),
+        error: vec![255; (settings.width * settings.height * 3) as usize],
+    });
+    write_montage(
+        &args.out_dir.join("montage.jpg"),
+        settings.width,
+        settings.height,
+        &montage,
+    )?;
+    let doc = json!({
+        "scene": scene.name,
+        "settings": settings,
+        "reference": args.reference.as_ref().map(|p| p.display().to_string())
+            .unwrap_or_else(|| format!("path tracer, {} spp", args.ref_spp)),
+        "methods": rows,
+    });
+    let path = args.out_dir.join("compare.json");
+    raysplat::film::write_atomic(
+        &path,
+        &serde_json::to_vec_pretty(&doc).map_err(|e| e.to_string())?,
+    )?;
+    eprintln!("wrote {} and the images beside it", path.display());
+    Ok(())
+}
+
+/// The reference's pixels: `--reference` (which must have the comparison's size), or the path
+/// tracer at `--ref-spp` with its own seed, written to reference.exr.
+fn reference(
+    args: &CompareArgs,
+    scene: &Arc<Scene>,
+    settings: &RenderSettings,
+) -> Result<Vec<Vec3>, String> {
+    if let Some(path) = &args.reference {
+        let (w, h, px) = raysplat::film::read_exr(path)?;
+        if (w, h) != (settings.width, settings.height) {
+            return Err(format!(
+                "{}: the reference is {w}×{h}, the comparison {}×{}",
+                path.display(),
+                settings.width,
+                settings.height
+            ));
+        }
+        return Ok(px);
+    }
+    eprintln!(
+        "rendering the reference: path tracing at {} spp…",
+        args.ref_spp
+    );
+    let reference_settings = RenderSettings {
+        seed: settings.seed ^ 0x5eed,
+        pt_spp: args.ref_spp,
+        ..settings.clone()
+    };
+    let r = render_method(scene, MethodKind::Pt, &reference_settings, Budget::Fixed)?;
+    let path = args.out_dir.join("reference.exr");
+    r.film.write_exr(&path)?;
+    eprintln!("wrote {} ({:.1} s)", path.display(), r.timings.total());
+    Ok(r.film.rgb)
+}
+
+/// Images side by side (top row) over their error maps (bottom row), as a JPEG.
+fn write_montage(
+    path: &Path,
+    width: u32,
+    height: u32,
+    columns: &[MontageColumn],
+) -> Result<(), String> {
+    let gap = 4;
+    let cols = columns.len() as u32;
+    let mut img = image::RgbImage::from_pixel(
+        cols * width + (cols - 1) * gap,
+        2 * height + gap,
+        image::Rgb([255, 255, 255]),
+    );
+    for (c, column) in columns.iter().enumerate() {
+        for (row, px) in [&column.image, &column.error].into_iter().enumerate() {
+            let tile = image::RgbImage::from_raw(width, height, px.clone())
+                .ok_or("montage: a tile has the wrong size")?;
+            image::imageops::replace(
+                &mut img,
+                &tile,
+                (c as u32 * (width + gap)) as i64,
+                (row as u32 * (height + gap)) as i64,
+            );
+        }
+    }
+    let mut buf = std::io::Cursor::new(Vec::new());
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 85)
+        .encode_image(&img)
+        .map_err(|e| format!("cannot encode JPEG for {}: {e}", path.display()))?;
+    raysplat::film::write_atomic(path, buf.get_ref())
+}

@@ -1,0 +1,104 @@
+//! Command-line entry points, one file per command: `view` (the default: the interactive
+//! previewer), `render`, `compare`, `bench`, `tonemap`, `scenes`. The argument groups that
+//! `render` and `compare` share live in [`args`]; this file holds the command enum and the
+//! helpers every command uses.
+
+mod args;
+mod bench;
+mod compare;
+mod render;
+mod scenes;
+mod tonemap;
+mod view;
+
+use clap::{Parser, Subcommand};
+use raysplat::choice::Choice;
+use raysplat::scene::{BuiltinScene, Scene};
+use std::path::Path;
+
+#[derive(Parser)]
+#[command(
+    name = "raysplat",
+    version,
+    about = "Global illumination previews by photon ray splatting"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Open the interactive previewer (the default when no command is given).
+    View(view::ViewArgs),
+    /// Render a scene headless to EXR (and PNG).
+    Render(args::RenderArgs),
+    /// Reproduce Table 2's CORNELL BOX I row and report timings and memory.
+    Bench(bench::BenchArgs),
+    /// Render several methods with the same photons and eye samples and compare them with a
+    /// reference (the path tracer at high spp unless --reference is given).
+    Compare(compare::CompareArgs),
+    /// Tone-map a linear EXR to an sRGB PNG (exposure in stops, ACES filmic or clamp).
+    Tonemap(tonemap::TonemapArgs),
+    /// Write the project's generated scenes (.glb) into a folder.
+    Scenes(scenes::ScenesArgs),
+}
+
+/// Parses the command line and runs the command; the process's exit status.
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        None => view::run(view::ViewArgs::default()),
+        Some(Command::View(args)) => view::run(args),
+        Some(Command::Render(args)) => render::run(args),
+        Some(Command::Bench(args)) => bench::run(args),
+        Some(Command::Compare(args)) => compare::run(args),
+        Some(Command::Tonemap(args)) => tonemap::run(args),
+        Some(Command::Scenes(args)) => scenes::run(args),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e}");
+            1
+        }
+    }
+}
+
+/// A clap value parser for a closed set of named choices.
+fn choice<T: Choice>() -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(T::ALL.iter().map(|c| c.name()))
+        .map(|s| T::from_name(&s).expect("clap checked the name"))
+}
+
+/// The scene a command names: a glTF file, `builtin:<key>`, or (without one) the embedded
+/// CORNELL BOX I.
+fn load_scene(arg: Option<&str>) -> Result<Scene, String> {
+    match arg {
+        None => Ok(Scene::default_scene()),
+        Some(name) if name.starts_with("builtin:") => {
+            let key = &name["builtin:".len()..];
+            let Some(which) = BuiltinScene::from_key(key) else {
+                let keys: Vec<&str> = BuiltinScene::ALL.iter().map(|s| s.key()).collect();
+                return Err(format!(
+                    "unknown built-in scene '{key}' ({})",
+                    keys.join(", ")
+                ));
+            };
+            Ok(Scene::builtin(which))
+        }
+        Some(path) => Scene::load(Path::new(path)).map_err(|e| e.to_string()),
+    }
+}
+
+/// Sizes rayon's global pool (`--threads`); all cores when `None`.
+fn set_threads(threads: Option<usize>) -> Result<(), String> {
+    if let Some(n) = threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build_global()
+            .map_err(|e| format!("cannot set up {n} threads: {e}"))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,185 @@
+//! `render`: one scene headless to EXR (and PNG), with a progress bar, Table 2's timing row and
+//! optional JSON stats.
+
+use super::args::{OutputArgs, RenderArgs};
+use super::{load_scene, set_threads};
+use indicatif::{ProgressBar, ProgressStyle};
+use raysplat::choice::Choice;
+use raysplat::film::Film;
+use raysplat::methods::{self, MethodStats, Timings, peak_rss_mb};
+use raysplat::settings::MethodKind;
+use serde_json::json;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Renders `args`' scene with its method and writes the files it asks for.
+pub fn run(args: RenderArgs) -> Result<(), String> {
+    set_threads(args.run.threads)?;
+    let settings = args.settings()?;
+    let t_load = Instant::now();
+    let scene = Arc::new(load_scene(args.scene.as_deref())?);
+    let t_load = t_load.elapsed().as_secs_f64();
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let time_budget = args.run.time_budget;
+    let progress = ProgressBar::new(match time_budget {
+        Some(b) => (b * 1000.0) as u64,
+        None => 1,
+    });
+    progress.set_style(
+        ProgressStyle::with_template("{spinner} {msg:24} [{bar:30}] {elapsed_precise}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    progress.enable_steady_tick(Duration::from_millis(100));
+    progress.set_message(format!("preparing ({})", settings.method.name()));
+    let start = Instant::now();
+    let mut m = methods::build(scene.clone(), settings)?;
+    progress.set_message("rendering");
+    methods::run(m.as_mut(), args.run.budget(), |m| {
+        let spent = start.elapsed().as_secs_f64();
+        progress.set_position(match time_budget {
+            Some(b) => (spent * 1000.0).min(b * 1000.0) as u64,
+            None => 1,
+        });
+        progress.set_message(format!("pass {}", m.passes()));
+    });
+    progress.set_message("resolving");
+    let film = m.film();
+    progress.finish_and_clear();
+    let stats = m.stats();
+    print_table(&scene.name, m.kind(), m.timings(), &stats);
+    write_outputs(&args.output, &film)?;
+    if let Some(path) = &args.output.stats {
+        let j = stats_json(&scene.name, m.as_ref(), &stats, &film, t_load);
+        let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
+        raysplat::film::write_atomic(path, &bytes)?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// The EXR and, with `--png`, the tone-mapped PNG.
+fn write_outputs(output: &OutputArgs, film: &Film) -> Result<(), String> {
+    let invalid = film.invalid_pixels();
+    if invalid > 0 {
+        eprintln!("warning: {invalid} pixels are NaN or infinite");
+    }
+    film.write_exr(&output.out)?;
+    eprintln!("wrote {}", output.out.display());
+    if let Some(png) = &output.png {
+        film.write_png(png, output.exposure)?;
+        eprintln!("wrote {}", png.display());
+    }
+    Ok(())
+}
+
+/// Table 2's columns for one render, then the method's counters.
+fn print_table(scene: &str, kind: MethodKind, t: Timings, s: &MethodStats) {
+    println!(
+        "{:<18} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "scene", "T_E", "T_D", "T_L", "T_S", "ΣT"
+    );
+    println!(
+        "{:<18} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3}",
+        truncate(scene, 18),
+        t.t_eye,
+        t.t_direct,
+        t.t_light,
+        t.t_splat + t.t_resolve,
+        t.total()
+    );
+    if let Some(pm) = &s.pm {
+        println!(
+            "photon mapping: {} global photons (K avg/max {:.0}/{}), {} caustic photons (K avg/max {:.0}/{})",
+            pm.global_photons,
+            pm.mean_k_global,
+            pm.max_k_global,
+            pm.caustic_photons,
+            pm.mean_k_caustic,
+            pm.max_k_caustic
+        );
+    }
+    println!(
+        "{}: photons traced {}, photon rays {}, eye samples {}, passes {}, accepted/tested pairs {}/{} ({:.2})",
+        kind.name(),
+        s.photons_traced,
+        s.photon_rays,
+        s.eye_samples,
+        s.passes,
+        s.accepted_pairs,
+        s.tested_pairs,
+        s.accepted_pairs as f64 / s.tested_pairs.max(1) as f64
+    );
+}
+
+/// The first `n` characters of `s`.
+fn truncate(s: &str, n: usize) -> String {
+    s.chars().take(n).collect()
+}
+
+/// `--stats`: the settings, timings and counters of a finished render.
+fn stats_json(
+    scene: &str,
+    m: &dyn methods::Method,
+    s: &MethodStats,
+    film: &Film,
+    t_load: f64,
+) -> serde_json::Value {
+    let t = m.timings();
+    let class_clamps = |c: usize| {
+        s.bandwidth_clamps.map(|clamps| {
+            json!({
+                "rays": clamps[c].rays,
+                "at_h_min": clamps[c].fraction_min(),
+                "at_h_max": clamps[c].fraction_max(),
+            })
+        })
+    };
+    let settings = m.settings();
+    json!({
+        "scene": scene,
+        "camera": m.camera().name,
+        "settings": settings,
+        "t_load": t_load,
+        "t_eye": t.t_eye,
+        "t_direct": t.t_direct,
+        "t_light": t.t_light,
+        "t_splat": t.t_splat,
+        "t_resolve": t.t_resolve,
+        "t_total": t.total(),
+        "photons": s.photons_traced,
+        "photon_rays": s.photon_rays,
+        "photon_rays_direct": s.photon_rays_per_class[0],
+        "photon_rays_indirect": s.photon_rays_per_class[1],
+        "photon_rays_caustic": s.photon_rays_per_class[2],
+        "photon_ray_bytes": s.photon_ray_bytes,
+        "pilot_mean_length": s.pilot_mean_length,
+        "bandwidth_clamps": {
+            "direct": class_clamps(0),
+            "indirect": class_clamps(1),
+            "caustic": class_clamps(2),
+        },
+        "eye_samples": s.eye_samples,
+        "splat_targets": s.splat_targets,
+        "splat_tree_nodes": s.splat_tree_nodes,
+        "batches": s.passes,
+        "passes": s.passes,
+        "tested_pairs": s.tested_pairs,
+        "accepted_pairs": s.accepted_pairs,
+        "peak_rss_mb": peak_rss_mb(),
+        "radiance_map": settings.radiance_map,
+        "cache_records": s.cache_records,
+        "cache_records_per_pass": s.cache_records_per_pass,
+        "directional_bytes": s.directional_bytes,
+        "glossy_targets": s.glossy_targets,
+        "directional_bytes_per_glossy_target": s.directional_bytes as f64 / s.glossy_targets.max(1) as f64,
+        "invalid_pixels": film.invalid_pixels(),
+        "invalid_contributions": film.invalid_contributions,
+        "method": m.kind(),
+        "pm": s.pm,
+        "threads": rayon::current_num_threads(),
+        "version": env!("CARGO_PKG_VERSION"),
+    })
+}

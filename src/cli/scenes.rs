@@ -1,0 +1,23 @@
+//! `scenes`: the project's generated scenes written out as .glb files.
+
+use clap::Args;
+use raysplat::scene::BuiltinScene;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct ScenesArgs {
+    #[arg(long, default_value = "assets")]
+    out: PathBuf,
+}
+
+/// Writes every built-in scene into `--out`, one line per file.
+pub fn run(args: ScenesArgs) -> Result<(), String> {
+    let out = &args.out;
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    for s in BuiltinScene::ALL {
+        let path = out.join(s.file_name());
+        raysplat::film::write_atomic(&path, &s.to_glb())?;
+        println!("wrote {} ({})", path.display(), s.title());
+    }
+    Ok(())
+}
