@@ -336,6 +336,15 @@ pub mod limits {
         min: 50_000,
         max: 100_000_000,
     };
+    /// Wall-clock budget of a headless render, seconds.
+    pub const TIME_BUDGET: Limit<f64> = Limit {
+        min: 0.001,
+        max: 1e6,
+    };
+    /// Worker threads.
+    pub const THREADS: Limit<usize> = Limit { min: 1, max: 1024 };
+    /// Repetitions of a benchmark row.
+    pub const RUNS: Limit<u32> = Limit { min: 1, max: 1000 };
     /// Display exposure, stops.
     pub const EXPOSURE: Limit<f32> = Limit {
         min: -16.0,

@@ -3,20 +3,35 @@
 //! ([`RenderSettings`], [`BandwidthParams`], [`CacheParams`], [`FilterParams`]), so that the
 //! command line starts from the same settings as the window and the worker.
 
-use super::choice;
+use super::output::{Exposure, parse_exposure, parse_tonemap};
+use super::{choice, in_range};
 use clap::Args;
 use raysplat::choice::Choice;
+use raysplat::film::display::ToneMap;
 use raysplat::methods::Budget;
 use raysplat::pipeline::cache::CacheParams;
 use raysplat::pipeline::directional::DirectionalMode;
 use raysplat::pipeline::filter::FilterParams;
 use raysplat::pipeline::photon::BandwidthParams;
-use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings, limits, normalised_fractions};
 use std::path::PathBuf;
 
-/// Everything `render` takes: the scene and the groups below, in the order `--help` lists them.
+/// Everything `render` takes: the settings, the method and the outputs.
 #[derive(Args, Clone, Debug)]
 pub struct RenderArgs {
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+    /// The method: rs, rc, pm, pt, rs-fg or pm-fg.
+    #[arg(long, default_value = RenderSettings::default().method.name(), value_parser = choice::<MethodKind>())]
+    pub method: MethodKind,
+    #[command(flatten)]
+    pub output: OutputArgs,
+}
+
+/// The render settings `render` and `compare` share: the scene and the groups below, in the
+/// order `--help` lists them.
+#[derive(Args, Clone, Debug)]
+pub struct SettingsArgs {
     /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic |
     /// builtin:glossy.
     /// Without it, the embedded CORNELL BOX I.
@@ -31,8 +46,6 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub direct: DirectArgs,
     #[command(flatten)]
-    pub output: OutputArgs,
-    #[command(flatten)]
     pub run: RunArgs,
     #[command(flatten)]
     pub method: MethodArgs,
@@ -43,12 +56,12 @@ pub struct RenderArgs {
 /// The image: its size and eye samples per pixel.
 #[derive(Args, Clone, Debug)]
 pub struct ImageArgs {
-    #[arg(long, default_value_t = RenderSettings::default().width)]
+    #[arg(long, default_value_t = RenderSettings::default().width, value_parser = in_range(limits::RESOLUTION))]
     pub width: u32,
-    #[arg(long, default_value_t = RenderSettings::default().height)]
+    #[arg(long, default_value_t = RenderSettings::default().height, value_parser = in_range(limits::RESOLUTION))]
     pub height: u32,
     /// Eye samples per pixel (paths per pixel for --method pt).
-    #[arg(long, default_value_t = RenderSettings::default().spp)]
+    #[arg(long, default_value_t = RenderSettings::default().spp, value_parser = in_range(limits::PT_SPP))]
     pub spp: u32,
 }
 
@@ -56,19 +69,24 @@ pub struct ImageArgs {
 #[derive(Args, Clone, Debug)]
 pub struct PhotonArgs {
     /// M: stored photon rays per batch.
-    #[arg(long, default_value_t = RenderSettings::default().photons)]
+    #[arg(long, default_value_t = RenderSettings::default().photons, value_parser = in_range(limits::PHOTONS))]
     pub photons: u64,
     /// Fractions of M for direct, indirect-diffuse and caustic photons (Table 2).
-    #[arg(long, value_delimiter = ',', default_values_t = RenderSettings::default().fractions)]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.3,0.6,0.1",
+        allow_negative_numbers = true
+    )]
     pub fractions: Vec<f32>,
     /// C: smoothness (eq. 8).
-    #[arg(long, default_value_t = BandwidthParams::default().smoothness_c)]
+    #[arg(long, default_value_t = BandwidthParams::default().smoothness_c, allow_negative_numbers = true, value_parser = in_range(limits::SMOOTHNESS_C))]
     pub c: f32,
     /// S: bandwidth sensitivity in (0, 1] (eq. 8).
-    #[arg(long, default_value_t = BandwidthParams::default().sensitivity_s)]
+    #[arg(long, default_value_t = BandwidthParams::default().sensitivity_s, allow_negative_numbers = true, value_parser = in_range(limits::SENSITIVITY_S))]
     pub s: f32,
     /// R in (0, 1]: bandwidth range; every h lies within [R·h̄, h̄/R] of the typical bandwidth.
-    #[arg(long, default_value_t = BandwidthParams::default().max_bandwidth_r)]
+    #[arg(long, default_value_t = BandwidthParams::default().max_bandwidth_r, allow_negative_numbers = true, value_parser = in_range(limits::MAX_BANDWIDTH_R))]
     pub r: f32,
 }
 
@@ -79,54 +97,74 @@ pub struct DirectArgs {
     #[arg(long, default_value = RenderSettings::default().direct.name(), value_parser = choice::<DirectMode>())]
     pub direct: DirectMode,
     /// Light samples per eye sample for --direct nee.
-    #[arg(long, default_value_t = RenderSettings::default().nee_samples)]
+    #[arg(long, default_value_t = RenderSettings::default().nee_samples, value_parser = in_range(limits::NEE_SAMPLES))]
     pub nee_samples: u32,
 }
 
 /// The files a render writes.
 #[derive(Args, Clone, Debug)]
 pub struct OutputArgs {
-    #[arg(long, default_value = "out.exr")]
-    pub out: PathBuf,
-    /// Also write a tone-mapped sRGB PNG.
-    #[arg(long)]
+    /// The image to write; the format follows the extension: .exr (linear radiance), .png or
+    /// .jpg (tone-mapped). Default: out.exr, unless --png names the only image.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// A tone-mapped image (.png or .jpg) besides --out, or instead of it.
+    #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
-    /// Exposure for the PNG (and for `compare`'s montage), in stops.
-    #[arg(long, default_value_t = 0.0)]
-    pub exposure: f32,
+    #[command(flatten)]
+    pub tone: ToneArgs,
     /// Write timings and counters as JSON.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub stats: Option<PathBuf>,
+}
+
+impl OutputArgs {
+    /// The image files to write: --out and --png as given, out.exr when neither is.
+    pub fn images(&self) -> Vec<PathBuf> {
+        if self.out.is_none() && self.png.is_none() {
+            return vec![PathBuf::from("out.exr")];
+        }
+        self.out.iter().chain(&self.png).cloned().collect()
+    }
+}
+
+/// How linear radiance becomes an 8-bit image: the window's tone curves and exposure.
+#[derive(Args, Clone, Debug)]
+pub struct ToneArgs {
+    /// Exposure of tone-mapped images in stops (negative darkens), or `auto` (the image's
+    /// log-average luminance to middle grey).
+    #[arg(long, default_value = "0", allow_negative_numbers = true, value_parser = parse_exposure)]
+    pub exposure: Exposure,
+    /// Tone curve of tone-mapped images: clamp, reinhard or aces (as in the window).
+    #[arg(long, default_value = "aces", value_parser = parse_tonemap)]
+    pub tonemap: ToneMap,
 }
 
 /// How long, from where and on how many threads.
 #[derive(Args, Clone, Debug)]
 pub struct RunArgs {
     /// Render progressively in batches of --photons until this many seconds are spent.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = in_range(limits::TIME_BUDGET))]
     pub time_budget: Option<f64>,
     /// Camera by name (default: the scene's first).
     #[arg(long)]
     pub camera: Option<String>,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, value_parser = in_range(limits::THREADS))]
     pub threads: Option<usize>,
 }
 
-/// The method and the settings only some methods read.
+/// The settings only some methods read.
 #[derive(Args, Clone, Debug)]
 pub struct MethodArgs {
-    /// rs, rc, pm, pt, rs-fg or pm-fg.
-    #[arg(long, default_value = RenderSettings::default().method.name(), value_parser = choice::<MethodKind>())]
-    pub method: MethodKind,
     /// K of the global photon map (--method pm).
-    #[arg(long, default_value_t = RenderSettings::default().pm_k)]
+    #[arg(long, default_value_t = RenderSettings::default().pm_k, value_parser = in_range(limits::PM_K))]
     pub pm_k: usize,
     /// K of the caustic photon map (--method pm).
-    #[arg(long, default_value_t = RenderSettings::default().pm_caustic_k)]
+    #[arg(long, default_value_t = RenderSettings::default().pm_caustic_k, value_parser = in_range(limits::PM_K))]
     pub pm_caustic_k: usize,
     /// Gather rays per eye sample (--method rs-fg, pm-fg).
-    #[arg(long, default_value_t = RenderSettings::default().fg_rays)]
+    #[arg(long, default_value_t = RenderSettings::default().fg_rays, value_parser = in_range(limits::FG_RAYS))]
     pub fg_rays: u32,
     /// Splat onto every eye sample instead of sharing one splat target among the samples of
     /// a pixel that lie on the same surface.
@@ -143,10 +181,10 @@ pub struct MethodArgs {
 pub struct CacheFilterArgs {
     /// ε, the radiance cache error (§8.3): records are valid up to ε × their harmonic mean
     /// distance. Used by --method rc, and by rs with --cache.
-    #[arg(long, default_value_t = CacheParams::default().error)]
+    #[arg(long, default_value_t = CacheParams::default().error, allow_negative_numbers = true, value_parser = in_range(limits::CACHE_ERROR))]
     pub cache_error: f32,
     /// Every pixel is covered by at least this many cache records.
-    #[arg(long, default_value_t = CacheParams::default().min_records)]
+    #[arg(long, default_value_t = CacheParams::default().min_records, value_parser = in_range(limits::MIN_RECORDS))]
     pub min_records: u32,
     /// rs: resolve the full radiance map through the radiance cache (as the previewer does).
     #[arg(long)]
@@ -155,16 +193,33 @@ pub struct CacheFilterArgs {
     #[arg(long)]
     pub filter: bool,
     /// Scale of the filter's box radius (1 = as the splat statistics ask).
-    #[arg(long, default_value_t = FilterParams::default().strength)]
+    #[arg(long, default_value_t = FilterParams::default().strength, allow_negative_numbers = true, value_parser = in_range(limits::FILTER_STRENGTH))]
     pub filter_strength: f32,
 }
 
 impl RenderArgs {
-    /// The settings the arguments describe, or a one-line error naming the bad flag.
+    /// The settings the arguments describe for `--method`, or a one-line error naming the
+    /// bad flag.
     pub fn settings(&self) -> Result<RenderSettings, String> {
+        self.settings.settings(self.method)
+    }
+}
+
+impl SettingsArgs {
+    /// The settings the arguments describe for `kind`, or a one-line error naming the bad
+    /// flag.
+    pub fn settings(&self, kind: MethodKind) -> Result<RenderSettings, String> {
         let bandwidth = self.photons.bandwidth()?;
         let fractions = self.photons.fractions()?;
         let (image, method) = (&self.image, &self.method);
+        if kind != MethodKind::Pt && !limits::SPP.contains(image.spp) {
+            return Err(format!(
+                "--spp must be in {}..={} (eye samples per pixel; only --method pt takes more), got {}",
+                limits::SPP.min,
+                limits::SPP.max,
+                image.spp
+            ));
+        }
         Ok(RenderSettings {
             width: image.width,
             height: image.height,
@@ -177,7 +232,7 @@ impl RenderArgs {
             nee_samples: self.direct.nee_samples,
             camera: self.run.camera.clone(),
             merge_targets: !method.no_merge,
-            method: method.method,
+            method: kind,
             pm_k: method.pm_k,
             pm_caustic_k: method.pm_caustic_k,
             fg_rays: method.fg_rays,
@@ -192,21 +247,8 @@ impl RenderArgs {
 }
 
 impl PhotonArgs {
-    /// C, S and R, checked: C > 0, S and R in (0, 1].
+    /// C, S and R (their ranges are checked by the parser).
     fn bandwidth(&self) -> Result<BandwidthParams, String> {
-        let positive = |x: f32| x.is_finite() && x > 0.0;
-        if !positive(self.s) || self.s > 1.0 {
-            return Err(format!("--s must be in (0, 1], got {}", self.s));
-        }
-        if !positive(self.c) {
-            return Err(format!("--c must be positive, got {}", self.c));
-        }
-        if !positive(self.r) || self.r > 1.0 {
-            return Err(format!(
-                "--r must be in (0, 1] (every bandwidth within [R·h̄, h̄/R] of the typical one), got {}",
-                self.r
-            ));
-        }
         Ok(BandwidthParams {
             smoothness_c: self.c,
             sensitivity_s: self.s,
@@ -214,7 +256,7 @@ impl PhotonArgs {
         })
     }
 
-    /// The three fractions, as given: non-negative and not all zero.
+    /// The three fractions, normalised to sum to 1 (`3,6,1` is `0.3,0.6,0.1`).
     fn fractions(&self) -> Result<[f32; 3], String> {
         let [f0, f1, f2] = self.fractions[..] else {
             return Err(format!(
@@ -222,11 +264,8 @@ impl PhotonArgs {
                 self.fractions.len()
             ));
         };
-        let f = [f0, f1, f2];
-        if f.iter().any(|x| x.is_nan() || *x < 0.0) || f.iter().sum::<f32>() <= 0.0 {
-            return Err("--fractions must be three non-negative numbers, not all zero".into());
-        }
-        Ok(f)
+        normalised_fractions([f0, f1, f2])
+            .map_err(|_| "--fractions must be three non-negative numbers, not all zero".to_string())
     }
 }
 
@@ -244,7 +283,7 @@ impl CacheFilterArgs {
     fn cache(&self) -> CacheParams {
         CacheParams {
             error: self.cache_error,
-            min_records: self.min_records.max(1),
+            min_records: self.min_records,
         }
     }
 
@@ -276,6 +315,6 @@ mod tests {
             args.settings().unwrap(),
             RenderSettings { pt_spp: d.spp, ..d }
         );
-        assert_eq!(args.run.budget(), Budget::Fixed);
+        assert_eq!(args.settings.run.budget(), Budget::Fixed);
     }
 }

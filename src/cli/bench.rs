@@ -2,7 +2,7 @@
 //! glossy rows (one per directional mode) and the previewer's latencies; one line per row on
 //! stdout and, with `--json`, the rows merged into a JSON file (docs/benchmarks.md quotes both).
 
-use super::set_threads;
+use super::{in_range, set_threads};
 use clap::Args;
 use glam::Vec3;
 use raysplat::choice::Choice;
@@ -11,7 +11,7 @@ use raysplat::pipeline::cache::CacheParams;
 use raysplat::pipeline::directional::DirectionalMode;
 use raysplat::pipeline::photon::BandwidthParams;
 use raysplat::scene::{BuiltinScene, Scene};
-use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings, limits};
 use serde_json::json;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -23,7 +23,7 @@ pub struct BenchArgs {
     #[arg(long)]
     json: Option<PathBuf>,
     /// Repetitions; the fastest run is reported.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = in_range(limits::RUNS))]
     runs: u32,
     #[arg(long)]
     threads: Option<usize>,

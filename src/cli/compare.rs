@@ -2,15 +2,17 @@
 //! reference (a given EXR, or the path tracer at high spp): a table, each image and its error
 //! map, Fig. 10's montage and compare.json.
 
-use super::args::RenderArgs;
-use super::{choice, load_scene, set_threads};
+use super::args::{SettingsArgs, ToneArgs};
+use super::{choice, in_range, load_scene, output, set_threads};
 use clap::Args;
 use glam::Vec3;
 use raysplat::choice::Choice;
+use raysplat::film::Film;
+use raysplat::film::display::{ViewMode, display};
 use raysplat::film::error::{error_map, mean_bias, rmse};
 use raysplat::methods::{Budget, render_method};
 use raysplat::scene::Scene;
-use raysplat::settings::{MethodKind, RenderSettings};
+use raysplat::settings::{MethodKind, RenderSettings, limits};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -19,7 +21,7 @@ use std::sync::Arc;
 #[derive(Args)]
 pub struct CompareArgs {
     #[command(flatten)]
-    render: RenderArgs,
+    settings: SettingsArgs,
     /// Methods to compare.
     #[arg(long, value_delimiter = ',', default_value = "rs,pm,pt", value_parser = choice::<MethodKind>())]
     methods: Vec<MethodKind>,
@@ -27,13 +29,17 @@ pub struct CompareArgs {
     #[arg(long)]
     reference: Option<PathBuf>,
     /// Paths per pixel of the path-traced reference.
-    #[arg(long, default_value_t = 512)]
+    #[arg(long, default_value_t = 512, value_parser = in_range(limits::PT_SPP))]
     ref_spp: u32,
     /// Paths per pixel of the pt method in the comparison (without --time-budget).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, value_parser = in_range(limits::PT_SPP))]
     pt_spp: u32,
+    /// The folder for every method's EXR and error map, the reference, the montage and
+    /// compare.json.
     #[arg(long, default_value = "compare")]
     out_dir: PathBuf,
+    #[command(flatten)]
+    tone: ToneArgs,
 }
 
 /// One row of `compare`'s table (Table 2's phases plus errors).
@@ -59,18 +65,55 @@ struct MontageColumn {
 
 /// Every method with the same settings, against a reference.
 pub fn run(args: CompareArgs) -> Result<(), String> {
-    set_threads(args.render.run.threads)?;
-    let settings = args.render.settings()?;
-    let scene = Arc::new(load_scene(args.render.scene.as_deref())?);
-    std::fs::create_dir_all(&args.out_dir)
-        .map_err(|e| format!("cannot create {}: {e}", args.out_dir.display()))?;
+    // The eye-sample checks of the first method that takes eye samples.
+    let kind = args
+        .methods
+        .iter()
+        .copied()
+        .find(|&m| m != MethodKind::Pt)
+        .unwrap_or(MethodKind::Pt);
+    let settings = args.settings.settings(kind)?;
+    // Every file compare writes, checked before any work; the reference is never overwritten.
+    let mut files: Vec<PathBuf> = vec![
+        args.out_dir.join("montage.jpg"),
+        args.out_dir.join("compare.json"),
+    ];
+    if args.reference.is_none() {
+        files.push(args.out_dir.join("reference.exr"));
+    }
+    for m in &args.methods {
+        files.push(args.out_dir.join(format!("{}.exr", m.name())));
+        files.push(args.out_dir.join(format!("{}_error.png", m.name())));
+    }
+    let outputs: Vec<(&Path, bool)> = files.iter().map(|p| (p.as_path(), false)).collect();
+    let mut inputs: Vec<&Path> = args.reference.iter().map(PathBuf::as_path).collect();
+    if let Some(s) = args
+        .settings
+        .scene
+        .as_deref()
+        .filter(|s| !s.starts_with("builtin:"))
+    {
+        inputs.push(Path::new(s));
+    }
+    output::check(&outputs, &inputs)?;
+    set_threads(args.settings.run.threads)?;
+    let scene = Arc::new(load_scene(args.settings.scene.as_deref())?);
     let reference = reference(&args, &scene, &settings)?;
-    let budget = args.render.run.budget();
+    let budget = args.settings.run.budget();
     let settings = RenderSettings {
         pt_spp: args.pt_spp,
         ..settings
     };
-    let exposure = args.render.output.exposure;
+    let tone = args.tone.tonemap;
+    let mut reference_film = Film::new(settings.width, settings.height);
+    reference_film.rgb = reference.clone();
+    // One exposure for every column: the reference's, so that the images compare.
+    let exposure = args.tone.exposure.stops(&reference_film);
+    let tonemapped = |rgb: &[Vec3]| {
+        let mut f = Film::new(settings.width, settings.height);
+        f.rgb = rgb.to_vec();
+        display(&f, ViewMode::Final, exposure, tone).rgb()
+    };
     let mut rows = serde_json::Map::new();
     // Fig. 10's montage: each method's image above its relative-error map, the reference last.
     let mut montage: Vec<MontageColumn> = Vec::new();
@@ -116,12 +159,12 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
             serde_json::to_value(&row).map_err(|e| e.to_string())?,
         );
         montage.push(MontageColumn {
-            image: raysplat::film::tonemap(&r.film.rgb, exposure),
+            image: tonemapped(&r.film.rgb),
             error: error_map(&r.film.rgb, &reference),
         });
     }
     montage.push(MontageColumn {
-        image: raysplat::film::tonemap(&reference, exposure),
+        image: tonemapped(&reference),
         error: vec![255; (settings.width * settings.height * 3) as usize],
     });
     write_montage(

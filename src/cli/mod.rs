@@ -6,6 +6,7 @@
 mod args;
 mod bench;
 mod compare;
+mod output;
 mod render;
 mod scenes;
 mod tonemap;
@@ -14,7 +15,10 @@ mod view;
 use clap::{Parser, Subcommand};
 use raysplat::choice::Choice;
 use raysplat::scene::{BuiltinScene, Scene};
+use raysplat::settings::Limit;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
 
 #[derive(Parser)]
 #[command(
@@ -65,11 +69,53 @@ pub fn main() -> i32 {
     }
 }
 
+/// Set by the first Ctrl-C (a render then stops after its current step and writes what it
+/// has); a second Ctrl-C exits at once with status 130.
+fn interrupt_flag() -> Arc<AtomicBool> {
+    static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+    FLAG.get_or_init(|| {
+        let flag = Arc::new(AtomicBool::new(false));
+        let f = flag.clone();
+        let installed = ctrlc::set_handler(move || {
+            if f.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+            eprintln!("\ninterrupted: finishing the current step (Ctrl-C again to quit now)");
+        });
+        if let Err(e) = installed {
+            eprintln!("warning: Ctrl-C will end the program without writing ({e})");
+        }
+        flag
+    })
+    .clone()
+}
+
 /// A clap value parser for a closed set of named choices.
 fn choice<T: Choice>() -> impl clap::builder::TypedValueParser<Value = T> {
     use clap::builder::TypedValueParser;
     clap::builder::PossibleValuesParser::new(T::ALL.iter().map(|c| c.name()))
         .map(|s| T::from_name(&s).expect("clap checked the name"))
+}
+
+/// A clap value parser for a number within `limit` (one row of the limits table): a value
+/// outside it, NaN included, is refused before any work with the flag's name and the range.
+fn in_range<T>(
+    limit: Limit<T>,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync + 'static,
+{
+    move |s: &str| {
+        let v: T = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}' is not a number in {}..={}", limit.min, limit.max))?;
+        if limit.contains(v) {
+            Ok(v)
+        } else {
+            Err(format!("must be in {}..={}", limit.min, limit.max))
+        }
+    }
 }
 
 /// The scene a command names: a glTF file, `builtin:<key>`, or (without one) the embedded
@@ -96,7 +142,7 @@ fn load_scene(arg: Option<&str>) -> Result<Scene, String> {
 fn set_threads(threads: Option<usize>) -> Result<(), String> {
     if let Some(n) = threads {
         rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
+            .num_threads(n)
             .build_global()
             .map_err(|e| format!("cannot set up {n} threads: {e}"))?;
     }

@@ -1,7 +1,8 @@
 //! `render`: one scene headless to EXR (and PNG), with a progress bar, Table 2's timing row and
 //! optional JSON stats.
 
-use super::args::{OutputArgs, RenderArgs};
+use super::args::RenderArgs;
+use super::output;
 use super::{load_scene, set_threads};
 use indicatif::{ProgressBar, ProgressStyle};
 use raysplat::choice::Choice;
@@ -9,68 +10,92 @@ use raysplat::film::Film;
 use raysplat::methods::{self, MethodStats, Timings, peak_rss_mb};
 use raysplat::settings::MethodKind;
 use serde_json::json;
+use std::path::Path;
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-/// Renders `args`' scene with its method and writes the files it asks for.
+/// Renders `args`' scene with its method and writes the files it asks for. Everything the
+/// command line says is checked before the scene loads; Ctrl-C ends the render early, writes
+/// the image so far (marked partial in the stats) and exits with status 130.
 pub fn run(args: RenderArgs) -> Result<(), String> {
-    set_threads(args.run.threads)?;
     let settings = args.settings()?;
+    let images = args.output.images();
+    let mut outputs: Vec<(&Path, bool)> = images.iter().map(|p| (p.as_path(), true)).collect();
+    if let Some(stats) = &args.output.stats {
+        outputs.push((stats.as_path(), false));
+    }
+    let scene_file = args
+        .settings
+        .scene
+        .as_deref()
+        .filter(|s| !s.starts_with("builtin:"))
+        .map(Path::new);
+    output::check(&outputs, scene_file.as_slice())?;
+    set_threads(args.settings.run.threads)?;
     let t_load = Instant::now();
-    let scene = Arc::new(load_scene(args.scene.as_deref())?);
+    let scene = Arc::new(load_scene(args.settings.scene.as_deref())?);
     let t_load = t_load.elapsed().as_secs_f64();
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    let time_budget = args.run.time_budget;
-    let progress = ProgressBar::new(match time_budget {
-        Some(b) => (b * 1000.0) as u64,
-        None => 1,
-    });
-    progress.set_style(
-        ProgressStyle::with_template("{spinner} {msg:24} [{bar:30}] {elapsed_precise}")
+    let interrupted = super::interrupt_flag();
+    let time_budget = args.settings.run.time_budget;
+    let progress = match time_budget {
+        Some(b) => ProgressBar::new((b * 1000.0) as u64).with_style(
+            ProgressStyle::with_template(
+                "{spinner} {msg:24} [{bar:30}] {elapsed_precise} (ETA {eta})",
+            )
             .expect("static template")
             .progress_chars("=> "),
-    );
+        ),
+        None => ProgressBar::new_spinner().with_style(
+            ProgressStyle::with_template("{spinner} {msg:24} {elapsed_precise}")
+                .expect("static template"),
+        ),
+    };
     progress.enable_steady_tick(Duration::from_millis(100));
     progress.set_message(format!("preparing ({})", settings.method.name()));
     let start = Instant::now();
     let mut m = methods::build(scene.clone(), settings)?;
     progress.set_message("rendering");
-    methods::run(m.as_mut(), args.run.budget(), |m| {
-        let spent = start.elapsed().as_secs_f64();
-        progress.set_position(match time_budget {
-            Some(b) => (spent * 1000.0).min(b * 1000.0) as u64,
-            None => 1,
-        });
+    methods::run(m.as_mut(), args.settings.run.budget(), |m| {
+        if let Some(b) = time_budget {
+            let spent = start.elapsed().as_secs_f64();
+            progress.set_position((spent * 1000.0).min(b * 1000.0) as u64);
+        }
         progress.set_message(format!("pass {}", m.passes()));
+        !interrupted.load(Ordering::Relaxed)
     });
+    let partial = interrupted.load(Ordering::Relaxed);
     progress.set_message("resolving");
     let film = m.film();
     progress.finish_and_clear();
+    if partial {
+        eprintln!("interrupted: writing the image after {} passes", m.passes());
+    }
     let stats = m.stats();
     print_table(&scene.name, m.kind(), m.timings(), &stats);
-    write_outputs(&args.output, &film)?;
-    if let Some(path) = &args.output.stats {
-        let j = stats_json(&scene.name, m.as_ref(), &stats, &film, t_load);
-        let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
-        raysplat::film::write_atomic(path, &bytes)?;
-        eprintln!("wrote {}", path.display());
-    }
-    Ok(())
-}
-
-/// The EXR and, with `--png`, the tone-mapped PNG.
-fn write_outputs(output: &OutputArgs, film: &Film) -> Result<(), String> {
     let invalid = film.invalid_pixels();
     if invalid > 0 {
         eprintln!("warning: {invalid} pixels are NaN or infinite");
     }
-    film.write_exr(&output.out)?;
-    eprintln!("wrote {}", output.out.display());
-    if let Some(png) = &output.png {
-        film.write_png(png, output.exposure)?;
-        eprintln!("wrote {}", png.display());
+    let tone = &args.output.tone;
+    let stops = tone.exposure.stops(&film);
+    for path in &images {
+        output::write_image(path, &film, stops, tone.tonemap)?;
+        eprintln!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.output.stats {
+        let mut j = stats_json(&scene.name, m.as_ref(), &stats, &film, t_load);
+        j["partial"] = json!(partial);
+        j["exposure"] = json!(stops);
+        let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
+        raysplat::film::write_atomic(path, &bytes)?;
+        eprintln!("wrote {}", path.display());
+    }
+    if partial {
+        std::process::exit(130);
     }
     Ok(())
 }

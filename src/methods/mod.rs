@@ -246,12 +246,15 @@ pub struct Rendered {
     pub invalid: u64,
 }
 
-/// Run `method` for `budget`, calling `progress` after every step.
-pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dyn Method)) {
+/// Run `method` for `budget`, calling `progress` after every step; `progress` returning false
+/// stops early (an interrupt).
+pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dyn Method) -> bool) {
     let start = Instant::now();
     loop {
         method.step();
-        progress(&*method);
+        if !progress(&*method) {
+            break;
+        }
         match budget {
             Budget::Seconds(b) if start.elapsed().as_secs_f64() < b => continue,
             _ => break,
@@ -275,7 +278,7 @@ pub fn render_method(
         ..settings.clone()
     };
     let mut m = build(scene.clone(), settings)?;
-    run(m.as_mut(), budget, |_| {});
+    run(m.as_mut(), budget, |_| true);
     Ok(finish(m.as_mut()))
 }
 
