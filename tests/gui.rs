@@ -7,6 +7,7 @@ use egui_kittest::kittest::Queryable;
 use raysplat::app::snapshot::SnapshotMeta;
 use raysplat::app::{App, AppOptions, UiSettings};
 use raysplat::scene::BuiltinScene;
+use raysplat::settings::RenderSettings;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -20,13 +21,17 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 fn harness(snapshot_dir: PathBuf) -> Harness<'static, App> {
+    let defaults = UiSettings::default();
     let settings = UiSettings {
-        width: 64,
-        height: 64,
-        spp: 1,
-        photons_per_batch: 4_000,
+        render: RenderSettings {
+            width: 64,
+            height: 64,
+            spp: 1,
+            photons: 4_000,
+            ..defaults.render.clone()
+        },
         snapshot_dir,
-        ..UiSettings::default()
+        ..defaults
     };
     Harness::builder()
         .with_size(egui::vec2(1100.0, 800.0))
@@ -58,6 +63,22 @@ fn run_until(h: &mut Harness<'static, App>, secs: u64, what: &str, pred: impl Fn
     }
 }
 
+/// Scroll the control panel to the widget labelled `label` and click it.
+fn click(h: &mut Harness<'static, App>, label: &str) {
+    h.get_by_label(label).scroll_to_me();
+    // Let the scroll animation settle.
+    let mut rect = h.get_by_label(label).rect();
+    for k in 0..120 {
+        h.step();
+        let now = h.get_by_label(label).rect();
+        if k >= 5 && now == rect {
+            break;
+        }
+        rect = now;
+    }
+    h.get_by_label(label).click();
+}
+
 fn pause(h: &mut Harness<'static, App>) {
     h.get_by_label("Pause (Space)").click();
     run_until(h, 30, "a paused frame", |a| {
@@ -87,7 +108,7 @@ fn moving_the_c_slider_reaches_the_worker_and_changes_the_image() {
     });
     h.step();
     let app = h.state();
-    assert!((app.settings().bandwidth.smoothness_c - 0.3).abs() < 1e-6);
+    assert!((app.settings().render.bandwidth.smoothness_c - 0.3).abs() < 1e-6);
     let after = &app.shown().unwrap().rgba;
     let changed = before.iter().zip(after).filter(|(a, b)| a != b).count();
     assert!(changed > before.len() / 20, "only {changed} bytes changed");
@@ -106,7 +127,7 @@ fn snapshot_button_writes_png_exr_and_json() {
         a.frame()
             .is_some_and(|f| (f.settings.bandwidth.sensitivity_s - 0.55).abs() < 1e-6)
     });
-    h.get_by_label("Save snapshot").click();
+    click(&mut h, "Save snapshot");
     run_until(&mut h, 60, "the snapshot", |a| {
         a.messages().iter().any(|m| m.starts_with("saved "))
     });
@@ -128,7 +149,7 @@ fn snapshot_button_writes_png_exr_and_json() {
     assert_eq!(ext, ["exr", "json", "png"]);
     let meta: SnapshotMeta = serde_json::from_slice(&std::fs::read(&files[1]).unwrap()).unwrap();
     let app = h.state();
-    assert_eq!(meta.settings.bandwidth, app.settings().bandwidth);
+    assert_eq!(meta.settings.bandwidth, app.settings().render.bandwidth);
     assert!((meta.settings.bandwidth.sensitivity_s - 0.55).abs() < 1e-6);
     assert_eq!(meta.settings.width, 64);
     assert_eq!(meta.view_mode, app.settings().view_mode);
@@ -146,7 +167,7 @@ fn snapshot_into_a_missing_folder_shows_an_error_and_goes_on() {
     let mut h = harness(missing);
     run_until(&mut h, 60, "the first image", |a| a.shown().is_some());
     let seq = h.state().frame().unwrap().seq;
-    h.get_by_label("Save snapshot").click();
+    click(&mut h, "Save snapshot");
     run_until(&mut h, 30, "the error", |a| {
         a.messages().iter().any(|m| m.contains("snapshot failed"))
     });
@@ -309,7 +330,7 @@ fn settings_persist_through_eframe_storage() {
     let key = keys.first().expect("save stored something").to_string();
     let restored: UiSettings = eframe::get_value(&storage, &key).expect("settings read back");
     assert_eq!(&restored, h.state().settings());
-    assert!((restored.bandwidth.max_bandwidth_r - 0.35).abs() < 1e-6);
+    assert!((restored.render.bandwidth.max_bandwidth_r - 0.35).abs() < 1e-6);
 }
 
 /// The reference view mode makes the worker path-trace the same view progressively and shows it.

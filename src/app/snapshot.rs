@@ -2,10 +2,13 @@
 //! timestamped stem. Each file is written atomically; if any fails, the snapshot's other files
 //! are removed so no partial snapshot remains.
 
+use crate::app::UiSettings;
 use crate::film::display::{DisplayImage, ToneMap, ViewMode};
 use crate::film::{Film, write_atomic, write_exr, write_png};
 use crate::scene::Camera;
+use crate::session::Frame;
 use crate::settings::RenderSettings;
+use crossbeam_channel::{Receiver, unbounded};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -13,27 +16,63 @@ use std::time::{SystemTime, UNIX_EPOCH};
 /// Everything needed to reproduce a snapshot.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SnapshotMeta {
+    /// The scene's name.
     pub scene_name: String,
+    /// The scene's file; `None` for the embedded scene.
     pub scene_path: Option<PathBuf>,
+    /// The view.
     pub camera: Camera,
     /// Every render parameter: resolution, spp, M per batch, fractions, C/S/R, seed, direct mode.
     pub settings: RenderSettings,
+    /// Photons traced so far.
     pub photons_traced: u64,
+    /// Photon rays stored for re-splatting.
     pub photon_rays: usize,
+    /// Batches whose light the image holds.
     pub batches: usize,
+    /// Seconds of rendering.
     pub elapsed_s: f64,
+    /// The view mode of the PNG.
     pub view_mode: ViewMode,
+    /// The PNG's exposure, stops.
     pub exposure: f32,
+    /// The PNG's tone mapping.
     pub tone_map: ToneMap,
+    /// raysplat's version.
     pub program_version: String,
     /// UTC, ISO 8601.
     pub created: String,
 }
 
+impl SnapshotMeta {
+    /// The metadata of `frame` shown with the display settings of `ui`, created now.
+    pub fn new(frame: &Frame, ui: &UiSettings) -> Self {
+        Self {
+            scene_name: frame.scene_name.clone(),
+            scene_path: frame.scene_path.clone(),
+            camera: frame.camera.clone(),
+            settings: frame.settings.clone(),
+            photons_traced: frame.stats.photons_traced,
+            photon_rays: frame.stats.photon_rays,
+            batches: frame.stats.batches,
+            elapsed_s: frame.stats.elapsed_s,
+            view_mode: ui.view_mode,
+            exposure: ui.exposure,
+            tone_map: ui.tone_map,
+            program_version: env!("CARGO_PKG_VERSION").to_string(),
+            created: utc_now().1,
+        }
+    }
+}
+
+/// The three files of one snapshot.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SnapshotFiles {
+    /// The image as displayed.
     pub png: PathBuf,
+    /// The linear film.
     pub exr: PathBuf,
+    /// The [`SnapshotMeta`].
     pub json: PathBuf,
 }
 
@@ -77,6 +116,20 @@ pub fn write_snapshot(
         return Err(e);
     }
     Ok(files)
+}
+
+/// [`write_snapshot`] on a helper thread; the receiver gets its result.
+pub fn write_snapshot_in_background(
+    folder: PathBuf,
+    shown: DisplayImage,
+    film: Film,
+    meta: SnapshotMeta,
+) -> Receiver<Result<SnapshotFiles, String>> {
+    let (tx, rx) = unbounded();
+    std::thread::spawn(move || {
+        let _ = tx.send(write_snapshot(&folder, &shown, &film, &meta));
+    });
+    rx
 }
 
 /// ("YYYYMMDD-HHMMSS-mmm", "YYYY-MM-DDTHH:MM:SS.mmmZ") for now, in UTC.

@@ -1,0 +1,175 @@
+//! The rendering panel: photons per batch, samples per pixel, resolution, direct light, the
+//! glossy radiance map, the ray store's budget, pause, restart and the path-traced reference.
+//! Each widget emits its own worker command when it changes.
+
+use crate::app::UiSettings;
+use crate::app::display::set_view_mode;
+use crate::app::widgets::Commands;
+use crate::choice::Choice;
+use crate::film::display::ViewMode;
+use crate::pipeline::directional::DirectionalMode;
+use crate::session::Command;
+use crate::settings::{DirectMode, limits};
+
+/// What the worker renders and how it runs.
+#[derive(Clone, Debug, Default)]
+pub struct RenderingPanel;
+
+impl RenderingPanel {
+    /// Draw the widgets. Accessible names: "Photons per batch", "Samples per pixel", "Width",
+    /// "Height", "NEE", "photons", "Glossy radiance map", "Ray store budget",
+    /// "Pause (Space)" or "Resume (Space)", "Restart", "Path-trace this view". `paused` is
+    /// the worker's state as last reported; the pause button flips it.
+    pub fn ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        settings: &mut UiSettings,
+        paused: &mut bool,
+        out: &mut Commands,
+    ) {
+        ui.heading("Rendering");
+        let r = &mut settings.render;
+        out.on_change(
+            &mut r.photons,
+            |m| {
+                ui.horizontal(|ui| {
+                    let label = ui.label("Photons per batch");
+                    ui.add(
+                        egui::DragValue::new(m)
+                            .range(limits::PHOTONS.range())
+                            .speed(1000),
+                    )
+                    .labelled_by(label.id);
+                });
+            },
+            |&m| Command::SetPhotonsPerBatch(m),
+        );
+        out.on_change(
+            &mut r.spp,
+            |spp| {
+                ui.add(egui::Slider::new(spp, limits::SPP.range()).text("Samples per pixel"));
+            },
+            |&spp| Command::SetSamplesPerPixel(spp),
+        );
+        let mut size = (r.width, r.height);
+        out.on_change(
+            &mut size,
+            |(w, h)| {
+                ui.horizontal(|ui| {
+                    ui.label("Resolution");
+                    let range = limits::RESOLUTION.range();
+                    ui.add(egui::DragValue::new(w).range(range.clone()))
+                        .accessible_name("Width");
+                    ui.label("×");
+                    ui.add(egui::DragValue::new(h).range(range))
+                        .accessible_name("Height");
+                });
+            },
+            |&(width, height)| Command::SetResolution { width, height },
+        );
+        (r.width, r.height) = size;
+        out.on_change(
+            &mut r.direct,
+            |d| {
+                ui.horizontal(|ui| {
+                    ui.label("Direct light");
+                    ui.radio_value(d, DirectMode::Nee, "NEE");
+                    ui.radio_value(d, DirectMode::Photons, "photons");
+                });
+            },
+            |&d| Command::SetDirect(d),
+        );
+        out.on_change(
+            &mut r.radiance_map,
+            |map| {
+                egui::ComboBox::from_label("Glossy radiance map")
+                    .selected_text(directional_label(*map))
+                    .show_ui(ui, |ui| {
+                        for &m in DirectionalMode::ALL {
+                            ui.selectable_value(map, m, directional_label(m));
+                        }
+                    })
+                    .response
+                    .on_hover_text(
+                        "How glossy surfaces store the direction of incident light (§8.1): \
+                         irradiance only (matte), 16 spherical-harmonic coefficients or 20 \
+                         strata per colour channel. Switching re-splats the stored photon rays.",
+                    );
+            },
+            |&m| Command::SetRadianceMap(m),
+        );
+        out.on_change(
+            &mut settings.ray_budget,
+            |budget| {
+                ui.horizontal(|ui| {
+                    let label = ui.label("Ray store budget");
+                    ui.add(
+                        egui::DragValue::new(budget)
+                            .range(limits::RAY_BUDGET.range())
+                            .speed(50_000)
+                            .custom_formatter(|n, _| format!("{:.2}", n / 1e6))
+                            .custom_parser(|s| {
+                                s.trim().parse::<f64>().ok().map(|m| (m * 1e6).round())
+                            })
+                            .suffix(" M rays"),
+                    )
+                    .labelled_by(label.id)
+                    .on_hover_text("Photon rays kept for re-splatting; older batches are folded");
+                });
+            },
+            |&budget| Command::SetRayBudget(budget),
+        );
+        ui.horizontal(|ui| {
+            let label = if *paused {
+                "Resume (Space)"
+            } else {
+                "Pause (Space)"
+            };
+            if ui.button(label).clicked() {
+                toggle_pause(paused, out);
+            }
+            if ui
+                .button("Restart")
+                .on_hover_text("Drop all photons and trace again")
+                .clicked()
+            {
+                out.push(Command::Restart);
+            }
+        });
+        let mut reference = settings.view_mode == ViewMode::Reference;
+        if ui
+            .checkbox(&mut reference, "Path-trace this view")
+            .on_hover_text(
+                "The reference view mode: the worker path-traces the current view progressively \
+                 instead of tracing photon batches.",
+            )
+            .changed()
+        {
+            let mode = if reference {
+                ViewMode::Reference
+            } else {
+                ViewMode::Final
+            };
+            set_view_mode(settings, mode, out);
+        }
+    }
+}
+
+/// Flip `paused` and emit `Pause` or `Resume` to match (the pause button, the Space key).
+pub fn toggle_pause(paused: &mut bool, out: &mut Commands) {
+    *paused = !*paused;
+    out.push(if *paused {
+        Command::Pause
+    } else {
+        Command::Resume
+    });
+}
+
+/// The window's name for a directional mode (§8.1).
+pub fn directional_label(m: DirectionalMode) -> &'static str {
+    match m {
+        DirectionalMode::Diffuse => "diffuse (irradiance only)",
+        DirectionalMode::Sh => "spherical harmonics (16 per channel)",
+        DirectionalMode::Histogram => "histogram (20 strata)",
+    }
+}

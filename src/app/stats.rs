@@ -1,0 +1,148 @@
+//! The status bar: the newest frame's counters ([`StatsPanel`]) and the window's messages
+//! ([`Messages`]: scene loads, warnings, errors, saved snapshots). Neither emits commands.
+
+use crate::session::Frame;
+use egui::{Color32, RichText};
+use std::time::Instant;
+
+/// The newest frame's counters: photons, stored rays, batches, speed, memory, resolution.
+#[derive(Clone, Debug, Default)]
+pub struct StatsPanel;
+
+impl StatsPanel {
+    /// Draw the counters of `frame`, or a waiting note before the first one.
+    pub fn ui(&mut self, ui: &mut egui::Ui, frame: Option<&Frame>) {
+        let Some(f) = frame else {
+            ui.label("waiting for the first image…");
+            return;
+        };
+        let s = &f.stats;
+        ui.horizontal_wrapped(|ui| {
+            ui.label(format!("photons traced {}", s.photons_traced));
+            ui.separator();
+            ui.label(format!(
+                "photon rays {} ({:.1} MB)",
+                s.photon_rays,
+                s.photon_ray_bytes as f64 / 1e6
+            ));
+            ui.separator();
+            ui.label(format!(
+                "batches {} ({} stored)",
+                s.batches, s.stored_batches
+            ));
+            ui.separator();
+            ui.label(format!("{:.0} photons/s", s.photons_per_second));
+            ui.separator();
+            ui.label(format!("splat {:.0} ms/batch", s.last_splat_ms));
+            ui.separator();
+            ui.label(format!(
+                "at h_min {:.1}% / h_max {:.1}%",
+                100.0 * s.indirect_at_h_min,
+                100.0 * s.indirect_at_h_max
+            ))
+            .on_hover_text("indirect photon rays whose bandwidth sits at eq. 8's bounds");
+            ui.separator();
+            ui.label(format!(
+                "eye samples {} ({} splat targets, {:.1} MB with tree and accumulators)",
+                s.eye_samples,
+                s.splat_targets,
+                s.splat_bytes as f64 / 1e6
+            ));
+            if s.glossy_targets > 0 {
+                ui.separator();
+                ui.label(format!(
+                    "glossy targets {} ({:.1} MB directional, {:.0} B each)",
+                    s.glossy_targets,
+                    s.directional_bytes as f64 / 1e6,
+                    s.directional_bytes as f64 / s.glossy_targets as f64
+                ));
+            }
+            ui.separator();
+            ui.label(format!("{}×{}", f.film.width, f.film.height));
+            ui.separator();
+            ui.label(format!("elapsed {:.1} s", s.elapsed_s));
+            if f.film.invalid_contributions > 0 {
+                ui.separator();
+                ui.label(
+                    RichText::new(format!(
+                        "{} NaN/Inf contributions dropped",
+                        f.film.invalid_contributions
+                    ))
+                    .color(Color32::from_rgb(230, 160, 60)),
+                )
+                .on_hover_text(
+                    "Photon rays, light samples or pixels whose value was not finite were \
+                     left out of the image (the scene may hold extreme values).",
+                );
+            }
+            if s.paused {
+                ui.separator();
+                ui.label(RichText::new("paused").strong());
+            }
+            if s.resplat_pending {
+                ui.separator();
+                ui.label("re-splatting…");
+            }
+            if s.reference_spp > 0 {
+                ui.separator();
+                ui.label(format!("reference {} paths/pixel", s.reference_spp));
+            }
+        });
+    }
+}
+
+/// One line of the message list.
+#[derive(Clone, Debug)]
+struct Message {
+    text: String,
+    error: bool,
+    at: Instant,
+}
+
+/// The newest few messages, newest shown first; errors in red.
+#[derive(Clone, Debug, Default)]
+pub struct Messages(Vec<Message>);
+
+impl Messages {
+    /// How many messages are kept.
+    pub const MAX: usize = 6;
+
+    /// Add a note.
+    pub fn info(&mut self, text: String) {
+        self.push(text, false);
+    }
+
+    /// Add an error or a warning (shown in red).
+    pub fn error(&mut self, text: String) {
+        self.push(text, true);
+    }
+
+    fn push(&mut self, text: String, error: bool) {
+        self.0.push(Message {
+            text,
+            error,
+            at: Instant::now(),
+        });
+        if self.0.len() > Self::MAX {
+            self.0.remove(0);
+        }
+    }
+
+    /// The texts, oldest first.
+    pub fn texts(&self) -> Vec<String> {
+        self.0.iter().map(|m| m.text.clone()).collect()
+    }
+
+    /// Draw the messages, newest first, each with its age.
+    pub fn ui(&self, ui: &mut egui::Ui) {
+        for m in self.0.iter().rev() {
+            let age = m.at.elapsed().as_secs();
+            let text = format!("{} ({age} s ago)", m.text);
+            if m.error {
+                ui.colored_label(Color32::from_rgb(240, 110, 100), text);
+            } else {
+                ui.label(text);
+            }
+        }
+    }
+}

@@ -1,0 +1,77 @@
+//! [`UiSettings`]: what the window persists between runs — the render settings the worker
+//! starts from, and the display-only choices beside them.
+
+use crate::film::display::{ToneMap, ViewMode};
+use crate::session::SessionConfig;
+use crate::settings::{RenderSettings, limits};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// The window's settings, persisted between runs in eframe's storage. Every field has a default
+/// (`#[serde(default)]`), so a stored value missing fields still loads; one that does not parse
+/// is dropped for the defaults ([`UiSettings::from_storage`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct UiSettings {
+    /// What the worker renders: resolution, spp, photons per batch, C/S/R, direct light,
+    /// radiance map, radiance cache and image filter.
+    pub render: RenderSettings,
+    /// Photon rays the worker keeps for re-splatting ([`limits::RAY_BUDGET`]).
+    pub ray_budget: usize,
+    /// What the viewport shows of the film.
+    pub view_mode: ViewMode,
+    /// Display exposure, stops ([`limits::EXPOSURE`]).
+    pub exposure: f32,
+    /// Tone mapping of the displayed image.
+    pub tone_map: ToneMap,
+    /// Where snapshots are written.
+    pub snapshot_dir: PathBuf,
+}
+
+impl Default for UiSettings {
+    fn default() -> Self {
+        let s = SessionConfig::default();
+        Self {
+            render: s.settings,
+            ray_budget: s.max_stored_rays,
+            view_mode: ViewMode::Final,
+            exposure: 0.0,
+            tone_map: ToneMap::Aces,
+            snapshot_dir: std::env::current_dir().unwrap_or_else(|_| PathBuf::from(".")),
+        }
+    }
+}
+
+impl UiSettings {
+    /// The key of the settings in eframe's storage.
+    pub const STORAGE_KEY: &'static str = "raysplat-ui";
+
+    /// The persisted settings, moved into [`limits`]; `None` when nothing is stored or the
+    /// stored value does not parse (an older format, a damaged file).
+    pub fn from_storage(storage: &dyn eframe::Storage) -> Option<Self> {
+        eframe::get_value::<UiSettings>(storage, Self::STORAGE_KEY).map(Self::within_limits)
+    }
+
+    /// Store the settings in eframe's storage.
+    pub fn save(&self, storage: &mut dyn eframe::Storage) {
+        eframe::set_value(storage, Self::STORAGE_KEY, self);
+    }
+
+    /// Every numeric setting moved into its range of [`limits`] (the window's widgets show
+    /// the same ranges).
+    pub fn within_limits(mut self) -> Self {
+        self.render = self.render.within_limits();
+        self.ray_budget = limits::RAY_BUDGET.clamp(self.ray_budget);
+        self.exposure = limits::EXPOSURE.clamp(self.exposure);
+        self
+    }
+
+    /// The worker's configuration for these settings.
+    pub fn session_config(&self) -> SessionConfig {
+        SessionConfig {
+            settings: self.render.clone(),
+            max_stored_rays: self.ray_budget,
+            ..SessionConfig::default()
+        }
+    }
+}

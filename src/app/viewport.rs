@@ -1,0 +1,224 @@
+//! The viewport: the displayed image as a texture, the orbit camera the mouse drives (each move
+//! emits an interactive [`Command::SetCamera`], and a final one once the camera rests), the
+//! pixel probe under the pointer and the false-colour legend.
+
+use crate::app::widgets::Commands;
+use crate::film::display::{DisplayImage, ViewMode};
+use crate::film::false_colour;
+use crate::scene::Camera;
+use crate::session::{Command, Frame};
+use egui::{Color32, TextureHandle, TextureOptions, Vec2};
+use glam::Vec3;
+use std::time::{Duration, Instant};
+
+/// The camera the mouse controls: orbit around `target`.
+#[derive(Clone, Debug)]
+struct Orbit {
+    target: Vec3,
+    distance: f32,
+    yaw: f32,
+    pitch: f32,
+    yfov: f32,
+}
+
+impl Orbit {
+    fn from_camera(c: &Camera, scene_center: Vec3) -> Self {
+        let f = c.forward.normalize();
+        let distance = (scene_center - c.position).dot(f).max(1e-3);
+        Self {
+            target: c.position + f * distance,
+            distance,
+            yaw: f.x.atan2(-f.z),
+            pitch: f.y.clamp(-1.0, 1.0).asin(),
+            yfov: c.yfov,
+        }
+    }
+
+    fn forward(&self) -> Vec3 {
+        Vec3::new(
+            self.yaw.sin() * self.pitch.cos(),
+            self.pitch.sin(),
+            -self.yaw.cos() * self.pitch.cos(),
+        )
+    }
+
+    fn camera(&self) -> Camera {
+        let f = self.forward();
+        Camera::look_at(
+            "orbit",
+            self.target - f * self.distance,
+            self.target,
+            self.yfov,
+        )
+    }
+}
+
+/// The image area of the window.
+#[derive(Default)]
+pub(crate) struct Viewport {
+    texture: Option<TextureHandle>,
+    /// Centre of the scene's bounding box: the orbit's pivot depth.
+    center: Vec3,
+    orbit: Option<Orbit>,
+    /// The camera is being moved (interactive frames); when it settles a final view is sent.
+    moving_since: Option<Instant>,
+}
+
+impl Viewport {
+    /// A new scene: orbit around `center`, starting at `camera`.
+    pub(crate) fn set_scene(&mut self, center: Vec3, camera: Option<&Camera>) {
+        self.center = center;
+        self.orbit = camera.map(|c| Orbit::from_camera(c, center));
+        self.moving_since = None;
+    }
+
+    /// Put the orbit at `camera` (a camera was chosen in the camera panel).
+    pub(crate) fn reset_orbit(&mut self, camera: &Camera) {
+        self.orbit = Some(Orbit::from_camera(camera, self.center));
+        self.moving_since = None;
+    }
+
+    /// Show `img`.
+    pub(crate) fn set_image(&mut self, ctx: &egui::Context, img: &DisplayImage) {
+        let color = egui::ColorImage::from_rgba_unmultiplied(
+            [img.width as usize, img.height as usize],
+            &img.rgba,
+        );
+        match &mut self.texture {
+            Some(t) => t.set(color, TextureOptions::LINEAR),
+            None => self.texture = Some(ctx.load_texture("render", color, TextureOptions::LINEAR)),
+        }
+    }
+
+    /// Draw the image (scaled to fit), the pixel probe and the legend; mouse input moves the
+    /// orbit and emits `SetCamera`.
+    pub(crate) fn ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        frame: Option<&Frame>,
+        shown: Option<&DisplayImage>,
+        view_mode: ViewMode,
+        out: &mut Commands,
+    ) {
+        let Some(tex) = &self.texture else {
+            ui.centered_and_justified(|ui| ui.spinner());
+            return;
+        };
+        let legend = shown.and_then(|s| s.legend.as_ref());
+        let legend_h = if legend.is_some() { 28.0 } else { 0.0 };
+        let avail = ui.available_size() - Vec2::new(0.0, legend_h);
+        let size = tex.size_vec2();
+        let scale = (avail.x / size.x).min(avail.y / size.y).max(0.05);
+        let response =
+            ui.add(egui::Image::new((tex.id(), size * scale)).sense(egui::Sense::click_and_drag()));
+        self.camera_input(ui, &response, out);
+        if let (Some(pos), Some(f)) = (response.hover_pos(), frame) {
+            probe(response, pos, f);
+        }
+        if let Some(legend) = legend {
+            ui.horizontal(|ui| {
+                ui.label(format!("{:.4} {}", legend.min, legend.unit));
+                let (rect, _) =
+                    ui.allocate_exact_size(Vec2::new(200.0, 14.0), egui::Sense::hover());
+                let n = 50;
+                for k in 0..n {
+                    let c = false_colour(k as f32 / (n - 1) as f32);
+                    let x0 = rect.min.x + rect.width() * k as f32 / n as f32;
+                    let x1 = rect.min.x + rect.width() * (k + 1) as f32 / n as f32;
+                    ui.painter().rect_filled(
+                        egui::Rect::from_min_max(
+                            egui::pos2(x0, rect.min.y),
+                            egui::pos2(x1, rect.max.y),
+                        ),
+                        0.0,
+                        Color32::from_rgb(c[0], c[1], c[2]),
+                    );
+                }
+                ui.label(format!("{:.4} {}", legend.max, legend.unit));
+                ui.label(format!("({}, red = smallest)", view_mode.label()));
+            });
+        }
+    }
+
+    fn camera_input(&mut self, ui: &egui::Ui, response: &egui::Response, out: &mut Commands) {
+        let Some(orbit) = self.orbit.as_mut() else {
+            return;
+        };
+        let mut moved = false;
+        if response.dragged() {
+            let d = response.drag_delta();
+            let pan =
+                ui.input(|i| i.modifiers.shift) || response.dragged_by(egui::PointerButton::Middle);
+            if pan {
+                let f = orbit.forward();
+                let right = f.cross(Vec3::Y).normalize_or(Vec3::X);
+                let up = right.cross(f);
+                let k = orbit.distance * 2.0 * (0.5 * orbit.yfov).tan()
+                    / response.rect.height().max(1.0);
+                orbit.target += (-d.x * right + d.y * up) * k;
+            } else {
+                orbit.yaw += d.x * 0.008;
+                orbit.pitch = (orbit.pitch - d.y * 0.008).clamp(-1.5, 1.5);
+            }
+            moved = d != Vec2::ZERO;
+        }
+        if response.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0 {
+                orbit.distance = (orbit.distance * (-scroll * 0.002).exp()).max(1e-3);
+                moved = true;
+            }
+        }
+        let interactive = if moved {
+            self.moving_since = Some(Instant::now());
+            Some(true)
+        } else if let Some(t) = self.moving_since
+            && !response.dragged()
+            && t.elapsed() > Duration::from_millis(150)
+        {
+            // The camera came to rest: render the full-resolution view.
+            self.moving_since = None;
+            Some(false)
+        } else {
+            None
+        };
+        if let Some(interactive) = interactive {
+            out.push(Command::SetCamera {
+                camera: orbit.camera(),
+                interactive,
+            });
+        }
+        if self.moving_since.is_some() {
+            ui.ctx().request_repaint_after(Duration::from_millis(50));
+        }
+    }
+}
+
+/// The film's values at the pixel under the pointer, in a tooltip.
+fn probe(response: egui::Response, pos: egui::Pos2, f: &Frame) {
+    let r = response.rect;
+    let px = ((pos.x - r.min.x) / r.width() * f.film.width as f32) as u32;
+    let py = ((pos.y - r.min.y) / r.height() * f.film.height as f32) as u32;
+    if px >= f.film.width || py >= f.film.height {
+        return;
+    }
+    let i = (py * f.film.width + px) as usize;
+    let film = &f.film;
+    response.on_hover_ui_at_pointer(|ui| {
+        ui.label(format!("pixel ({px}, {py})"));
+        ui.label(format!("radiance {}", fmt3(film.rgb[i])));
+        ui.label(format!("direct {}", fmt3(film.direct[i])));
+        ui.label(format!("indirect {}", fmt3(film.indirect[i])));
+        ui.label(format!("bandwidth {:.4} m", film.bandwidth[i]));
+        ui.label(format!("kernel weight {:.3}", film.kernel_weight[i]));
+        ui.label(format!("splats per batch {:.0}", film.splats[i]));
+        ui.label(format!(
+            "harmonic mean distance {:.3} m",
+            film.harmonic_distance[i]
+        ));
+    });
+}
+
+fn fmt3(c: Vec3) -> String {
+    format!("({:.4}, {:.4}, {:.4})", c.x, c.y, c.z)
+}

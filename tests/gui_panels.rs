@@ -1,0 +1,565 @@
+//! Each panel of the window on its own, without a worker thread: draw it in an egui_kittest
+//! harness over a settings value, move one widget through its accessibility node, and check
+//! the exact worker commands it emitted and the settings it changed — and that a panel whose
+//! widgets did not change emits nothing.
+
+use egui::accesskit::Role;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use raysplat::app::UiSettings;
+use raysplat::app::bandwidth::BandwidthPanel;
+use raysplat::app::cache_filter::CacheFilterPanel;
+use raysplat::app::camera::CameraPanel;
+use raysplat::app::display::DisplayPanel;
+use raysplat::app::rendering::RenderingPanel;
+use raysplat::app::snapshots::{SnapshotPanel, SnapshotRequest};
+use raysplat::app::stats::{Messages, StatsPanel};
+use raysplat::app::widgets::Commands;
+use raysplat::film::Film;
+use raysplat::film::display::{ToneMap, ViewMode};
+use raysplat::pipeline::directional::DirectionalMode;
+use raysplat::scene::Camera;
+use raysplat::session::{Command, Frame, SessionStats};
+use raysplat::settings::{DirectMode, RenderSettings, limits};
+use std::path::PathBuf;
+
+/// A panel, the settings it edits, what it emitted and what it returned.
+struct State<P, R = ()> {
+    panel: P,
+    settings: UiSettings,
+    out: Commands,
+    returned: Vec<R>,
+}
+
+fn settings() -> UiSettings {
+    UiSettings {
+        snapshot_dir: PathBuf::from("/tmp/snapshots"),
+        ..UiSettings::default()
+    }
+}
+
+/// A harness drawing `draw` over a fresh [`State`]; it runs a few frames and checks that
+/// drawing alone emitted nothing.
+fn harness<P: 'static, R: 'static>(
+    panel: P,
+    settings: UiSettings,
+    draw: impl FnMut(&mut egui::Ui, &mut State<P, R>) + 'static,
+) -> Harness<'static, State<P, R>> {
+    let state = State {
+        panel,
+        settings: settings.clone(),
+        out: Commands::new(),
+        returned: Vec::new(),
+    };
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(500.0, 700.0))
+        .build_ui_state(draw, state);
+    h.run_steps(3);
+    assert_commands(&mut h.state_mut().out, &[]);
+    assert_eq!(
+        h.state().settings,
+        settings,
+        "drawing alone changed settings"
+    );
+    h
+}
+
+/// The emitted commands are exactly `expected` (compared by their debug form: `Command` has no
+/// `PartialEq`); clears them.
+#[track_caller]
+fn assert_commands(out: &mut Commands, expected: &[Command]) {
+    assert_eq!(format!("{:?}", out.take()), format!("{expected:?}"));
+}
+
+/// Click a combo box, then its entry `entry`.
+fn choose<S>(h: &mut Harness<'_, S>, combo: &str, entry: &str) {
+    h.get_by_role_and_label(Role::ComboBox, combo).click();
+    h.run_steps(3);
+    h.get_by_label(entry).click();
+    h.run_steps(3);
+}
+
+fn bandwidth_harness(stats: Option<SessionStats>) -> Harness<'static, State<BandwidthPanel>> {
+    harness(BandwidthPanel, settings(), move |ui, s| {
+        s.panel.ui(ui, &mut s.settings, stats.as_ref(), &mut s.out)
+    })
+}
+
+#[test]
+fn bandwidth_panel_emits_set_bandwidth() {
+    let mut h = bandwidth_harness(None);
+    for (label, value) in [("C", 0.3), ("S", 0.55), ("R", 0.35)] {
+        h.get_by_role_and_label(Role::Slider, label)
+            .set_value_accesskit(value);
+        h.run_steps(2);
+    }
+    let mut expected = settings();
+    let b = &mut expected.render.bandwidth;
+    let mut commands = Vec::new();
+    b.smoothness_c = 0.3;
+    commands.push(Command::SetBandwidth(*b));
+    b.sensitivity_s = 0.55;
+    commands.push(Command::SetBandwidth(*b));
+    b.max_bandwidth_r = 0.35;
+    commands.push(Command::SetBandwidth(*b));
+    assert_commands(&mut h.state_mut().out, &commands);
+    assert_eq!(h.state().settings, expected);
+    // Beyond the limits table's range the slider stops at its end.
+    h.get_by_role_and_label(Role::Slider, "C")
+        .set_value_accesskit(100.0);
+    h.run_steps(2);
+    expected.render.bandwidth.smoothness_c = limits::SMOOTHNESS_C.max;
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetBandwidth(expected.render.bandwidth)],
+    );
+    assert!(h.query_by_label_contains("Ray store full").is_none());
+}
+
+#[test]
+fn bandwidth_panel_warns_when_the_ray_store_is_full() {
+    let stats = SessionStats {
+        folded_batches: 3,
+        photon_rays: 1234,
+        ..SessionStats::default()
+    };
+    let mut h = bandwidth_harness(Some(stats));
+    h.get_by_label_contains("Ray store full: 3 older batches");
+    assert_commands(&mut h.state_mut().out, &[]);
+}
+
+fn cache_filter_harness() -> Harness<'static, State<CacheFilterPanel>> {
+    let stats = SessionStats {
+        cache_records: 77,
+        ..SessionStats::default()
+    };
+    harness(CacheFilterPanel, settings(), move |ui, s| {
+        s.panel.ui(ui, &mut s.settings, Some(&stats), &mut s.out)
+    })
+}
+
+#[test]
+fn cache_panel_emits_set_cache() {
+    let mut h = cache_filter_harness();
+    h.get_by_label("77 cache records");
+    h.get_by_label("Resolve through the radiance cache").click();
+    h.run_steps(2);
+    let mut expected = settings();
+    expected.render.cache_on = true;
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetCache {
+            on: true,
+            params: expected.render.cache,
+        }],
+    );
+    h.get_by_role_and_label(Role::Slider, "ε")
+        .set_value_accesskit(0.2);
+    h.run_steps(2);
+    expected.render.cache.error = 0.2;
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetCache {
+            on: true,
+            params: expected.render.cache,
+        }],
+    );
+    h.get_by_role_and_label(Role::SpinButton, "Min. records per pixel")
+        .set_value_accesskit(8.0);
+    h.run_steps(2);
+    expected.render.cache.min_records = 8;
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetCache {
+            on: true,
+            params: expected.render.cache,
+        }],
+    );
+    assert_eq!(h.state().settings, expected);
+}
+
+#[test]
+fn filter_panel_emits_set_filter() {
+    let mut h = cache_filter_harness();
+    h.get_by_label("Filter the indirect light").click();
+    h.run_steps(2);
+    let mut expected = settings();
+    expected.render.filter.enabled = true;
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetFilter(expected.render.filter)],
+    );
+    h.get_by_role_and_label(Role::Slider, "strength")
+        .set_value_accesskit(2.5);
+    h.run_steps(2);
+    expected.render.filter.strength = 2.5;
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetFilter(expected.render.filter)],
+    );
+    assert_eq!(h.state().settings, expected);
+}
+
+type RenderingHarness = Harness<'static, State<(RenderingPanel, bool)>>;
+
+/// Set the widget `label` of `role` to `value` and check that it emitted `command` alone.
+#[track_caller]
+fn step(h: &mut RenderingHarness, role: Role, label: &str, value: f64, command: Command) {
+    h.get_by_role_and_label(role, label)
+        .set_value_accesskit(value);
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[command]);
+}
+
+/// The rendering panel and the `paused` flag it flips.
+fn rendering_harness() -> RenderingHarness {
+    harness((RenderingPanel, false), settings(), |ui, s| {
+        let (panel, paused) = &mut s.panel;
+        panel.ui(ui, &mut s.settings, paused, &mut s.out)
+    })
+}
+
+#[test]
+fn rendering_panel_emits_one_command_per_widget() {
+    let mut h = rendering_harness();
+    let mut expected = settings();
+    step(
+        &mut h,
+        Role::SpinButton,
+        "Photons per batch",
+        50_000.0,
+        Command::SetPhotonsPerBatch(50_000),
+    );
+    step(
+        &mut h,
+        Role::Slider,
+        "Samples per pixel",
+        4.0,
+        Command::SetSamplesPerPixel(4),
+    );
+    let height = expected.render.height;
+    step(
+        &mut h,
+        Role::SpinButton,
+        "Width",
+        128.0,
+        Command::SetResolution { width: 128, height },
+    );
+    step(
+        &mut h,
+        Role::SpinButton,
+        "Ray store budget",
+        1_500_000.0,
+        Command::SetRayBudget(1_500_000),
+    );
+    // The limits table bounds every widget.
+    step(
+        &mut h,
+        Role::Slider,
+        "Samples per pixel",
+        1000.0,
+        Command::SetSamplesPerPixel(limits::SPP.max),
+    );
+    step(
+        &mut h,
+        Role::SpinButton,
+        "Height",
+        1.0,
+        Command::SetResolution {
+            width: 128,
+            height: limits::RESOLUTION.min,
+        },
+    );
+    expected.render.photons = 50_000;
+    expected.render.spp = limits::SPP.max;
+    expected.render.width = 128;
+    expected.render.height = limits::RESOLUTION.min;
+    expected.ray_budget = 1_500_000;
+    assert_eq!(h.state().settings, expected);
+
+    h.get_by_label("photons").click();
+    h.run_steps(2);
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetDirect(DirectMode::Photons)],
+    );
+    choose(&mut h, "Glossy radiance map", "histogram (20 strata)");
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetRadianceMap(DirectionalMode::Histogram)],
+    );
+    expected.render.direct = DirectMode::Photons;
+    expected.render.radiance_map = DirectionalMode::Histogram;
+    assert_eq!(h.state().settings, expected);
+}
+
+#[test]
+fn rendering_panel_pauses_restarts_and_path_traces() {
+    let mut h = rendering_harness();
+    h.get_by_label("Pause (Space)").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::Pause]);
+    assert!(h.state().panel.1, "the pause button pauses");
+    h.get_by_label("Resume (Space)").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::Resume]);
+    assert!(!h.state().panel.1);
+    h.get_by_label("Restart").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::Restart]);
+    h.get_by_label("Path-trace this view").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::SetReference(true)]);
+    assert_eq!(h.state().settings.view_mode, ViewMode::Reference);
+    h.get_by_label("Path-trace this view").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::SetReference(false)]);
+    assert_eq!(h.state().settings, settings());
+}
+
+#[test]
+fn camera_panel_emits_set_camera() {
+    let cameras = vec![
+        Camera::look_at("front", glam::Vec3::Z * 3.0, glam::Vec3::ZERO, 0.8),
+        Camera::look_at("side", glam::Vec3::X * 3.0, glam::Vec3::ZERO, 0.6),
+    ];
+    let mut h = harness(
+        CameraPanel::new(cameras.clone()),
+        settings(),
+        |ui, s: &mut State<CameraPanel, Camera>| {
+            if let Some(c) = s.panel.ui(ui, &mut s.out) {
+                s.returned.push(c);
+            }
+        },
+    );
+    assert!(h.state().returned.is_empty());
+    choose(&mut h, "Camera", "side");
+    let chosen = Command::SetCamera {
+        camera: cameras[1].clone(),
+        interactive: false,
+    };
+    assert_commands(&mut h.state_mut().out, std::slice::from_ref(&chosen));
+    assert_eq!(h.state().panel.selected, 1);
+    assert_eq!(h.state().returned, std::slice::from_ref(&cameras[1]));
+    h.get_by_label("Reset").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[chosen]);
+    assert_eq!(h.state().returned.len(), 2);
+}
+
+fn display_harness() -> Harness<'static, State<DisplayPanel>> {
+    harness(DisplayPanel, settings(), |ui, s| {
+        s.panel.ui(ui, &mut s.settings, &mut s.out)
+    })
+}
+
+#[test]
+fn display_panel_changes_the_look_without_commands() {
+    let mut h = display_harness();
+    choose(&mut h, "View", "Bandwidth (false colour)");
+    h.get_by_role_and_label(Role::Slider, "Exposure (stops)")
+        .set_value_accesskit(2.0);
+    h.run_steps(2);
+    choose(&mut h, "Tone mapping", "Reinhard");
+    assert_commands(&mut h.state_mut().out, &[]);
+    let expected = UiSettings {
+        view_mode: ViewMode::Bandwidth,
+        exposure: 2.0,
+        tone_map: ToneMap::Reinhard,
+        ..settings()
+    };
+    assert_eq!(h.state().settings, expected);
+}
+
+#[test]
+fn display_panel_view_modes_that_need_the_worker() {
+    let mut h = display_harness();
+    choose(&mut h, "View", "Reference (path traced)");
+    assert_commands(&mut h.state_mut().out, &[Command::SetReference(true)]);
+    // Leaving the reference for the records turns the path tracer off and the cache on.
+    choose(&mut h, "View", "Cache records (radii)");
+    let params = settings().render.cache;
+    assert_commands(
+        &mut h.state_mut().out,
+        &[
+            Command::SetReference(false),
+            Command::SetCache { on: true, params },
+        ],
+    );
+    let s = &h.state().settings;
+    assert_eq!(s.view_mode, ViewMode::CacheRecords);
+    assert!(s.render.cache_on);
+}
+
+#[test]
+fn snapshot_panel_edits_the_folder_and_asks_to_save() {
+    let mut h = harness(
+        SnapshotPanel,
+        settings(),
+        |ui, s: &mut State<SnapshotPanel, SnapshotRequest>| {
+            if let Some(r) = s.panel.ui(ui, &mut s.settings) {
+                s.returned.push(r);
+            }
+        },
+    );
+    assert!(h.state().returned.is_empty());
+    h.get_by_label("Save snapshot").click();
+    h.run_steps(2);
+    h.get_by_label("Choose…").click();
+    h.run_steps(2);
+    assert_eq!(
+        h.state().returned,
+        [SnapshotRequest::Save, SnapshotRequest::ChooseFolder]
+    );
+    let field = h.get_by_role_and_label(Role::TextInput, "Snapshot folder");
+    field.focus();
+    h.run_steps(1);
+    h.get_by_role_and_label(Role::TextInput, "Snapshot folder")
+        .type_text("/more");
+    h.run_steps(2);
+    assert_eq!(
+        h.state().settings.snapshot_dir,
+        PathBuf::from("/tmp/snapshots/more")
+    );
+    assert_commands(&mut h.state_mut().out, &[]);
+}
+
+#[test]
+fn stats_panel_shows_the_frame() {
+    let mut h = harness(
+        (StatsPanel, None::<Frame>),
+        settings(),
+        |ui, s: &mut State<(StatsPanel, Option<Frame>)>| {
+            let (panel, frame) = &mut s.panel;
+            panel.ui(ui, frame.as_ref());
+        },
+    );
+    h.get_by_label("waiting for the first image…");
+    let film = Film::new(32, 16);
+    h.state_mut().panel.1 = Some(Frame {
+        film,
+        seq: 3,
+        generation: 1,
+        scene_name: "box".into(),
+        scene_path: None,
+        camera: Camera::look_at("c", glam::Vec3::Z, glam::Vec3::ZERO, 0.8),
+        settings: RenderSettings::default(),
+        interactive: false,
+        cache_records: Vec::new(),
+        stats: SessionStats {
+            photons_traced: 1234,
+            paused: true,
+            ..SessionStats::default()
+        },
+        reference: None,
+    });
+    h.run_steps(2);
+    h.get_by_label("photons traced 1234");
+    h.get_by_label("32×16");
+    h.get_by_label("paused");
+    assert!(h.query_by_label("waiting for the first image…").is_none());
+}
+
+#[test]
+fn messages_keep_the_newest_and_show_them_first() {
+    let mut m = Messages::default();
+    for k in 0..8 {
+        if k % 2 == 0 {
+            m.info(format!("note {k}"));
+        } else {
+            m.error(format!("error {k}"));
+        }
+    }
+    let texts = m.texts();
+    assert_eq!(texts.len(), Messages::MAX);
+    assert_eq!(texts.first().unwrap(), "note 2");
+    assert_eq!(texts.last().unwrap(), "error 7");
+    let h = Harness::new_ui(move |ui| m.ui(ui));
+    h.get_by_label_contains("error 7 (");
+    assert!(h.query_by_label_contains("note 0").is_none());
+}
+
+#[derive(Default)]
+struct MemStorage(std::collections::HashMap<String, String>);
+
+impl eframe::Storage for MemStorage {
+    fn get_string(&self, key: &str) -> Option<String> {
+        self.0.get(key).cloned()
+    }
+
+    fn set_string(&mut self, key: &str, value: String) {
+        self.0.insert(key.to_string(), value);
+    }
+
+    fn remove_string(&mut self, key: &str) {
+        self.0.remove(key);
+    }
+
+    fn flush(&mut self) {}
+}
+
+/// The settings as the window persisted them before they embedded `RenderSettings`.
+#[derive(serde::Serialize)]
+struct OldUiSettings {
+    photons_per_batch: u64,
+    spp: u32,
+    width: u32,
+    height: u32,
+    cache_on: bool,
+    exposure: f32,
+    ray_budget: usize,
+    snapshot_dir: PathBuf,
+}
+
+#[test]
+fn persisted_settings_load_or_fall_back_to_the_defaults() {
+    let mut storage = MemStorage::default();
+    assert_eq!(UiSettings::from_storage(&storage), None);
+    // A round trip keeps everything.
+    let mut s = settings();
+    s.render.width = 64;
+    s.render.bandwidth.smoothness_c = 0.7;
+    s.view_mode = ViewMode::Bandwidth;
+    s.save(&mut storage);
+    assert_eq!(UiSettings::from_storage(&storage), Some(s));
+    // The old flat format: the render settings it held are dropped for the defaults, the
+    // display fields it shares are kept.
+    let old = OldUiSettings {
+        photons_per_batch: 4000,
+        spp: 2,
+        width: 64,
+        height: 64,
+        cache_on: true,
+        exposure: 1.5,
+        ray_budget: 1_000_000,
+        snapshot_dir: PathBuf::from("/tmp/old"),
+    };
+    eframe::set_value(&mut storage, UiSettings::STORAGE_KEY, &old);
+    let loaded = UiSettings::from_storage(&storage).expect("the old format loads");
+    assert_eq!(loaded.render, UiSettings::default().render);
+    assert_eq!(
+        (loaded.exposure, loaded.ray_budget, loaded.snapshot_dir),
+        (1.5, 1_000_000, PathBuf::from("/tmp/old"))
+    );
+    // Values beyond the limits are moved into them.
+    storage.set_string_for_test("(exposure: 100.0, ray_budget: 1)");
+    let loaded = UiSettings::from_storage(&storage).expect("loads");
+    assert_eq!(loaded.exposure, limits::EXPOSURE.max);
+    assert_eq!(loaded.ray_budget, limits::RAY_BUDGET.min);
+    // A render block missing fields, or no settings at all, does not parse: the window
+    // starts from the defaults.
+    for text in [
+        "(render: (width: 64))",
+        "not ron at all",
+        "(exposure: \"x\")",
+    ] {
+        storage.set_string_for_test(text);
+        assert_eq!(UiSettings::from_storage(&storage), None, "{text}");
+    }
+}
+
+impl MemStorage {
+    fn set_string_for_test(&mut self, value: &str) {
+        eframe::Storage::set_string(self, UiSettings::STORAGE_KEY, value.to_string());
+    }
+}
