@@ -39,8 +39,8 @@ fn harness(snapshot_dir: PathBuf) -> Harness<'static, App> {
             App::new(
                 cc,
                 AppOptions {
-                    scene: None,
                     settings: Some(settings),
+                    ..AppOptions::default()
                 },
             )
         })

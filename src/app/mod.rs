@@ -34,4 +34,4 @@ mod window;
 
 pub use ui_settings::UiSettings;
 pub use widgets::Commands;
-pub use window::{App, AppOptions};
+pub use window::{App, AppOptions, LoadedScene};

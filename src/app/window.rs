@@ -22,11 +22,32 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
+/// A scene loaded before the window opens (by the command line, which reports a failure on
+/// stderr instead of opening the window).
+#[derive(Clone)]
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Arc<Scene>,
+    /// Its file (none for the built-in scenes).
+    pub path: Option<PathBuf>,
+}
+
+impl std::fmt::Debug for LoadedScene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LoadedScene")
+            .field("scene", &self.scene.name)
+            .field("path", &self.path)
+            .finish()
+    }
+}
+
 /// How to start the previewer.
 #[derive(Clone, Debug, Default)]
 pub struct AppOptions {
     /// A scene file to open; the embedded CORNELL BOX I when absent or unloadable.
     pub scene: Option<PathBuf>,
+    /// A scene already loaded (it takes precedence over `scene`).
+    pub loaded: Option<LoadedScene>,
     /// Use these settings instead of the persisted ones (tests).
     pub settings: Option<UiSettings>,
 }
@@ -77,15 +98,16 @@ impl App {
     pub fn with_context(ctx: &egui::Context, options: AppOptions, settings: UiSettings) -> Self {
         let mut settings = settings.within_limits();
         let mut messages = Messages::default();
-        let (scene, path) = match &options.scene {
-            Some(p) => match Scene::load(p) {
-                Ok(s) => (s, Some(p.clone())),
+        let (scene, path) = match (options.loaded, &options.scene) {
+            (Some(l), _) => (l.scene, l.path),
+            (None, Some(p)) => match Scene::load(p) {
+                Ok(s) => (Arc::new(s), Some(p.clone())),
                 Err(e) => {
                     messages.error(format!("{e} — showing the embedded CORNELL BOX I instead"));
-                    (Scene::default_scene(), None)
+                    (Arc::new(Scene::default_scene()), None)
                 }
             },
-            None => (Scene::default_scene(), None),
+            (None, None) => (Arc::new(Scene::default_scene()), None),
         };
         // The view modes that need the worker (a persisted one included).
         if settings.view_mode == ViewMode::CacheRecords {
@@ -93,7 +115,7 @@ impl App {
         }
         let repaint = ctx.clone();
         let session = Session::spawn(
-            Arc::new(scene),
+            scene,
             path,
             settings.session_config(),
             Some(Arc::new(move || repaint.request_repaint())),

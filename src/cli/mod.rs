@@ -24,25 +24,29 @@ use std::sync::{Arc, OnceLock};
 #[command(
     name = "raysplat",
     version,
-    about = "Global illumination previews by photon ray splatting"
+    about = "Global illumination previews by photon ray splatting",
+    args_conflicts_with_subcommands = true,
+    after_help = "`raysplat SCENE` opens the previewer on SCENE (as `raysplat view SCENE`)."
 )]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
+    #[command(flatten)]
+    view: view::ViewArgs,
 }
 
 #[derive(Subcommand)]
 enum Command {
     /// Open the interactive previewer (the default when no command is given).
     View(view::ViewArgs),
-    /// Render a scene headless to EXR (and PNG).
+    /// Render a scene headless to an image (EXR, PNG or JPEG, from the extension).
     Render(args::RenderArgs),
     /// Reproduce Table 2's CORNELL BOX I row and report timings and memory.
     Bench(bench::BenchArgs),
     /// Render several methods with the same photons and eye samples and compare them with a
     /// reference (the path tracer at high spp unless --reference is given).
     Compare(compare::CompareArgs),
-    /// Tone-map a linear EXR to an sRGB PNG (exposure in stops, ACES filmic or clamp).
+    /// Tone-map a linear EXR to a PNG or JPEG with the window's tone curves.
     Tonemap(tonemap::TonemapArgs),
     /// Write the project's generated scenes (.glb) into a folder.
     Scenes(scenes::ScenesArgs),
@@ -52,7 +56,7 @@ enum Command {
 pub fn main() -> i32 {
     let cli = Cli::parse();
     let result = match cli.command {
-        None => view::run(view::ViewArgs::default()),
+        None => view::run(cli.view),
         Some(Command::View(args)) => view::run(args),
         Some(Command::Render(args)) => render::run(args),
         Some(Command::Bench(args)) => bench::run(args),

@@ -1,16 +1,31 @@
-//! `view` (the default command): the interactive previewer window.
+//! `view` (the default command, also `raysplat SCENE`): the interactive previewer window.
 
+use super::load_scene;
 use clap::Args;
+use raysplat::app::LoadedScene;
 use std::path::PathBuf;
+use std::sync::Arc;
 
+/// `view [SCENE]`.
 #[derive(Args, Default)]
 pub struct ViewArgs {
-    /// A .gltf/.glb file; without it, the embedded CORNELL BOX I.
-    scene: Option<PathBuf>,
+    /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic |
+    /// builtin:glossy; without it, the embedded CORNELL BOX I.
+    pub scene: Option<String>,
 }
 
-/// Opens the previewer window on `args`' scene and returns when it closes.
+/// Loads the scene (a failure is reported here, on stderr, and no window opens), then opens
+/// the previewer window on it and returns when the window closes.
 pub fn run(args: ViewArgs) -> Result<(), String> {
+    let scene = load_scene(args.scene.as_deref())?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let path = args
+        .scene
+        .as_deref()
+        .filter(|s| !s.starts_with("builtin:"))
+        .map(PathBuf::from);
     let options = eframe::NativeOptions {
         renderer: eframe::Renderer::Wgpu,
         viewport: egui::ViewportBuilder::default()
@@ -20,8 +35,11 @@ pub fn run(args: ViewArgs) -> Result<(), String> {
         ..Default::default()
     };
     let app_options = raysplat::app::AppOptions {
-        scene: args.scene,
-        settings: None,
+        loaded: Some(LoadedScene {
+            scene: Arc::new(scene),
+            path,
+        }),
+        ..Default::default()
     };
     eframe::run_native(
         "raysplat",
