@@ -11,16 +11,22 @@ use std::f32::consts::{FRAC_1_PI, PI};
 /// A sampled direction. `weight` = f_r · |cos θ_i| / pdf (the throughput factor).
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
+    /// The sampled unit direction towards the next vertex.
     pub wi: Vec3,
+    /// f_r·|cos θ_i|/pdf; for specular events the lobe's colour over its probability.
     pub weight: Vec3,
     /// Solid-angle pdf; for specular events the discrete probability of the chosen lobe.
     pub pdf: f32,
+    /// A Dirac-delta lobe was sampled (mirror, or the dielectric's reflection or refraction).
     pub specular: bool,
 }
 
+/// A scattering model at one surface point (a material evaluated at a hit).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bsdf {
+    /// Ideal diffuse reflection, f = albedo/π.
     Lambert {
+        /// Diffuse reflectance (linear RGB).
         albedo: Vec3,
     },
     /// Moderately glossy (§8.1): a Lambertian part plus a normalised modified-Phong lobe
@@ -28,15 +34,23 @@ pub enum Bsdf {
     /// f = kd/π + ks·(e+2)/(2π)·cos^e α, α the angle between wi and the mirror direction of wo.
     /// Energy-conserving whenever kd + ks ≤ 1 per channel (see [`glossy_from_pbr`]).
     Glossy {
+        /// Diffuse reflectance of the Lambertian part.
         kd: Vec3,
+        /// Reflectance of the glossy lobe.
         ks: Vec3,
+        /// Phong exponent e ([`phong_exponent`] of the roughness).
         exponent: f32,
     },
+    /// Perfect specular reflection.
     Mirror {
+        /// Reflectance.
         color: Vec3,
     },
+    /// Smooth glass: Fresnel-weighted specular reflection and refraction.
     Dielectric {
+        /// Index of refraction (inside over outside, the normal pointing outside).
         ior: f32,
+        /// Colour of the transmitted light (reflection is untinted).
         tint: Vec3,
     },
 }
@@ -47,6 +61,8 @@ impl Bsdf {
         !matches!(self, Bsdf::Lambert { .. } | Bsdf::Glossy { .. })
     }
 
+    /// f_r(wo, wi) without the cosine; zero for delta lobes and for directions on opposite
+    /// sides of `n`.
     pub fn eval(&self, wo: Vec3, wi: Vec3, n: Vec3) -> Vec3 {
         match *self {
             Bsdf::Lambert { albedo } => {
@@ -68,6 +84,7 @@ impl Bsdf {
         }
     }
 
+    /// Solid-angle pdf with which [`Bsdf::sample`] picks `wi` given `wo` (0 for delta lobes).
     pub fn pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
         match *self {
             Bsdf::Lambert { .. } => {

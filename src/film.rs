@@ -12,7 +12,9 @@ use std::path::{Path, PathBuf};
 /// A rendered image with the buffers the view modes show.
 #[derive(Clone, Debug)]
 pub struct Film {
+    /// Width (pixels).
     pub width: u32,
+    /// Height (pixels).
     pub height: u32,
     /// Final linear RGB radiance.
     pub rgb: Vec<Vec3>,
@@ -35,6 +37,7 @@ pub struct Film {
 }
 
 impl Film {
+    /// A black film of `width` × `height` pixels.
     pub fn new(width: u32, height: u32) -> Self {
         let n = (width * height) as usize;
         Self {
@@ -61,10 +64,12 @@ impl Film {
         self.rgb.iter().copied().sum::<Vec3>() / self.rgb.len().max(1) as f32
     }
 
+    /// Write the final image as linear 32-bit float OpenEXR ([`write_exr`]).
     pub fn write_exr(&self, path: &Path) -> Result<(), String> {
         write_exr(path, self.width, self.height, &self.rgb)
     }
 
+    /// Write the final image as 8-bit sRGB PNG after `exposure` stops ([`tonemap`]).
     pub fn write_png(&self, path: &Path, exposure: f32) -> Result<(), String> {
         write_png(path, self.width, self.height, &tonemap(&self.rgb, exposure))
     }

@@ -28,6 +28,7 @@ impl Rng {
         rng
     }
 
+    /// The next 32 random bits.
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
@@ -43,6 +44,7 @@ impl Rng {
         (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
     }
 
+    /// Two uniform numbers in [0, 1)².
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_f32(), self.next_f32())
@@ -150,14 +152,17 @@ impl Distribution1D {
         Some(Self { cdf, total })
     }
 
+    /// Number of outcomes (weights given, zero ones included).
     pub fn len(&self) -> usize {
         self.cdf.len()
     }
 
+    /// No outcomes.
     pub fn is_empty(&self) -> bool {
         self.cdf.is_empty()
     }
 
+    /// Sum of the positive, finite weights.
     pub fn total(&self) -> f64 {
         self.total
     }

@@ -22,7 +22,7 @@ fn render(scene: &Arc<Scene>, method: MethodKind, s: &RenderSettings, spp: u32) 
         scene,
         method,
         &RenderSettings {
-            pt_spp: spp,
+            pt_spp: spp.max(1),
             ..s.clone()
         },
         Budget::Fixed,

@@ -5,10 +5,14 @@ use super::{Film, false_colour, linear_to_srgb};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+/// Which image of the film the previewer shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ViewMode {
+    /// The final image: direct plus indirect light, tone-mapped.
     Final,
+    /// Direct light and emission only.
     DirectOnly,
+    /// Splatted indirect light only.
     IndirectOnly,
     /// Mean splat bandwidth per pixel, red = smallest to blue = largest (Fig. 5).
     Bandwidth,
@@ -23,6 +27,7 @@ pub enum ViewMode {
 }
 
 impl ViewMode {
+    /// Every mode, in menu order.
     pub const ALL: [ViewMode; 8] = [
         ViewMode::Final,
         ViewMode::DirectOnly,
@@ -34,6 +39,7 @@ impl ViewMode {
         ViewMode::CacheRecords,
     ];
 
+    /// The mode's name in the window's menu.
     pub fn label(self) -> &'static str {
         match self {
             ViewMode::Final => "Final",
@@ -58,6 +64,7 @@ impl ViewMode {
     }
 }
 
+/// How linear radiance becomes display values (after the exposure).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ToneMap {
     /// Exposure, clamp, sRGB.
@@ -69,8 +76,10 @@ pub enum ToneMap {
 }
 
 impl ToneMap {
+    /// Every tone curve, in menu order.
     pub const ALL: [ToneMap; 3] = [ToneMap::Clamp, ToneMap::Reinhard, ToneMap::Aces];
 
+    /// The curve's name in the window's menu.
     pub fn label(self) -> &'static str {
         match self {
             ToneMap::Clamp => "Clamp",
@@ -95,18 +104,24 @@ impl ToneMap {
 /// The numeric range a false-colour image maps from red (min) to blue (max).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Legend {
+    /// Value shown in red.
     pub min: f32,
+    /// Value shown in blue.
     pub max: f32,
+    /// Unit of the values ("m", "1/m²").
     pub unit: &'static str,
 }
 
 /// An image ready for the screen or a PNG.
 #[derive(Clone, Debug)]
 pub struct DisplayImage {
+    /// Width (pixels).
     pub width: u32,
+    /// Height (pixels).
     pub height: u32,
     /// RGBA8, row-major, top row first.
     pub rgba: Vec<u8>,
+    /// The false-colour range, for false-colour modes.
     pub legend: Option<Legend>,
 }
 
@@ -138,6 +153,7 @@ impl DisplayImage {
         }
     }
 
+    /// The image as RGB8 (alpha dropped), for PNG files.
     pub fn rgb(&self) -> Vec<u8> {
         self.rgba
             .chunks_exact(4)

@@ -18,7 +18,7 @@ use crate::pipeline::photon::{
 };
 use crate::pipeline::photon_map::{PhotonMap, build_maps, estimate_targets};
 use crate::pipeline::radiance_map::{Accumulators, RadianceMap};
-use crate::pipeline::splat::{prepare, splat};
+use crate::pipeline::splat::{SplatBatch, prepare, splat};
 use crate::pipeline::splat_tree::SplatTree;
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
@@ -41,7 +41,9 @@ impl Default for FgSettings {
     fn default() -> Self {
         Self {
             rays: 64,
-            max_band_samples: 2_000_000,
+            // About a second of gathering per band on two cores: small enough that a time
+            // budget or Ctrl-C is honoured within a step, large enough to amortise the tree.
+            max_band_samples: 1 << 17,
         }
     }
 }
@@ -53,7 +55,10 @@ pub struct FinalGathering {
     settings: RenderSettings,
     camera: Camera,
     sum: Vec<Vec3>,
+    /// Completed passes.
     passes: u64,
+    /// The pass under way.
+    current: Option<Pass>,
     photons: u64,
     timings: Timings,
 }
@@ -78,6 +83,7 @@ impl FinalGathering {
             camera,
             sum: vec![Vec3::ZERO; n],
             passes: 0,
+            current: None,
             photons: 0,
             timings: Timings::default(),
         })
@@ -97,23 +103,40 @@ impl Method for FinalGathering {
         &self.camera
     }
 
+    /// Start a pass (eye side, direct light, photons, caustics), or gather one band of rows
+    /// of the pass under way; a finished pass joins the mean.
     fn step(&mut self) -> Step {
-        let s = RenderSettings {
-            seed: self.settings.seed.wrapping_add(self.passes * 0x9e37),
-            ..self.settings.clone()
-        };
-        let fg = FgSettings {
-            rays: s.fg_rays.max(1),
-            ..FgSettings::default()
-        };
-        let splatting = self.settings.method == MethodKind::RsFg;
-        let pass = gather_pass(&self.scene, &self.camera, splatting, &s, fg);
-        for (a, x) in self.sum.iter_mut().zip(&pass.rgb) {
-            *a += *x;
+        match self.current.as_mut() {
+            None => {
+                let s = RenderSettings {
+                    seed: self.settings.seed.wrapping_add(self.passes * 0x9e37),
+                    ..self.settings.clone()
+                };
+                let fg = FgSettings {
+                    rays: s.fg_rays.max(1),
+                    ..FgSettings::default()
+                };
+                let splatting = self.settings.method == MethodKind::RsFg;
+                let pass = Pass::start(
+                    &self.scene,
+                    &self.camera,
+                    splatting,
+                    s,
+                    fg,
+                    &mut self.timings,
+                );
+                self.photons += pass.photons;
+                self.current = Some(pass);
+            }
+            Some(pass) => pass.gather_band(&self.scene, &mut self.timings),
         }
-        self.timings += pass.timings;
-        self.photons += pass.photons;
-        self.passes += 1;
+        if self.current.as_ref().is_some_and(Pass::done) {
+            let pass = self.current.take().expect("a pass under way");
+            for (a, x) in self.sum.iter_mut().zip(&pass.image) {
+                *a += *x;
+            }
+            self.passes += 1;
+        }
         Step::Traced
     }
 
@@ -134,6 +157,7 @@ impl Method for FinalGathering {
         self.camera = camera;
         self.sum = vec![Vec3::ZERO; (width * height) as usize];
         self.passes = 0;
+        self.current = None;
         Ok(())
     }
 
@@ -143,11 +167,18 @@ impl Method for FinalGathering {
         Ok(())
     }
 
+    /// The mean of the completed passes; before the first completes, the pass under way
+    /// (rows not gathered yet hold direct light and caustics only).
     fn film(&mut self) -> Film {
         let mut film = Film::new(self.settings.width, self.settings.height);
-        let inv = 1.0 / self.passes.max(1) as f32;
-        for (o, a) in film.rgb.iter_mut().zip(&self.sum) {
-            *o = *a * inv;
+        match (&self.current, self.passes) {
+            (Some(pass), 0) => film.rgb.copy_from_slice(&pass.image),
+            _ => {
+                let inv = 1.0 / self.passes.max(1) as f32;
+                for (o, a) in film.rgb.iter_mut().zip(&self.sum) {
+                    *o = *a * inv;
+                }
+            }
         }
         film
     }
@@ -169,134 +200,177 @@ impl Method for FinalGathering {
     }
 }
 
-/// One gathering pass's image, time and photons.
+/// A gathering pass under way: the eye side, direct light and caustics are done; gather rays
+/// are cast a band of rows per step.
 struct Pass {
-    rgb: Vec<Vec3>,
-    timings: Timings,
+    /// The pass's settings (its own seed).
+    s: RenderSettings,
+    fg: FgSettings,
+    /// Eye samples, each its own target.
+    eye: EyeSamples,
+    /// Emission, direct light and caustics, plus the indirect light of the bands so far.
+    image: Vec<Vec3>,
+    /// Photon maps (pm-fg) or the prepared photon rays (rs-fg).
+    maps: Option<(PhotonMap, PhotonMap)>,
+    /// rs-fg: the caustic photon rays, and every photon ray, prepared for splatting.
+    caustic_rays: Option<SplatBatch>,
+    all_rays: Option<SplatBatch>,
+    r_max: f32,
+    rows_per_band: u32,
+    /// The first row not gathered yet.
+    next_row: u32,
     photons: u64,
 }
 
-/// One pass of final gathering over splatted rays (`splatting`) or photon maps.
-fn gather_pass(
-    scene: &Scene,
-    camera: &Camera,
-    splatting: bool,
-    s: &RenderSettings,
-    fg: FgSettings,
-) -> Pass {
-    let (w, h) = (s.width, s.height);
-    let n_pixels = (w * h) as usize;
-    let mut timings = Timings::default();
+impl Pass {
+    /// Eye pass, direct light and one light pass with every class (gather hits need direct
+    /// photons too).
+    fn start(
+        scene: &Scene,
+        camera: &Camera,
+        splatting: bool,
+        s: RenderSettings,
+        fg: FgSettings,
+        timings: &mut Timings,
+    ) -> Self {
+        let (w, h) = (s.width, s.height);
+        let n_pixels = (w * h) as usize;
+        let t = Instant::now();
+        let EyePass {
+            samples: eye,
+            emitted,
+            ..
+        } = eye_pass(
+            scene,
+            camera,
+            &EyeSettings {
+                width: w,
+                height: h,
+                spp: s.spp,
+                max_specular_depth: s.max_specular_depth,
+                seed: s.seed,
+                merge_targets: false,
+            },
+        );
+        timings.t_eye += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let mut image = emitted;
+        for (i, l) in direct_light(scene, &eye, s.nee_samples, s.seed)
+            .0
+            .iter()
+            .enumerate()
+        {
+            image[eye.pixel[i] as usize] += eye.weight[i] * *l;
+        }
+        timings.t_direct += t.elapsed().as_secs_f64();
 
-    // Eye pass and explicit direct light at the eye samples.
-    let t = Instant::now();
-    let EyePass {
-        samples: eye,
-        emitted,
-        ..
-    } = eye_pass(
-        scene,
-        camera,
-        &EyeSettings {
-            width: w,
-            height: h,
-            spp: s.spp,
-            max_specular_depth: s.max_specular_depth,
-            seed: s.seed,
-            merge_targets: false,
-        },
-    );
-    timings.t_eye += t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let mut image = emitted;
-    for (i, l) in direct_light(scene, &eye, s.nee_samples, s.seed)
-        .0
-        .iter()
-        .enumerate()
-    {
-        image[eye.pixel[i] as usize] += eye.weight[i] * *l;
-    }
-    timings.t_direct += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let pilot = pilot(scene, s.seed);
+        let batch: PhotonBatch = light_pass(
+            scene,
+            &LightPassSettings {
+                budgets: ClassBudgets::from_fractions(s.photons, s.fractions, true),
+                max_emitted_factor: s.max_emitted_factor,
+                seed: s.seed,
+                first_photon: 0,
+                units: pilot.units(),
+            },
+        );
+        timings.t_light += t.elapsed().as_secs_f64();
+        let mean_r = pilot.mean_r(s.bandwidth.sensitivity_s);
+        let bw = PhotonClass::ALL
+            .map(|c| Bandwidth::new(&s.bandwidth, &pilot, batch.stored[c as usize], mean_r));
+        let maps = (!splatting).then(|| build_maps(&[&batch.rays], true));
+        // The same largest radius as rs's h_max (docs/deviations.md §18).
+        let r_max = PhotonClass::ALL
+            .iter()
+            .filter(|&&c| batch.stored[c as usize] > 0)
+            .map(|&c| bw[c as usize].h_max)
+            .fold(0.0f32, f32::max);
 
-    // One light pass with every class: gather hits need direct photons too.
-    let t = Instant::now();
-    let pilot = pilot(scene, s.seed);
-    let batch: PhotonBatch = light_pass(
-        scene,
-        &LightPassSettings {
-            budgets: ClassBudgets::from_fractions(s.photons, s.fractions, true),
-            max_emitted_factor: s.max_emitted_factor,
-            seed: s.seed,
-            first_photon: 0,
-            units: pilot.units(),
-        },
-    );
-    timings.t_light += t.elapsed().as_secs_f64();
-    let mean_r = pilot.mean_r(s.bandwidth.sensitivity_s);
-    let bw = PhotonClass::ALL
-        .map(|c| Bandwidth::new(&s.bandwidth, &pilot, batch.stored[c as usize], mean_r));
-    let maps = (!splatting).then(|| build_maps(&[&batch.rays], true));
-    // The same largest radius as rs's h_max (docs/deviations.md §18).
-    let r_max = PhotonClass::ALL
-        .iter()
-        .filter(|&&c| batch.stored[c as usize] > 0)
-        .map(|&c| bw[c as usize].h_max)
-        .fold(0.0f32, f32::max);
-
-    // Caustics at the eye samples.
-    let t = Instant::now();
-    let own_targets: Vec<u32> = (0..eye.len() as u32).collect();
-    let eye = EyeSamples {
-        target: own_targets,
-        ..eye
-    };
-    let caustic = estimate_at(&eye, n_pixels, w, h, scene, |tree, acc| {
-        if let Some((_, caustic_map)) = &maps {
-            let empty = PhotonMap::build(Vec::new());
-            estimate_targets(
-                &empty,
-                caustic_map,
-                &eye.position,
-                &eye.normal,
-                &tree.target_slot,
-                (0, s.pm_caustic_k),
-                r_max,
-                acc,
-            );
-        } else {
-            let rays = prepare(
+        let t = Instant::now();
+        let own_targets: Vec<u32> = (0..eye.len() as u32).collect();
+        let eye = EyeSamples {
+            target: own_targets,
+            ..eye
+        };
+        let caustic_rays = splatting.then(|| {
+            prepare(
                 &batch.rays,
                 &bw,
                 [false, false, true],
                 DirectionalMode::Diffuse,
-            );
-            splat(tree, &rays, acc);
+            )
+        });
+        let per_row = (eye.len() / h.max(1) as usize).max(1) * fg.rays as usize;
+        let rows_per_band = (fg.max_band_samples / per_row.max(1)).clamp(1, h as usize) as u32;
+        let all_rays = splatting.then(|| {
+            prepare(
+                &batch.rays,
+                &bw,
+                [true, true, true],
+                DirectionalMode::Diffuse,
+            )
+        });
+        timings.t_splat += t.elapsed().as_secs_f64();
+        Self {
+            s,
+            fg,
+            eye,
+            image,
+            maps,
+            caustic_rays,
+            all_rays,
+            r_max,
+            rows_per_band,
+            next_row: 0,
+            photons: batch.traced,
         }
-    });
-    for (p, c) in image.iter_mut().zip(&caustic) {
-        *p += *c;
     }
 
-    // Gather rays, a band of rows at a time.
-    let per_row = (eye.len() / h.max(1) as usize).max(1) * fg.rays as usize;
-    let rows_per_band = (fg.max_band_samples / per_row.max(1)).clamp(1, h as usize) as u32;
-    let all_rays = splatting.then(|| {
-        prepare(
-            &batch.rays,
-            &bw,
-            [true, true, true],
-            DirectionalMode::Diffuse,
-        )
-    });
-    let mut y0 = 0;
-    while y0 < h {
-        let y1 = (y0 + rows_per_band).min(h);
+    /// True when every row has been gathered.
+    fn done(&self) -> bool {
+        self.next_row >= self.s.height
+    }
+
+    /// The caustics at the eye samples of the next band of rows, then its gather rays.
+    fn gather_band(&mut self, scene: &Scene, timings: &mut Timings) {
+        let (w, h, s) = (self.s.width, self.s.height, &self.s);
+        let n_pixels = (w * h) as usize;
+        let y0 = self.next_row;
+        let y1 = (y0 + self.rows_per_band).min(h);
         let (lo, hi) = (y0 * w, y1 * w);
+        let t = Instant::now();
+        let band_eye = eye_range(&self.eye, lo, hi);
+        let (maps, caustic_rays, r_max) = (&self.maps, &self.caustic_rays, self.r_max);
+        let caustic = estimate_at(&band_eye, n_pixels, w, h, scene, |tree, acc| {
+            if let Some((_, caustic_map)) = maps {
+                let empty = PhotonMap::build(Vec::new());
+                estimate_targets(
+                    &empty,
+                    caustic_map,
+                    &band_eye.position,
+                    &band_eye.normal,
+                    &tree.target_slot,
+                    (0, s.pm_caustic_k),
+                    r_max,
+                    acc,
+                );
+            } else if let Some(rays) = caustic_rays {
+                splat(tree, rays, acc);
+            }
+        });
+        for (p, c) in self.image.iter_mut().zip(&caustic) {
+            *p += *c;
+        }
+        timings.t_splat += t.elapsed().as_secs_f64();
         let tg = Instant::now();
-        let band = gather_hits(scene, &eye, lo, hi, fg.rays, s.seed);
+        let band = gather_hits(scene, &self.eye, lo, hi, self.fg.rays, s.seed);
         timings.t_eye += tg.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let (maps, all_rays, r_max) = (&self.maps, &self.all_rays, self.r_max);
         let indirect = estimate_at(&band, n_pixels, w, h, scene, |tree, acc| {
-            if let Some((global, caustic_map)) = &maps {
+            if let Some((global, caustic_map)) = maps {
                 estimate_targets(
                     global,
                     caustic_map,
@@ -307,20 +381,36 @@ fn gather_pass(
                     r_max,
                     acc,
                 );
-            } else if let Some(rays) = &all_rays {
+            } else if let Some(rays) = all_rays {
                 splat(tree, rays, acc);
             }
         });
-        for (p, c) in image.iter_mut().zip(&indirect) {
+        for (p, c) in self.image.iter_mut().zip(&indirect) {
             *p += *c;
         }
-        y0 = y1;
+        timings.t_splat += t.elapsed().as_secs_f64();
+        self.next_row = y1;
     }
-    timings.t_splat += t.elapsed().as_secs_f64();
-    Pass {
-        rgb: image,
-        timings,
-        photons: batch.traced,
+}
+
+/// The eye samples of pixels `lo..hi` (pixel order), each its own target.
+fn eye_range(eye: &EyeSamples, lo: u32, hi: u32) -> EyeSamples {
+    let first = eye.pixel.partition_point(|&p| p < lo);
+    let last = eye.pixel.partition_point(|&p| p < hi);
+    let r = first..last;
+    EyeSamples {
+        position: eye.position[r.clone()].to_vec(),
+        normal: eye.normal[r.clone()].to_vec(),
+        geo_normal: eye.geo_normal[r.clone()].to_vec(),
+        offset: eye.offset[r.clone()].to_vec(),
+        wo: eye.wo[r.clone()].to_vec(),
+        material: eye.material[r.clone()].to_vec(),
+        pixel: eye.pixel[r.clone()].to_vec(),
+        weight: eye.weight[r.clone()].to_vec(),
+        albedo: eye.albedo[r.clone()].to_vec(),
+        specular: eye.specular[r.clone()].to_vec(),
+        primary: eye.primary[r.clone()].to_vec(),
+        target: (0..r.len() as u32).collect(),
     }
 }
 

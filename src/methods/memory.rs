@@ -13,7 +13,7 @@ const PER_PIXEL: u64 = 256;
 const PER_EYE_SAMPLE: u64 = 101 + 32 + 16 + 2 * 28 + 48 * 4;
 /// Gather hits a final-gathering band holds at once (`fg::FgSettings::max_band_samples`) and
 /// their bytes each.
-const FG_BAND_BYTES: u64 = 2_000_000 * (101 + 32 + 16 + 28);
+const FG_BAND_BYTES: u64 = (1 << 17) * (101 + 32 + 16 + 28);
 
 /// The estimated peak bytes of a render with `settings` (one batch of photons in flight and
 /// one stored; the previewer's ray budget adds its own, bounded, store).

@@ -224,9 +224,11 @@ pub fn needs_rebuild(old: &RenderSettings, new: &RenderSettings) -> bool {
 /// How long a headless render runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Budget {
-    /// One step: one photon batch, one pass of `pt_spp` paths per pixel, one gathering pass.
+    /// Until the film holds one unit of work: one photon batch, one pass of `pt_spp` paths per
+    /// pixel, one complete gathering pass.
     Fixed,
-    /// Steps until this many seconds are spent (at least one).
+    /// Steps until this many seconds are spent (at least one step; a final-gathering pass
+    /// then may be partial, its steps being bands of rows).
     Seconds(f64),
 }
 
@@ -255,9 +257,12 @@ pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dy
         if !progress(&*method) {
             break;
         }
-        match budget {
-            Budget::Seconds(b) if start.elapsed().as_secs_f64() < b => continue,
-            _ => break,
+        let more = match budget {
+            Budget::Fixed => method.passes() == 0,
+            Budget::Seconds(b) => start.elapsed().as_secs_f64() < b,
+        };
+        if !more {
+            break;
         }
     }
     while method.catching_up() {

@@ -112,7 +112,9 @@ pub fn strata() -> &'static [Vec3; STRATA] {
 /// The filter weights of one photon direction: up to [`FILTER_TAPS`] strata, weights sum to 1.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FilterTaps {
+    /// The strata (indices into [`strata`]) the direction deposits into.
     pub stratum: [u8; FILTER_TAPS],
+    /// Each tap's weight (zero for unused taps).
     pub weight: [f32; FILTER_TAPS],
 }
 

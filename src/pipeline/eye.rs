@@ -20,21 +20,28 @@ const MIN_BRANCH_WEIGHT: f32 = 1e-3;
 /// Pending specular branches per camera ray.
 const BRANCH_STACK: usize = 16;
 
+/// Settings of the eye pass.
 #[derive(Clone, Copy, Debug)]
 pub struct EyeSettings {
+    /// Image width (pixels).
     pub width: u32,
+    /// Image height (pixels).
     pub height: u32,
+    /// Camera rays per pixel (stratified when a square number).
     pub spp: u32,
+    /// Most specular bounces a camera ray's chain follows.
     pub max_specular_depth: u32,
+    /// Seed of the sub-pixel jitter (one random stream per pixel).
     pub seed: u64,
     /// Let eye samples of one pixel on the same surface share one splat target.
     pub merge_targets: bool,
 }
 
-/// Eye samples, structure of arrays, in pixel order (the splat tree keeps its own copy of
-/// positions and normals in leaf order, mapped back by `slot_sample`).
+/// Eye samples, structure of arrays, in pixel order. Photon rays splat onto their splat
+/// targets (`target`), whose positions and normals the splat tree copies into slot order.
 #[derive(Clone, Debug, Default)]
 pub struct EyeSamples {
+    /// World-space position.
     pub position: Vec<Vec3>,
     /// Shading normal, flipped to face the viewer.
     pub normal: Vec<Vec3>,
@@ -44,7 +51,9 @@ pub struct EyeSamples {
     pub offset: Vec<f32>,
     /// Unit direction towards the viewer (the previous vertex of the eye path).
     pub wo: Vec<Vec3>,
+    /// Material index.
     pub material: Vec<u32>,
+    /// Pixel index, y·width + x.
     pub pixel: Vec<u32>,
     /// RGB path weight: specular-chain throughput / samples per pixel.
     pub weight: Vec<Vec3>,
@@ -63,27 +72,33 @@ pub struct EyeSamples {
 /// Each target stands at its first sample's position with that sample's normal.
 #[derive(Clone, Debug, Default)]
 pub struct SplatTargets {
+    /// World-space position (its first eye sample's).
     pub position: Vec<Vec3>,
+    /// Shading normal facing the viewer (its first eye sample's).
     pub normal: Vec<Vec3>,
     /// The target lies on a glossy surface and needs directional storage (§8.1).
     pub glossy: Vec<bool>,
 }
 
 impl SplatTargets {
+    /// Number of splat targets.
     pub fn len(&self) -> usize {
         self.position.len()
     }
 
+    /// No splat targets.
     pub fn is_empty(&self) -> bool {
         self.position.is_empty()
     }
 }
 
 impl EyeSamples {
+    /// Number of eye samples.
     pub fn len(&self) -> usize {
         self.position.len()
     }
 
+    /// No eye samples.
     pub fn is_empty(&self) -> bool {
         self.position.is_empty()
     }
@@ -136,16 +151,25 @@ impl EyeSamples {
 /// pixel, RGB path weight, diffuse albedo and glossy reflectance.
 #[derive(Clone, Copy, Debug)]
 pub struct EyeSample {
+    /// World-space position.
     pub position: Vec3,
+    /// Shading normal, facing the viewer.
     pub normal: Vec3,
     /// Geometric normal facing the viewer, and the position's error bound along it.
     pub geo_normal: Vec3,
+    /// Error bound of `position` along `geo_normal` ([`crate::scene::Hit::offset`]).
     pub offset: f32,
+    /// Unit direction towards the viewer.
     pub wo: Vec3,
+    /// Material index.
     pub material: u32,
+    /// Pixel index, y·width + x.
     pub pixel: u32,
+    /// RGB path weight: specular-chain throughput / samples per pixel.
     pub weight: Vec3,
+    /// Diffuse albedo (texture applied); kd of a glossy sample.
     pub albedo: Vec3,
+    /// Glossy-lobe reflectance ks (zero for Lambertian samples).
     pub specular: Vec3,
     /// Seen directly from the camera (no specular bounce on the way).
     pub primary: bool,
@@ -162,7 +186,9 @@ struct RawSample {
 
 /// What the eye pass produced.
 pub struct EyePass {
+    /// The eye samples, in pixel order.
     pub samples: EyeSamples,
+    /// Their splat targets (`EyeSamples::target` indexes these).
     pub targets: SplatTargets,
     /// Emitted radiance reaching each pixel directly or through specular chains.
     pub emitted: Vec<Vec3>,

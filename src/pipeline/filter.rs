@@ -13,8 +13,10 @@ use crate::scene::Camera;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+/// Settings of the image-space filter (§8.2).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FilterParams {
+    /// Filter the indirect light at all.
     pub enabled: bool,
     /// Scales every pixel's box radius (1 = as the noise estimate asks).
     pub strength: f32,
@@ -41,10 +43,15 @@ const PLANE_FRACTION: f32 = 0.01;
 /// The discontinuity buffer: one representative surface point per pixel.
 #[derive(Clone, Debug)]
 pub struct Discontinuity {
+    /// Image width (pixels).
     pub width: u32,
+    /// Image height (pixels).
     pub height: u32,
+    /// World-space position of each pixel's surface point.
     pub position: Vec<Vec3>,
+    /// Shading normal there.
     pub normal: Vec<Vec3>,
+    /// Material index there (`u32::MAX` where the pixel holds no surface).
     pub material: Vec<u32>,
     /// Distance from the camera; pixels with depth ≤ 0 or non-finite hold no surface.
     pub depth: Vec<f32>,

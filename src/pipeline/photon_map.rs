@@ -13,8 +13,12 @@ use std::collections::BinaryHeap;
 /// A stored photon: where it landed, the direction it travelled, the power it carries.
 #[derive(Clone, Copy, Debug)]
 pub struct MapPhoton {
+    /// Hit point (the photon ray's end).
     pub position: Vec3,
+    /// Unit direction of travel (towards the surface).
     pub dir: Vec3,
+    /// Power, averaged over batches and in the shading-normal cosine (see
+    /// [`PhotonRay::end_shading_ratio`]).
     pub power: Vec3,
 }
 
@@ -60,16 +64,19 @@ pub struct Estimate {
 }
 
 impl PhotonMap {
+    /// Build the balanced kd-tree over `photons` (reordered in place).
     pub fn build(mut photons: Vec<MapPhoton>) -> Self {
         let mut axis = vec![0u8; photons.len()];
         build(&mut photons, &mut axis);
         Self { photons, axis }
     }
 
+    /// Photons stored.
     pub fn len(&self) -> usize {
         self.photons.len()
     }
 
+    /// No photons stored.
     pub fn is_empty(&self) -> bool {
         self.photons.is_empty()
     }
@@ -170,11 +177,17 @@ impl PhotonMap {
 /// Gather statistics of one photon-mapping pass (Table 2's "average/maximum K").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PmStats {
+    /// Photons in the global map.
     pub global_photons: usize,
+    /// Photons in the caustic map.
     pub caustic_photons: usize,
+    /// Mean photons gathered from the global map per splat target.
     pub mean_k_global: f64,
+    /// Most photons gathered from the global map at one target.
     pub max_k_global: u32,
+    /// Mean photons gathered from the caustic map per splat target.
     pub mean_k_caustic: f64,
+    /// Most photons gathered from the caustic map at one target.
     pub max_k_caustic: u32,
 }
 

@@ -13,40 +13,69 @@ use glam::{Vec2, Vec3};
 use obvhs::triangle::Triangle;
 use std::f32::consts::PI;
 
+/// A light source: an emissive triangle, or a KHR_lights_punctual light.
 #[derive(Clone, Debug)]
 pub enum Light {
     /// An emissive triangle; `normal` follows the winding.
     Area {
+        /// First vertex.
         v0: Vec3,
+        /// Edge v1 − v0.
         e1: Vec3,
+        /// Edge v2 − v0.
         e2: Vec3,
+        /// Unit normal, e1 × e2 normalised.
         normal: Vec3,
+        /// Area (scene units²).
         area: f32,
+        /// Emitted radiance (W/(m²·sr)), the material's emission.
         radiance: Vec3,
+        /// Emits from both faces (a double-sided material), not only along `normal`.
         two_sided: bool,
         /// The scene triangle it is.
         triangle: u32,
     },
-    /// KHR_lights_punctual point light; `intensity` in W/sr (glTF candela taken as radiometric).
-    Point { position: Vec3, intensity: Vec3 },
-    Spot {
+    /// KHR_lights_punctual point light (glTF candela taken as radiometric).
+    Point {
+        /// Where it is.
         position: Vec3,
-        direction: Vec3,
+        /// Intensity in every direction (W/sr).
         intensity: Vec3,
+    },
+    /// KHR_lights_punctual spot light.
+    Spot {
+        /// Apex of the cone.
+        position: Vec3,
+        /// Unit axis of the cone.
+        direction: Vec3,
+        /// Intensity on the axis (W/sr).
+        intensity: Vec3,
+        /// Cosine of the inner cone angle: full intensity inside it.
         cos_inner: f32,
+        /// Cosine of the outer cone angle: nothing outside it (a quadratic ramp between,
+        /// `spot_falloff`).
         cos_outer: f32,
     },
     /// Parallel light travelling along `direction` with `irradiance` (W/m²) on a facing surface.
-    Directional { direction: Vec3, irradiance: Vec3 },
+    Directional {
+        /// Unit direction the light travels in.
+        direction: Vec3,
+        /// Irradiance on a surface facing the light (W/m²).
+        irradiance: Vec3,
+    },
 }
 
 /// A photon leaving a light (before division by the number of emitted photons).
 #[derive(Clone, Copy, Debug)]
 pub struct EmittedPhoton {
+    /// Start point on the light (a directional light's: on a disc outside the scene).
     pub origin: Vec3,
+    /// Unit direction of travel.
     pub direction: Vec3,
     /// Normal of the emitting surface on the side the photon leaves (zero for point lights).
     pub normal: Vec3,
+    /// Emitted radiance (or intensity) × cosine over the selection and sampling pdfs (`pdf`):
+    /// its mean over photons is the lights' total power (W).
     pub power: Vec3,
     /// Emission pdf p_e(x0, x1) without the distance term: area pdf × solid-angle pdf (eq. 7).
     pub pdf: f32,
@@ -69,6 +98,7 @@ pub struct EmittedPhoton {
 pub struct LightSample {
     /// Unit direction from the shading point to the light.
     pub wi: Vec3,
+    /// Distance to the sampled point (a directional light's: beyond the scene).
     pub distance: f32,
     /// Incident radiance × geometry / pdf: multiply by f_r·cos θ at the receiver.
     pub value: Vec3,
@@ -79,8 +109,10 @@ pub struct LightSample {
     pub triangle: u32,
 }
 
+/// Every light of a scene, with the power-proportional light selection (§3).
 #[derive(Clone, Debug)]
 pub struct Lights {
+    /// The lights: area lights first (in triangle order), then the punctual lights.
     pub lights: Vec<Light>,
     dist: Option<Distribution1D>,
     /// Total emitted power (RGB, W).
@@ -176,6 +208,7 @@ impl Lights {
         dist.pmf(li as usize) * dist2 / (area * cos)
     }
 
+    /// No light (or none with positive power).
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
     }
@@ -189,11 +222,13 @@ impl Lights {
         })
     }
 
+    /// Number of lights.
     pub fn len(&self) -> usize {
         self.lights.len()
     }
 
-    /// Emitted power of one light (RGB watts).
+    /// Emitted power of one light (RGB watts); a directional light's is what crosses a disc of
+    /// radius `scene_radius` (its photons start on such a disc).
     pub fn power_of(light: &Light, scene_radius: f32) -> Vec3 {
         match *light {
             Light::Area {
@@ -216,6 +251,7 @@ impl Lights {
         }
     }
 
+    /// Emitted power of `light` in this scene (RGB watts; [`Lights::power_of`]).
     pub fn power(&self, light: &Light) -> Vec3 {
         Self::power_of(light, self.scene_radius)
     }

@@ -1,0 +1,278 @@
+//! Eq. 8: the bandwidth of a photon-ray vertex from the user's C, S, R, the class size M and
+//! the pilot's statistics; and how many rays sit at its clamps.
+
+use super::{M0, PhotonClass, PhotonRay, Pilot, R_MIN};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// User bandwidth parameters (§6, eq. 8).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BandwidthParams {
+    /// C, smoothness.
+    pub smoothness_c: f32,
+    /// S ∈ (0, 1], sensitivity.
+    pub sensitivity_s: f32,
+    /// R ∈ (0, 1], the bandwidth range: every h lies within [R·h̄, h̄/R] of the typical
+    /// bandwidth h̄ = C·(M/10⁵)^(−1/6)·μC (§6's bounds "from μC and R"; docs/deviations.md §5).
+    pub max_bandwidth_r: f32,
+}
+
+impl Default for BandwidthParams {
+    fn default() -> Self {
+        Self {
+            smoothness_c: 1.0,
+            sensitivity_s: 0.4,
+            max_bandwidth_r: 0.2,
+        }
+    }
+}
+
+/// Eq. 8 evaluated for one parameter set and class size; cheap per-vertex evaluation.
+#[derive(Clone, Copy, Debug)]
+pub struct Bandwidth {
+    /// C·M^(−1/6)·w (eq. 8 without the per-vertex factor).
+    scale: f32,
+    half_s: f32,
+    /// Smallest bandwidth, R·h̄ (§6's lower bound; scene units).
+    pub h_min: f32,
+    /// Largest bandwidth, h̄/R (§6's upper bound; scene units).
+    pub h_max: f32,
+}
+
+impl Bandwidth {
+    /// Eq. 8 for the user's C, S, R (`params`), the pilot's μC, the class's photon count M = `m`
+    /// and the pilot's ⟨r⟩ = `mean_r` (see [`Pilot::mean_r`]): w = m0·μC/⟨r⟩ (§6).
+    pub fn new(params: &BandwidthParams, pilot: &Pilot, m: u64, mean_r: f32) -> Self {
+        let m = m.max(1) as f32;
+        let mu_c = pilot.mu_c();
+        let w = M0 * mu_c / mean_r; // w = m0·μC/⟨r⟩ (§6)
+        let scale = params.smoothness_c * m.powf(-1.0 / 6.0) * w; // eq. 8: C/⁶√M · w
+        // The typical bandwidth at this M, C·(M/10⁵)^(−1/6)·μC (the geometric mean of eq. 8
+        // over the pilot); the bounds "from μC and R" (§6) keep h within a factor 1/R of it.
+        let typical = (params.smoothness_c * (m / 1e5).powf(-1.0 / 6.0) * mu_c).max(1e-30);
+        let r = params.max_bandwidth_r.clamp(R_MIN, 1.0);
+        Self {
+            scale,
+            half_s: 0.5 * params.sensitivity_s,
+            h_min: typical * r,
+            h_max: typical / r,
+        }
+    }
+
+    /// h(x_i) for i > 0 (eq. 8): C·M^(−1/6)·w / √(p̃^S), clamped.
+    #[inline]
+    pub fn h(&self, pdf: f32) -> f32 {
+        (self.scale * pdf.max(f32::MIN_POSITIVE).powf(-self.half_s)).clamp(self.h_min, self.h_max)
+    }
+
+    /// (h0, dh) of a ray (§6): h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i))/|x_{i+1} − x_i|.
+    /// A ray that escapes has no end vertex: it keeps its start bandwidth (a cylinder) up to
+    /// where it leaves the scene, so the bounding box only clips it.
+    #[inline]
+    pub fn cone(&self, ray: &PhotonRay) -> (f32, f32) {
+        let hi = if ray.bounce == 0 {
+            0.0 // h(x_0) = 0 (eq. 8)
+        } else {
+            self.h(ray.pdf_start)
+        };
+        if ray.escapes() {
+            return (hi, 0.0);
+        }
+        let hj = self.h(ray.pdf_end);
+        let dh = (hj - hi).max(0.0) / ray.length.max(1e-12);
+        (hi.min(hj), dh)
+    }
+}
+
+/// Rays of one class whose cone sits at a bandwidth bound: `at_min` start at h_min (h0 =
+/// h_min), `at_max` end at h_max. A healthy eq. 8 leaves few at either (docs/deviations.md §5).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ClampCounts {
+    /// Rays of the class counted.
+    pub rays: u64,
+    /// Rays whose cone starts at h_min (for a ray leaving the light: ends there).
+    pub at_min: u64,
+    /// Rays whose cone ends at h_max.
+    pub at_max: u64,
+}
+
+impl ClampCounts {
+    /// Count the rays of `class` in `rays` under the bandwidth `bw`.
+    pub fn count(rays: &[PhotonRay], bw: &Bandwidth, class: PhotonClass) -> Self {
+        rays.par_iter()
+            .filter(|r| r.class == class)
+            .fold(Self::default, |mut c, r| {
+                let (h0, dh) = bw.cone(r);
+                let h_end = h0 + dh * r.length;
+                c.rays += 1;
+                // h(x_0) = 0 is eq. 8's own start, not a clamp: a ray leaving the light is at
+                // h_min when its end is.
+                c.at_min += (if r.bounce == 0 { h_end } else { h0 } <= bw.h_min) as u64;
+                c.at_max += (h_end >= bw.h_max) as u64;
+                c
+            })
+            .reduce(Self::default, |a, b| Self {
+                rays: a.rays + b.rays,
+                at_min: a.at_min + b.at_min,
+                at_max: a.at_max + b.at_max,
+            })
+    }
+
+    /// `at_min / rays` (0 without rays).
+    pub fn fraction_min(&self) -> f64 {
+        self.at_min as f64 / self.rays.max(1) as f64
+    }
+
+    /// `at_max / rays` (0 without rays).
+    pub fn fraction_max(&self) -> f64 {
+        self.at_max as f64 / self.rays.max(1) as f64
+    }
+}
+
+impl std::ops::AddAssign for ClampCounts {
+    fn add_assign(&mut self, o: Self) {
+        self.rays += o.rays;
+        self.at_min += o.at_min;
+        self.at_max += o.at_max;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// A pilot whose vertices had these p̃ (equal weights).
+    fn pilot(pdfs: Vec<f32>) -> Pilot {
+        let n = pdfs.len();
+        Pilot {
+            mean_length: 0.5,
+            mean_log_pdf: pdfs.iter().map(|&p| (p as f64).ln()).sum::<f64>() / n.max(1) as f64,
+            vertices: n,
+        }
+    }
+
+    #[test]
+    fn m0_is_the_sixth_root_of_ten_to_the_fifth() {
+        assert!((M0 - 1e5f32.powf(1.0 / 6.0)).abs() < 1e-4);
+    }
+
+    #[test]
+    fn eq8_bandwidth_formula() {
+        let p = pilot(vec![0.5, 2.0, 8.0]);
+        let params = BandwidthParams {
+            smoothness_c: 0.7,
+            sensitivity_s: 0.6,
+            max_bandwidth_r: R_MIN,
+        };
+        let m = 50_000u64;
+        let mean_r = p.mean_r(params.sensitivity_s);
+        let bw = Bandwidth::new(&params, &p, m, mean_r);
+        let w = M0 * p.mu_c() / mean_r;
+        for pdf in [0.5f32, 2.0, 8.0] {
+            // eq. 8: h = C / ⁶√M · w / √(p̃^S)
+            let expect = 0.7 * (m as f32).powf(-1.0 / 6.0) * w / pdf.powf(0.6).sqrt();
+            assert!((bw.h(pdf) - expect).abs() < 1e-6 * expect.max(1.0), "{pdf}");
+        }
+    }
+
+    #[test]
+    fn mean_bandwidth_is_mu_c_at_m_1e5_and_c_1() {
+        // m0 calibrates the typical (unclamped) bandwidth to μC at M = 10⁵, C = 1 (§6); with
+        // ⟨r⟩ a geometric mean, the geometric mean of h is μC.
+        let pdfs: Vec<f32> = (1..200).map(|i| 0.05 * i as f32).collect();
+        let p = pilot(pdfs.clone());
+        let params = BandwidthParams {
+            smoothness_c: 1.0,
+            sensitivity_s: 0.4,
+            max_bandwidth_r: R_MIN,
+        };
+        let bw = Bandwidth::new(&params, &p, 100_000, p.mean_r(0.4));
+        let mean = (pdfs.iter().map(|&x| (bw.h(x) as f64).ln()).sum::<f64>() / pdfs.len() as f64)
+            .exp() as f32;
+        assert!(
+            (mean - p.mu_c()).abs() < 1e-3 * p.mu_c(),
+            "{mean} vs {}",
+            p.mu_c()
+        );
+    }
+
+    #[test]
+    fn bandwidth_falls_with_the_sixth_root_of_m() {
+        let p = pilot(vec![1.0]);
+        let params = BandwidthParams {
+            max_bandwidth_r: R_MIN,
+            ..BandwidthParams::default()
+        };
+        let a = Bandwidth::new(&params, &p, 1_000, 1.0).h(1.0);
+        let b = Bandwidth::new(&params, &p, 64_000, 1.0).h(1.0);
+        assert!((a / b - 2.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn bandwidth_is_clamped() {
+        let p = pilot(vec![1.0]);
+        let params = BandwidthParams::default();
+        let bw = Bandwidth::new(&params, &p, 100_000, 1.0);
+        assert_eq!(bw.h(1e-30), bw.h_max);
+        assert_eq!(bw.h(1e30), bw.h_min);
+        // [R·h̄, h̄/R] around h̄ = μC at M = 10⁵, C = 1.
+        assert!((bw.h_max - p.mu_c() / 0.2).abs() < 1e-6);
+        assert!((bw.h_min - p.mu_c() * 0.2).abs() < 1e-6);
+        // R = 1: one bandwidth for every ray; R beyond 1 is taken as 1.
+        for r in [1.0, 5.0] {
+            let one = Bandwidth::new(
+                &BandwidthParams {
+                    max_bandwidth_r: r,
+                    ..params
+                },
+                &p,
+                100_000,
+                1.0,
+            );
+            assert_eq!(one.h(1e-3), one.h(1e3));
+        }
+    }
+
+    #[test]
+    fn cone_from_the_two_end_bandwidths() {
+        let p = pilot(vec![1.0]);
+        let bw = Bandwidth::new(
+            &BandwidthParams {
+                max_bandwidth_r: R_MIN,
+                ..BandwidthParams::default()
+            },
+            &p,
+            100_000,
+            1.0,
+        );
+        let mut ray = PhotonRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::X,
+            length: 2.0,
+            power: Vec3::ONE,
+            origin_normal: Vec3::X,
+            end_shading_ratio: 1.0,
+            pdf_start: 4.0,
+            pdf_end: 1.0,
+            bounce: 1,
+            class: PhotonClass::Indirect,
+            lands: true,
+            end_normal: -Vec3::X,
+        };
+        // §6: h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i)) / length.
+        let (hi, hj) = (bw.h(4.0), bw.h(1.0));
+        let (h0, dh) = bw.cone(&ray);
+        assert_eq!(h0, hi.min(hj));
+        assert!((dh - (hj - hi).max(0.0) / 2.0).abs() < 1e-7);
+        // A shrinking bandwidth gives a cylinder of the smaller radius.
+        ray.pdf_start = 1.0;
+        ray.pdf_end = 4.0;
+        assert_eq!(bw.cone(&ray), (bw.h(4.0), 0.0));
+        // h(x_0) = 0: the segment leaving the light starts as a point (eq. 8).
+        ray.bounce = 0;
+        let (h0, dh) = bw.cone(&ray);
+        assert_eq!(h0, 0.0);
+        assert!((dh - bw.h(4.0) / 2.0).abs() < 1e-7);
+    }
+}

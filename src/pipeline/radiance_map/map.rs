@@ -1,0 +1,247 @@
+//! The per-pixel radiance map (§3, §4): accumulators or interpolated cache values folded through
+//! each eye sample's BSDF, with the SplatInfo statistics.
+
+use super::{Accumulators, Channel, Interpolated};
+use crate::pipeline::directional::{
+    DirectionalMode, SH_COEFFS, phong_zonal, sh_basis, sh_lobe_integral, strata,
+};
+use crate::pipeline::eye::EyeSamples;
+use crate::pipeline::splat_tree::LANES;
+use crate::scene::Scene;
+use glam::Vec3;
+use std::f32::consts::FRAC_1_PI;
+
+/// Per-pixel splat statistics (§3: kernel-weight sum and harmonic mean distance; plus the
+/// mean bandwidth for the false-colour view of Fig. 5).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SplatInfo {
+    /// Kernel-weight sum per batch, weighted by the pixel's eye-sample weights.
+    pub kernel_weight: f32,
+    /// Kernel-weighted mean bandwidth (m); 0 where nothing splatted.
+    pub mean_bandwidth: f32,
+    /// Weighted harmonic mean distance to the photon-ray origins (m); 0 where nothing splatted.
+    pub harmonic_mean_distance: f32,
+    /// Accepted splats per batch, weighted by the pixel's eye-sample weights.
+    pub splats: f32,
+}
+
+/// Per-pixel indirect (splatted) radiance and splat statistics.
+#[derive(Clone, Debug)]
+pub struct RadianceMap {
+    /// Image width (pixels).
+    pub width: u32,
+    /// Image height (pixels).
+    pub height: u32,
+    /// Outgoing radiance towards the eye from splatted light, the eye samples' BSDFs applied.
+    pub radiance: Vec<Vec3>,
+    /// Splat statistics per pixel.
+    pub info: Vec<SplatInfo>,
+    /// Eye-sample contributions dropped because they were NaN or infinite.
+    pub invalid: u64,
+}
+
+impl RadianceMap {
+    /// A black map of `width` × `height` pixels.
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = (width * height) as usize;
+        Self {
+            width,
+            height,
+            radiance: vec![Vec3::ZERO; n],
+            info: vec![SplatInfo::default(); n],
+            invalid: 0,
+        }
+    }
+
+    /// Fold slot accumulators (summed over `batches` light passes) into pixels. Per eye sample,
+    /// L = weight · (kd/π · E + L_glossy), E the batch-averaged splatted irradiance (eq. 6) at
+    /// its splat target and L_glossy the lobe integrated against the target's directional
+    /// record (§8.1). `target_slot` maps splat targets to slots.
+    pub fn resolve_from(
+        &mut self,
+        scene: &Scene,
+        eye: &EyeSamples,
+        target_slot: &[u32],
+        acc: &Accumulators,
+        batches: u32,
+    ) {
+        self.radiance.fill(Vec3::ZERO);
+        self.info.fill(SplatInfo::default());
+        self.invalid = 0;
+        if batches == 0 {
+            return;
+        }
+        let inv_b = 1.0 / batches as f32;
+        let mut weight_norm = vec![0.0f32; self.radiance.len()];
+        for i in 0..eye.len() {
+            let slot = target_slot[eye.target[i] as usize] as usize;
+            let a = &acc.chunks[slot / LANES].ch;
+            let l = slot % LANES;
+            let get = |c: Channel| a[c as usize][l];
+            let px = eye.pixel[i] as usize;
+            let w = eye.weight[i];
+            let e = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B)) * inv_b;
+            let out = w * shade(scene, eye, i, e, acc.record(slot), inv_b, acc.mode);
+            if !out.is_finite() {
+                self.invalid += 1;
+                continue;
+            }
+            self.radiance[px] += out;
+            let info = &mut self.info[px];
+            let share = w.max_element();
+            let wsum = get(Channel::Weight);
+            info.kernel_weight += share * wsum * inv_b;
+            info.splats += share * get(Channel::Count) * inv_b;
+            info.mean_bandwidth += share * get(Channel::WeightedH);
+            info.harmonic_mean_distance += share * get(Channel::WeightedInvDist);
+            weight_norm[px] += share * wsum;
+        }
+        for (info, &norm) in self.info.iter_mut().zip(&weight_norm) {
+            if norm > 0.0 {
+                info.mean_bandwidth /= norm;
+                info.harmonic_mean_distance = if info.harmonic_mean_distance > 0.0 {
+                    norm / info.harmonic_mean_distance
+                } else {
+                    0.0
+                };
+            } else {
+                info.mean_bandwidth = 0.0;
+                info.harmonic_mean_distance = 0.0;
+            }
+        }
+    }
+}
+
+impl RadianceMap {
+    /// Fold interpolated cache values (§8.3; already batch-averaged) into pixels, through each
+    /// eye sample's BSDF as [`RadianceMap::resolve_from`] does. SplatInfo is left as it was.
+    pub fn resolve_interpolated(
+        &mut self,
+        scene: &Scene,
+        eye: &EyeSamples,
+        values: &Interpolated,
+        mode: DirectionalMode,
+    ) {
+        self.radiance.fill(Vec3::ZERO);
+        self.invalid = 0;
+        for i in 0..eye.len() {
+            let e = values.irradiance[i];
+            let out = eye.weight[i] * shade(scene, eye, i, e, values.dir(i), 1.0, mode);
+            if !out.is_finite() {
+                self.invalid += 1;
+                continue;
+            }
+            self.radiance[eye.pixel[i] as usize] += out;
+        }
+    }
+}
+
+/// Radiance eye sample `i` reflects towards the eye (before its path weight) from irradiance
+/// `e` and, on a glossy surface, its directional record scaled by `rec_scale`:
+/// kd/π·E + ks·(lobe ⋆ record); without a record the lobe's reflectance is treated as matte.
+#[inline]
+fn shade(
+    scene: &Scene,
+    eye: &EyeSamples,
+    i: usize,
+    e: Vec3,
+    rec: Option<&[f32]>,
+    rec_scale: f32,
+    mode: DirectionalMode,
+) -> Vec3 {
+    let diffuse = eye.albedo[i] * FRAC_1_PI * e;
+    if !eye.is_glossy(i) {
+        return diffuse;
+    }
+    let ks = eye.specular[i];
+    diffuse
+        + match rec {
+            Some(rec) => ks * glossy_radiance(scene, eye, i, mode, rec) * rec_scale,
+            None => ks * FRAC_1_PI * e,
+        }
+}
+
+/// ∫ lobe(ωo, ω)·(L cos θ)(ω) dω at glossy eye sample `i` from its directional record (before
+/// ks and the batch average), the lobe being the normalised Phong lobe around the mirror
+/// direction of ωo (§8.1).
+pub(crate) fn glossy_radiance(
+    scene: &Scene,
+    eye: &EyeSamples,
+    i: usize,
+    mode: DirectionalMode,
+    rec: &[f32],
+) -> Vec3 {
+    let n = eye.normal[i];
+    let r = crate::bsdf::reflect(eye.wo[i], n);
+    let exponent = scene.glossy_exponent(eye.material[i]);
+    match mode {
+        DirectionalMode::Diffuse => Vec3::ZERO,
+        // The SH table entry for this view direction: the zonal lobe rotated to r; the
+        // integration is one dot product per channel.
+        DirectionalMode::Sh => {
+            let zonal = phong_zonal(exponent);
+            let y = sh_basis(r);
+            Vec3::new(
+                sh_lobe_integral(&rec[0..SH_COEFFS], &zonal, &y),
+                sh_lobe_integral(&rec[SH_COEFFS..2 * SH_COEFFS], &zonal, &y),
+                sh_lobe_integral(&rec[2 * SH_COEFFS..], &zonal, &y),
+            )
+            .max(Vec3::ZERO)
+        }
+        // Sample the BSDF at the strata (§8.1): the deposit weights interpolate the incident
+        // direction between neighbouring strata, so each stratum's sum is reflected as if it
+        // arrived from the stratum's direction.
+        DirectionalMode::Histogram => {
+            let mut sum = Vec3::ZERO;
+            for (k, s) in strata().iter().enumerate() {
+                let f = crate::bsdf::phong_lobe(r.dot(*s), exponent);
+                if f > 0.0 {
+                    sum += f * Vec3::new(rec[3 * k], rec[3 * k + 1], rec[3 * k + 2]);
+                }
+            }
+            sum
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::eye::EyeSample;
+    use crate::scene::{BuiltinScene, Scene};
+
+    /// A NaN or infinite accumulator never reaches a pixel: the sample is dropped and counted.
+    #[test]
+    fn resolve_drops_and_counts_invalid_contributions() {
+        let scene = Scene::builtin(BuiltinScene::CornellClassic);
+        let mut eye = EyeSamples::default();
+        for (i, pixel) in [0u32, 0, 1].into_iter().enumerate() {
+            let s = EyeSample {
+                position: Vec3::ZERO,
+                normal: Vec3::Y,
+                geo_normal: Vec3::Y,
+                offset: 0.0,
+                wo: Vec3::Y,
+                material: 0,
+                pixel,
+                weight: Vec3::splat(0.5),
+                albedo: Vec3::splat(0.5),
+                specular: Vec3::ZERO,
+                primary: true,
+            };
+            eye.push_sample(&s, i as u32);
+        }
+        let mut acc = Accumulators::new(8);
+        for slot in 0..3 {
+            acc.set(Channel::R, slot, 1.0);
+        }
+        acc.set(Channel::G, 1, f32::INFINITY);
+        acc.set(Channel::B, 2, f32::NAN);
+        let mut map = RadianceMap::new(2, 1);
+        map.resolve_from(&scene, &eye, &[0, 1, 2], &acc, 1);
+        assert_eq!(map.invalid, 2);
+        assert!(map.radiance.iter().all(|r| r.is_finite()));
+        // The valid sample of pixel 0 still counts.
+        assert!(map.radiance[0].x > 0.0);
+    }
+}

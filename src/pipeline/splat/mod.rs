@@ -1,0 +1,204 @@
+//! Photon ray splatting (§4, §5, §7.2): each photon ray deposits its power, through a 2D
+//! Epanechnikov kernel perpendicular to the ray, onto the feasible eye samples in its conical
+//! frustum, weighted by cos θ at the sample.
+//!
+//! The leaf test runs 8 lanes at a time over the padded structure-of-arrays slots
+//! ([`crate::pipeline::splat_tree::LANES`]); on x86-64 with AVX2 the whole subtree loop is compiled for
+//! AVX2 (chosen once per subtree, never per photon). Both paths compute the same IEEE
+//! operations, so they give identical results.
+//!
+//! The kernel and the per-sample test are in `kernel`, the parallel pass over the splat tree in
+//! `pass`; both are re-exported here.
+
+mod kernel;
+mod pass;
+
+pub use kernel::{LaneResult, epanechnikov, kept_fraction, test_sample};
+pub use pass::splat;
+
+use crate::pipeline::directional::DirectionalMode;
+use crate::pipeline::directional::{FILTER_TAPS, SH_COEFFS, filter_taps, sh_basis};
+use crate::pipeline::photon::{Bandwidth, PhotonRay};
+use crate::pipeline::splat_tree::Cone;
+use glam::{Vec3, Vec3A};
+use rayon::prelude::*;
+
+/// A photon ray ready to splat: its cone from the current bandwidth (§6) and its power.
+#[derive(Clone, Copy, Debug)]
+pub struct SplatRay {
+    /// The splat volume: the conical frustum and the hemisphere beyond the hit (Fig. 4).
+    pub cone: Cone,
+    /// ΔΦ: the photon ray's power (already divided by its class's photon count).
+    pub power: Vec3,
+    /// Normal of the surface the ray leaves, on the side it leaves (zero for point lights):
+    /// samples behind it are not splatted.
+    pub origin_normal: Vec3A,
+    /// Normal of the surface hit, facing the ray (zero when the ray escapes).
+    pub end_normal: Vec3A,
+    /// 1 / [`kept_fraction`] at the hit: restores, on the hit surface, the kernel mass the
+    /// hemisphere rule and the narrower cone before the hit cut off (docs/deviations.md §23).
+    pub end_gain: f32,
+    /// length · (dir · end_normal): the hit plane is {p : (p − origin) · end_normal = this}.
+    pub end_plane: f32,
+    /// 1 when the footprint extends beyond the hit point as the hemisphere of Fig. 4; 0 when
+    /// the ray ends on a mirror or glass (the photon goes on from there, so the next segment
+    /// carries that light) or escapes: then nothing past the end receives anything.
+    pub beyond: f32,
+    /// Lower corner of the splat volume's bounding box ([`Cone::bounds`]).
+    pub bounds_min: Vec3A,
+    /// Upper corner of the splat volume's bounding box.
+    pub bounds_max: Vec3A,
+}
+
+/// A ray's incident direction (−dir) in the radiance map's basis (§8.1), computed once per
+/// ray: Y_k(−dir) in SH mode; the filter taps (weights in `basis[..8]`, strata in `taps`) in
+/// histogram mode. Kept apart from [`SplatRay`], which every subtree streams through, since
+/// only splats onto glossy targets read it.
+#[derive(Clone, Copy, Debug)]
+pub struct RayDirection {
+    /// SH mode: Y_k(−dir) for the 16 coefficients; histogram mode: the taps' weights in the
+    /// first [`FILTER_TAPS`] entries; diffuse mode: zero.
+    pub basis: [f32; SH_COEFFS],
+    /// Histogram mode: the strata the taps deposit into.
+    pub taps: [u8; FILTER_TAPS],
+    /// Non-zero taps (histogram mode).
+    pub tap_count: u8,
+}
+
+impl RayDirection {
+    /// The basis values of the incident direction −`dir` for `mode`.
+    pub fn new(dir: Vec3, mode: DirectionalMode) -> Self {
+        let mut basis = [0.0; SH_COEFFS];
+        let mut taps = [0u8; FILTER_TAPS];
+        let mut tap_count = 0;
+        match mode {
+            DirectionalMode::Diffuse => {}
+            DirectionalMode::Sh => basis = sh_basis(-dir),
+            DirectionalMode::Histogram => {
+                let t = filter_taps(-dir);
+                taps = t.stratum;
+                basis[..FILTER_TAPS].copy_from_slice(&t.weight);
+                tap_count = t.weight.iter().filter(|&&w| w > 0.0).count() as u8;
+            }
+        }
+        Self {
+            basis,
+            taps,
+            tap_count,
+        }
+    }
+}
+
+impl RayDirection {
+    /// Add `power` arriving along this direction to a directional record (§8.1): projected
+    /// onto the SH basis, or spread over the filter's strata.
+    #[inline(always)]
+    pub fn deposit(&self, rec: &mut [f32], power: Vec3, mode: DirectionalMode) {
+        match mode {
+            DirectionalMode::Diffuse => {}
+            DirectionalMode::Sh => {
+                for (c, pc) in [power.x, power.y, power.z].into_iter().enumerate() {
+                    let dst = &mut rec[c * SH_COEFFS..(c + 1) * SH_COEFFS];
+                    for (d, b) in dst.iter_mut().zip(&self.basis) {
+                        *d += pc * b;
+                    }
+                }
+            }
+            DirectionalMode::Histogram => {
+                for t in 0..self.tap_count as usize {
+                    let (wt, s) = (self.basis[t], self.taps[t] as usize * 3);
+                    rec[s] += wt * power.x;
+                    rec[s + 1] += wt * power.y;
+                    rec[s + 2] += wt * power.z;
+                }
+            }
+        }
+    }
+}
+
+/// Rays ready to splat, with their directions when the radiance map keeps them.
+#[derive(Clone, Debug, Default)]
+pub struct SplatBatch {
+    /// The rays, in the order of the photon rays they came from.
+    pub rays: Vec<SplatRay>,
+    /// One per ray in SH and histogram modes; empty in diffuse mode.
+    pub directions: Vec<RayDirection>,
+}
+
+impl SplatRay {
+    /// The ray with its cone (h0, dh) from eq. 8's bandwidth `bw` (§6).
+    pub fn new(ray: &PhotonRay, bw: &Bandwidth) -> Self {
+        let (h0, dh) = bw.cone(ray);
+        Self::with_cone(ray, h0, dh)
+    }
+
+    /// The ray with a given cone: radius h0 at its origin, growing by dh per unit length (§6).
+    pub fn with_cone(ray: &PhotonRay, h0: f32, dh: f32) -> Self {
+        let cone = Cone {
+            origin: ray.origin.into(),
+            dir: ray.dir.into(),
+            length: ray.length,
+            h0,
+            dh,
+            h_end: h0 + dh * ray.length,
+        };
+        let (bounds_min, bounds_max) = cone.bounds();
+        let cos_hit = -ray.dir.dot(ray.end_normal);
+        // Only a ray that lands on a surface that holds eye samples gets the hemisphere and
+        // the end gain; a specular end has no samples on it to correct for.
+        let end_gain = if !ray.lands {
+            1.0
+        } else {
+            // Never more than 4×: at grazing incidence on a steep cone the kept mass tends to 0.
+            1.0 / kept_fraction(cos_hit, dh).max(0.25)
+        };
+        Self {
+            cone,
+            power: ray.power,
+            origin_normal: ray.origin_normal.into(),
+            end_normal: ray.end_normal.into(),
+            end_gain,
+            end_plane: ray.length * ray.dir.dot(ray.end_normal),
+            beyond: if ray.lands { 1.0 } else { 0.0 },
+            bounds_min,
+            bounds_max,
+        }
+    }
+}
+
+/// Prepare rays of the classes selected by `classes` with per-class bandwidths, their
+/// directions expressed in the basis of `mode`.
+pub fn prepare(
+    rays: &[PhotonRay],
+    bandwidths: &[Bandwidth; 3],
+    classes: [bool; 3],
+    mode: DirectionalMode,
+) -> SplatBatch {
+    let selected = || rays.par_iter().filter(|r| classes[r.class as usize]);
+    SplatBatch {
+        rays: selected()
+            .map(|r| SplatRay::new(r, &bandwidths[r.class as usize]))
+            .collect(),
+        directions: if mode == DirectionalMode::Diffuse {
+            Vec::new()
+        } else {
+            selected().map(|r| RayDirection::new(r.dir, mode)).collect()
+        },
+    }
+}
+
+/// Counters of one splat pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SplatCounters {
+    /// Eye samples tested for feasibility (real samples in visited leaves).
+    pub tested: u64,
+    /// Eye samples that received energy.
+    pub accepted: u64,
+}
+
+impl std::ops::AddAssign for SplatCounters {
+    fn add_assign(&mut self, o: Self) {
+        self.tested += o.tested;
+        self.accepted += o.accepted;
+    }
+}

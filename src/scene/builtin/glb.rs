@@ -1,0 +1,166 @@
+//! A minimal glTF 2.0 binary writer for the generated scenes.
+
+use glam::Vec3;
+use serde_json::{Value, json};
+
+/// The rotation taking −Z to `dir` with +Y kept up (glTF cameras and lights look down −Z).
+fn look_rotation(dir: Vec3) -> glam::Quat {
+    let f = dir.normalize();
+    let r = f.cross(Vec3::Y).normalize_or(Vec3::X);
+    let u = r.cross(f);
+    glam::Quat::from_mat3(&glam::Mat3::from_cols(r, u, -f)).normalize()
+}
+
+/// A minimal glTF 2.0 binary writer for generated scenes (the project's own scenes, tests):
+/// one mesh per object with positions, normals and u32 indices, metallic-roughness materials
+/// given as glTF JSON, perspective cameras and KHR_lights_punctual lights.
+#[derive(Default)]
+pub struct GlbBuilder {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+    meshes: Vec<Value>,
+    materials: Vec<Value>,
+    nodes: Vec<Value>,
+    cameras: Vec<Value>,
+    lights: Vec<Value>,
+}
+
+impl GlbBuilder {
+    /// Add a material (a glTF material object); returns its index.
+    pub fn material(&mut self, m: Value) -> u32 {
+        self.materials.push(m);
+        (self.materials.len() - 1) as u32
+    }
+
+    fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
+        }
+        let offset = self.bin.len();
+        self.bin.extend_from_slice(bytes);
+        self.views.push(
+            json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target}),
+        );
+        self.views.len() - 1
+    }
+
+    fn vec3_accessor(&mut self, v: &[Vec3], with_bounds: bool) -> usize {
+        let bytes: Vec<u8> = v
+            .iter()
+            .flat_map(|p| p.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        let view = self.push_view(&bytes, 34962);
+        let mut acc =
+            json!({"bufferView": view, "componentType": 5126, "count": v.len(), "type": "VEC3"});
+        if with_bounds {
+            let min = v.iter().fold(Vec3::splat(f32::INFINITY), |a, b| a.min(*b));
+            let max = v
+                .iter()
+                .fold(Vec3::splat(f32::NEG_INFINITY), |a, b| a.max(*b));
+            acc["min"] = json!(min.to_array());
+            acc["max"] = json!(max.to_array());
+        }
+        self.accessors.push(acc);
+        self.accessors.len() - 1
+    }
+
+    /// Add a triangle mesh (one primitive) under its own node.
+    pub fn mesh(&mut self, name: &str, p: &[Vec3], n: &[Vec3], idx: &[u32], material: u32) {
+        let pos = self.vec3_accessor(p, true);
+        let nrm = self.vec3_accessor(n, false);
+        let bytes: Vec<u8> = idx.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let view = self.push_view(&bytes, 34963);
+        self.accessors.push(json!({"bufferView": view, "componentType": 5125, "count": idx.len(), "type": "SCALAR"}));
+        let ind = self.accessors.len() - 1;
+        self.meshes.push(json!({"name": name, "primitives": [{
+            "attributes": {"POSITION": pos, "NORMAL": nrm}, "indices": ind, "material": material}]}));
+        self.nodes
+            .push(json!({"name": name, "mesh": self.meshes.len() - 1}));
+    }
+
+    /// Add a perspective camera at `eye` looking at `target` (vertical field of view in radians).
+    pub fn camera(&mut self, name: &str, eye: Vec3, target: Vec3, yfov: f32) {
+        let q = look_rotation(target - eye);
+        self.cameras
+            .push(json!({"name": name, "type": "perspective",
+            "perspective": {"yfov": yfov, "znear": 0.01, "aspectRatio": 1.0}}));
+        self.nodes
+            .push(json!({"name": name, "camera": self.cameras.len() - 1,
+            "translation": eye.to_array(), "rotation": q.to_array()}));
+    }
+
+    /// Add a KHR_lights_punctual point light (intensity in W/sr).
+    pub fn point_light(&mut self, name: &str, position: Vec3, color: Vec3, intensity: f32) {
+        self.lights.push(json!({"name": name, "type": "point", "color": color.to_array(), "intensity": intensity}));
+        self.nodes
+            .push(json!({"name": name, "translation": position.to_array(),
+            "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}}));
+    }
+
+    /// Add a KHR_lights_punctual spot light pointing along `direction`.
+    pub fn spot_light(
+        &mut self,
+        name: &str,
+        position: Vec3,
+        direction: Vec3,
+        color: Vec3,
+        intensity: f32,
+        cone: (f32, f32),
+    ) {
+        self.lights.push(
+            json!({"name": name, "type": "spot", "color": color.to_array(), "intensity": intensity,
+            "spot": {"innerConeAngle": cone.0, "outerConeAngle": cone.1}}),
+        );
+        self.nodes
+            .push(json!({"name": name, "translation": position.to_array(),
+            "rotation": look_rotation(direction).to_array(),
+            "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}}));
+    }
+
+    /// The GLB file.
+    pub fn to_glb(&self) -> Vec<u8> {
+        let mut root = json!({
+            "asset": {"version": "2.0", "generator": concat!("raysplat ", env!("CARGO_PKG_VERSION"))},
+            "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior"],
+            "scene": 0,
+            "scenes": [{"nodes": (0..self.nodes.len()).collect::<Vec<_>>()}],
+            "nodes": self.nodes,
+            "meshes": self.meshes,
+            "materials": self.materials,
+            "cameras": self.cameras,
+            "accessors": self.accessors,
+            "bufferViews": self.views,
+            "buffers": [{"byteLength": self.bin.len()}],
+        });
+        if !self.lights.is_empty() {
+            root["extensionsUsed"]
+                .as_array_mut()
+                .expect("set above")
+                .push(json!("KHR_lights_punctual"));
+            root["extensions"] = json!({"KHR_lights_punctual": {"lights": self.lights}});
+        }
+        let mut json_bytes =
+            serde_json::to_vec(&root).expect("serialising a JSON value cannot fail");
+        while !json_bytes.len().is_multiple_of(4) {
+            json_bytes.push(b' ');
+        }
+        let mut bin = self.bin.clone();
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
+        let mut out = Vec::with_capacity(total);
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(total as u32).to_le_bytes());
+        out.extend_from_slice(&(json_bytes.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&json_bytes);
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&bin);
+        out
+    }
+}

@@ -1,0 +1,301 @@
+//! The progressive worker: one thread owns the scene, the renderer (eye samples, splat tree,
+//! stored photon rays, accumulators) and loops — take pending commands, do one step (re-splat
+//! a stored batch or trace and splat a new one), and about ten times a second publish a frame.
+//!
+//! The UI talks to it only through channels: commands in, frames out (a one-slot channel; a
+//! stale frame is dropped, never queued), events out (scene loaded, load failed). Commands that
+//! arrive together are coalesced and applied once, at the batch boundary.
+//!
+//! This module holds the channel types and the UI's [`Session`] handle; the worker thread's
+//! loop is in `worker`.
+
+mod worker;
+
+use worker::Worker;
+
+use crate::film::Film;
+use crate::pipeline::cache::CacheParams;
+use crate::pipeline::directional::DirectionalMode;
+use crate::pipeline::filter::FilterParams;
+use crate::pipeline::photon::BandwidthParams;
+use crate::scene::{Camera, Scene};
+use crate::settings::{DirectMode, RenderSettings};
+use crossbeam_channel::{Receiver, Sender, bounded, unbounded};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// Something the UI asks of the worker.
+#[derive(Clone, Debug)]
+pub enum Command {
+    /// New C, S, R: re-splat the stored photon rays (no re-trace).
+    SetBandwidth(BandwidthParams),
+    /// Photons (M) per batch from the next batch on.
+    SetPhotonsPerBatch(u64),
+    /// Camera rays per pixel, applied as a new view (no re-trace).
+    SetSamplesPerPixel(u32),
+    /// Image size, applied as a new view (no re-trace).
+    SetResolution {
+        /// Width (pixels).
+        width: u32,
+        /// Height (pixels).
+        height: u32,
+    },
+    /// Switching direct light between NEE and photons restarts tracing.
+    SetDirect(DirectMode),
+    /// Directional storage at glossy samples (§8.1): new accumulators, then a re-splat of
+    /// the stored rays (no re-trace).
+    SetRadianceMap(DirectionalMode),
+    /// Resolve the radiance map through the radiance cache (§8.3) with these parameters: the
+    /// cache pass re-runs over the current map, no re-trace and no re-splat.
+    SetCache {
+        /// Use the cache at all.
+        on: bool,
+        /// Cache error ε and records per pixel.
+        params: CacheParams,
+    },
+    /// The image-space filter of the indirect light (§8.2); applied when the next frame is
+    /// resolved.
+    SetFilter(FilterParams),
+    /// A new view; `interactive` views render at reduced resolution until a final one arrives.
+    SetCamera {
+        /// The new view.
+        camera: Camera,
+        /// The camera is still moving (render at reduced resolution).
+        interactive: bool,
+    },
+    /// Keep at most this many photon rays for re-splatting; older batches are folded.
+    SetRayBudget(usize),
+    /// Stop tracing new batches (a pending re-splat still finishes).
+    Pause,
+    /// Trace batches again.
+    Resume,
+    /// Load a .gltf/.glb; on failure the current scene stays and `Event::LoadFailed` says why.
+    LoadScene(PathBuf),
+    /// Drop all photons and trace from scratch.
+    Restart,
+    /// Path trace the current view progressively (the reference view mode) instead of tracing
+    /// photon batches, or stop doing so.
+    SetReference(bool),
+    /// End the worker thread.
+    Shutdown,
+}
+
+/// Something the worker tells the UI.
+#[derive(Clone, Debug)]
+pub enum Event {
+    /// A scene was loaded (also sent for the scene the session starts with).
+    SceneLoaded {
+        /// The scene's display name.
+        name: String,
+        /// The file it came from (`None` for an embedded or built-in scene).
+        path: Option<PathBuf>,
+        /// Its cameras (never empty).
+        cameras: Vec<Camera>,
+        /// Centre of the scene's bounding box (the orbit's pivot).
+        center: glam::Vec3,
+        /// What the loader skipped or repaired.
+        warnings: Vec<String>,
+    },
+    /// A [`Command::LoadScene`] failed, and why; the previous scene stays.
+    LoadFailed(String),
+    /// The worker could not apply a change (the previous state stays).
+    Error(String),
+}
+
+/// Counters shown in the stats panel.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SessionStats {
+    /// Photons traced since the scene was loaded or tracing restarted.
+    pub photons_traced: u64,
+    /// Photon rays stored for re-splatting.
+    pub photon_rays: usize,
+    /// Bytes of the stored photon rays.
+    pub photon_ray_bytes: usize,
+    /// Batches whose light the image holds.
+    pub batches: usize,
+    /// Batches folded into the image and dropped from the ray store (budget exceeded).
+    pub folded_batches: usize,
+    /// Batches whose rays are stored (re-splattable).
+    pub stored_batches: usize,
+    /// Bytes held by eye samples, splat tree and accumulators.
+    pub splat_bytes: usize,
+    /// Bytes of the directional radiance-map records (§8.1), included in `splat_bytes`.
+    pub directional_bytes: usize,
+    /// Splat targets on glossy surfaces (the ones with directional records).
+    pub glossy_targets: usize,
+    /// Radiance cache records of this frame (0 when the cache is off).
+    pub cache_records: usize,
+    /// `photons_traced` / `elapsed_s`.
+    pub photons_per_second: f64,
+    /// Splat time of the last step, milliseconds.
+    pub last_splat_ms: f64,
+    /// Eye samples of the current view.
+    pub eye_samples: usize,
+    /// Splat targets (eye samples after merging).
+    pub splat_targets: usize,
+    /// Seconds since the current scene was loaded or tracing restarted.
+    pub elapsed_s: f64,
+    /// The worker is paused.
+    pub paused: bool,
+    /// Stored batches are still being re-splatted after a change.
+    pub resplat_pending: bool,
+    /// Paths per pixel of the reference image, 0 when it is off.
+    pub reference_spp: u32,
+    /// Fraction of the indirect photon rays whose bandwidth sits at h_min (eq. 8's lower
+    /// bound; docs/deviations.md §5); of all rays when there are no indirect ones.
+    pub indirect_at_h_min: f64,
+    /// Fraction of the indirect photon rays whose bandwidth sits at h_max (eq. 8's upper
+    /// bound); of all rays when there are no indirect ones.
+    pub indirect_at_h_max: f64,
+}
+
+/// A published image and everything needed to describe it.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// The image and its AOVs.
+    pub film: Film,
+    /// Increases with every published frame.
+    pub seq: u64,
+    /// Increases with every applied change (parameters, view, scene, restart).
+    pub generation: u64,
+    /// Display name of the scene rendered.
+    pub scene_name: String,
+    /// Its file (`None` for an embedded or built-in scene).
+    pub scene_path: Option<PathBuf>,
+    /// The view rendered.
+    pub camera: Camera,
+    /// The settings it was rendered with.
+    pub settings: RenderSettings,
+    /// Rendered at reduced resolution (while the camera moves, and for the first frame).
+    pub interactive: bool,
+    /// The radiance cache's records: pixel x, y, radius (pixels), pass (Fig. 8b).
+    pub cache_records: Vec<[f32; 4]>,
+    /// Counters at the time it was published.
+    pub stats: SessionStats,
+    /// The path-traced reference of the same view, while the reference mode is on.
+    pub reference: Option<Film>,
+}
+
+/// How a [`Session`] starts.
+#[derive(Clone, Debug)]
+pub struct SessionConfig {
+    /// Full-resolution settings; `photons` is M per batch.
+    pub settings: RenderSettings,
+    /// Most photon rays kept for re-splatting ([`Command::SetRayBudget`]).
+    pub max_stored_rays: usize,
+    /// Least time between two frames published while tracing (changes publish at once).
+    pub publish_interval: Duration,
+    /// Interactive views divide width and height by this and use 1 sample per pixel.
+    pub interactive_divisor: u32,
+}
+
+impl Default for SessionConfig {
+    fn default() -> Self {
+        Self {
+            settings: RenderSettings {
+                spp: 1,
+                photons: 20_000,
+                ..RenderSettings::default()
+            },
+            max_stored_rays: 4_000_000,
+            publish_interval: Duration::from_millis(100),
+            interactive_divisor: 2,
+        }
+    }
+}
+
+/// Called after a frame or event is sent (e.g. `egui::Context::request_repaint`).
+pub type Notify = Arc<dyn Fn() + Send + Sync>;
+
+/// The UI's handle on the worker thread.
+pub struct Session {
+    cmd_tx: Sender<Command>,
+    frame_rx: Receiver<Frame>,
+    event_rx: Receiver<Event>,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl Session {
+    /// Start the worker on `scene`. The first frame follows as soon as the eye pass and the
+    /// first batch are done.
+    pub fn spawn(
+        scene: Arc<Scene>,
+        scene_path: Option<PathBuf>,
+        config: SessionConfig,
+        notify: Option<Notify>,
+    ) -> Self {
+        // Build the splat's kept-fraction table (≈ 30 ms, docs/deviations.md §23) beside the
+        // first eye pass rather than in front of the first splat.
+        std::thread::spawn(|| crate::pipeline::splat::kept_fraction(1.0, 0.0));
+        let (cmd_tx, cmd_rx) = unbounded();
+        let (frame_tx, frame_rx) = bounded(1);
+        let (event_tx, event_rx) = unbounded();
+        let stale = frame_rx.clone();
+        let handle = std::thread::Builder::new()
+            .name("raysplat-worker".into())
+            .spawn(move || {
+                let events = event_tx.clone();
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    Worker::new(scene, scene_path, config, frame_tx, stale, event_tx, notify)
+                        .run(cmd_rx)
+                }));
+                if let Err(e) = result {
+                    let msg = e
+                        .downcast_ref::<String>()
+                        .cloned()
+                        .or_else(|| e.downcast_ref::<&str>().map(|s| s.to_string()))
+                        .unwrap_or_else(|| "unknown panic".into());
+                    let _ = events.send(Event::Error(format!("the render worker stopped: {msg}")));
+                }
+            })
+            .expect("spawning the worker thread");
+        Self {
+            cmd_tx,
+            frame_rx,
+            event_rx,
+            handle: Some(handle),
+        }
+    }
+
+    /// Queue a command for the worker (ignored once the worker has stopped).
+    pub fn send(&self, c: Command) {
+        // A stopped worker has told the UI why through an event.
+        let _ = self.cmd_tx.send(c);
+    }
+
+    /// The newest frame published since the last call, if any.
+    pub fn try_frame(&self) -> Option<Frame> {
+        let mut last = None;
+        while let Ok(f) = self.frame_rx.try_recv() {
+            last = Some(f);
+        }
+        last
+    }
+
+    /// Wait up to `timeout` for a frame.
+    pub fn wait_frame(&self, timeout: Duration) -> Option<Frame> {
+        self.frame_rx.recv_timeout(timeout).ok()
+    }
+
+    /// Every event sent since the last call.
+    pub fn try_events(&self) -> Vec<Event> {
+        self.event_rx.try_iter().collect()
+    }
+
+    /// False once the worker thread has ended.
+    pub fn is_alive(&self) -> bool {
+        self.handle.as_ref().is_some_and(|h| !h.is_finished())
+    }
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        let _ = self.cmd_tx.send(Command::Shutdown);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
