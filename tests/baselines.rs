@@ -160,9 +160,7 @@ fn pm_and_rs_converge_to_the_path_tracer() {
             let r = render_method(
                 &scene,
                 method,
-                &RenderSettings {
-                    ..s.clone()
-                },
+                &RenderSettings { ..s.clone() },
                 Budget::Fixed,
             )
             .unwrap();
@@ -213,9 +211,7 @@ fn final_gathering_agrees_with_the_path_tracer() {
         let r = render_method(
             &scene,
             method,
-            &RenderSettings {
-                ..base.clone()
-            },
+            &RenderSettings { ..base.clone() },
             Budget::Fixed,
         )
         .unwrap();
@@ -269,9 +265,7 @@ fn glass_refraction_agrees_between_path_tracer_and_eye_pass() {
     let eye = render_method(
         &scene,
         MethodKind::Rs,
-        &RenderSettings {
-            ..settings.clone()
-        },
+        &RenderSettings { ..settings.clone() },
         Budget::Fixed,
     )
     .unwrap()
@@ -496,9 +490,7 @@ fn without_indirect_photons_the_path_tracer_renders_direct_light_and_caustics() 
         let r = render_method(
             &scene,
             method,
-            &RenderSettings {
-                ..settings.clone()
-            },
+            &RenderSettings { ..settings.clone() },
             Budget::Fixed,
         )
         .unwrap();

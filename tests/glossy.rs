@@ -72,9 +72,7 @@ fn glossy_plate_matches_the_path_tracer_in_both_directional_modes() {
         let r = render_method(
             &scene,
             method,
-            &RenderSettings {
-                ..s.clone()
-            },
+            &RenderSettings { ..s.clone() },
             Budget::Fixed,
         )
         .unwrap();

@@ -90,6 +90,21 @@ fn cornell1_rc_settings(direct: DirectMode) -> RenderSettings {
 
 /// Every row, printed and (with `--json`) written.
 pub fn run(args: BenchArgs) -> Result<(), String> {
+    // Everything the command line names is checked before the first row runs.
+    if let Some(path) = &args.json {
+        let inputs: Vec<&std::path::Path> = [&args.cornell_reference, &args.glossy_reference]
+            .into_iter()
+            .flatten()
+            .map(PathBuf::as_path)
+            .collect();
+        super::output::check(&[(path.as_path(), false)], &inputs)?;
+    }
+    for (reference, scene) in [
+        (&args.cornell_reference, "CORNELL BOX I"),
+        (&args.glossy_reference, "builtin:glossy"),
+    ] {
+        read_reference(reference.as_ref(), scene)?;
+    }
     set_threads(args.threads)?;
     let mut rows = Rows::new();
     cornell_bench(&args, &mut rows)?;

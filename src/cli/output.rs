@@ -109,14 +109,6 @@ pub fn auto_exposure(rgb: &[glam::Vec3]) -> f32 {
 /// exists (made if missing) and takes a file, none is written twice, none is an input.
 pub fn check(outputs: &[(&Path, bool)], inputs: &[&Path]) -> Result<(), String> {
     for (i, &(path, image)) in outputs.iter().enumerate() {
-        if image {
-            Format::of(path)?;
-        }
-        for &(other, _) in &outputs[..i] {
-            if same_file(path, other) {
-                return Err(format!("{} is named for two outputs", path.display()));
-            }
-        }
         for &input in inputs {
             if same_file(path, input) {
                 return Err(format!(
@@ -124,6 +116,14 @@ pub fn check(outputs: &[(&Path, bool)], inputs: &[&Path]) -> Result<(), String> 
                     path.display()
                 ));
             }
+        }
+        for &(other, _) in &outputs[..i] {
+            if same_file(path, other) {
+                return Err(format!("{} is named for two outputs", path.display()));
+            }
+        }
+        if image {
+            Format::of(path)?;
         }
         check_folder(path)?;
     }

@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 /// command line says is checked before the scene loads; Ctrl-C ends the render early, writes
 /// the image so far (marked partial in the stats) and exits with status 130.
 pub fn run(args: RenderArgs) -> Result<(), String> {
+    let interrupted = super::interrupt_flag();
     let settings = args.settings()?;
     let images = args.output.images();
     let mut outputs: Vec<(&Path, bool)> = images.iter().map(|p| (p.as_path(), true)).collect();
@@ -39,7 +40,6 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    let interrupted = super::interrupt_flag();
     let time_budget = args.settings.run.time_budget;
     let progress = match time_budget {
         Some(b) => ProgressBar::new((b * 1000.0) as u64).with_style(

@@ -234,7 +234,6 @@ impl Pass {
         timings: &mut Timings,
     ) -> Self {
         let (w, h) = (s.width, s.height);
-        let n_pixels = (w * h) as usize;
         let t = Instant::now();
         let EyePass {
             samples: eye,

@@ -117,6 +117,9 @@ fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<Scene
         None => document.nodes().collect(),
     };
     let mut stats = LoadStats::default();
+    // Each camera's (glTF camera index, node index): cameras are listed in the file's order,
+    // whatever order the node traversal meets them in.
+    let mut camera_keys: Vec<(usize, usize)> = Vec::new();
     let mut stack: Vec<(gltf::Node, Mat4, usize)> =
         roots.into_iter().map(|n| (n, Mat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
@@ -161,6 +164,7 @@ fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<Scene
                             .or(cam.name())
                             .map(str::to_string)
                             .unwrap_or_else(|| format!("camera{}", parts.cameras.len()));
+                        camera_keys.push((cam.index(), node.index()));
                         parts.cameras.push(Camera {
                             name,
                             position: pos,
@@ -195,6 +199,12 @@ fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<Scene
             stack.push((child, world, depth + 1));
         }
     }
+    let mut keyed: Vec<((usize, usize), Camera)> = camera_keys
+        .into_iter()
+        .zip(parts.cameras.drain(..))
+        .collect();
+    keyed.sort_by_key(|(k, _)| *k);
+    parts.cameras = keyed.into_iter().map(|(_, c)| c).collect();
     if stats.degenerate > 0 {
         parts.warnings.push(format!(
             "{} degenerate (zero-area) triangles skipped",
