@@ -302,7 +302,10 @@ fn compare_lists_only_the_flags_it_uses() {
         assert!(!flags.contains(&unused), "compare --help lists {unused}");
     }
     for used in ["--methods", "--exposure", "--tonemap", "--out-dir"] {
-        assert!(flags.contains(&used), "compare --help lacks {used}: {flags:?}");
+        assert!(
+            flags.contains(&used),
+            "compare --help lacks {used}: {flags:?}"
+        );
     }
 }
 

@@ -20,10 +20,10 @@ impl DisplayPanel {
         ui.heading("Display");
         let mut mode = settings.view_mode;
         egui::ComboBox::from_label("View")
-            .selected_text(mode.label())
+            .selected_text(view_mode_label(mode))
             .show_ui(ui, |ui| {
                 for m in ViewMode::ALL {
-                    ui.selectable_value(&mut mode, m, m.label());
+                    ui.selectable_value(&mut mode, m, view_mode_label(m));
                 }
             });
         set_view_mode(settings, mode, out);
@@ -32,10 +32,10 @@ impl DisplayPanel {
                 .text("Exposure (stops)"),
         );
         egui::ComboBox::from_label("Tone mapping")
-            .selected_text(settings.tone_map.label())
+            .selected_text(tone_map_label(settings.tone_map))
             .show_ui(ui, |ui| {
                 for t in ToneMap::ALL {
-                    ui.selectable_value(&mut settings.tone_map, t, t.label());
+                    ui.selectable_value(&mut settings.tone_map, t, tone_map_label(t));
                 }
             });
     }
@@ -60,5 +60,28 @@ pub fn set_view_mode(settings: &mut UiSettings, mode: ViewMode, out: &mut Comman
             on: true,
             params: settings.render.cache,
         });
+    }
+}
+
+/// The mode's name in the window's menu.
+pub fn view_mode_label(m: ViewMode) -> &'static str {
+    match m {
+        ViewMode::Final => "Final",
+        ViewMode::DirectOnly => "Direct only",
+        ViewMode::IndirectOnly => "Indirect only",
+        ViewMode::Bandwidth => "Bandwidth (false colour)",
+        ViewMode::KernelDensity => "Kernel-weight density",
+        ViewMode::HarmonicDistance => "Harmonic mean distance",
+        ViewMode::Reference => "Reference (path traced)",
+        ViewMode::CacheRecords => "Cache records (radii)",
+    }
+}
+
+/// The curve's name in the window's menu.
+pub fn tone_map_label(m: ToneMap) -> &'static str {
+    match m {
+        ToneMap::Clamp => "Clamp",
+        ToneMap::Reinhard => "Reinhard",
+        ToneMap::Aces => "ACES filmic",
     }
 }

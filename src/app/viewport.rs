@@ -135,7 +135,10 @@ impl Viewport {
                     );
                 }
                 ui.label(format!("{:.4} {}", legend.max, legend.unit));
-                ui.label(format!("({}, red = smallest)", view_mode.label()));
+                ui.label(format!(
+                    "({}, red = smallest)",
+                    super::display::view_mode_label(view_mode)
+                ));
             });
         }
     }

@@ -336,7 +336,10 @@ impl App {
             ui.menu_button("View", |ui| {
                 for m in ViewMode::ALL {
                     if ui
-                        .selectable_label(self.settings.view_mode == m, m.label())
+                        .selectable_label(
+                            self.settings.view_mode == m,
+                            super::display::view_mode_label(m),
+                        )
                         .clicked()
                     {
                         set_view_mode(&mut self.settings, m, out);

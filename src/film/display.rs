@@ -39,20 +39,6 @@ impl ViewMode {
         ViewMode::CacheRecords,
     ];
 
-    /// The mode's name in the window's menu.
-    pub fn label(self) -> &'static str {
-        match self {
-            ViewMode::Final => "Final",
-            ViewMode::DirectOnly => "Direct only",
-            ViewMode::IndirectOnly => "Indirect only",
-            ViewMode::Bandwidth => "Bandwidth (false colour)",
-            ViewMode::KernelDensity => "Kernel-weight density",
-            ViewMode::HarmonicDistance => "Harmonic mean distance",
-            ViewMode::Reference => "Reference (path traced)",
-            ViewMode::CacheRecords => "Cache records (radii)",
-        }
-    }
-
     /// The film buffer a false-colour mode shows, with its unit.
     fn scalar(self, film: &Film) -> Option<(&[f32], &'static str)> {
         match self {
@@ -78,15 +64,6 @@ pub enum ToneMap {
 impl ToneMap {
     /// Every tone curve, in menu order.
     pub const ALL: [ToneMap; 3] = [ToneMap::Clamp, ToneMap::Reinhard, ToneMap::Aces];
-
-    /// The curve's name in the window's menu.
-    pub fn label(self) -> &'static str {
-        match self {
-            ToneMap::Clamp => "Clamp",
-            ToneMap::Reinhard => "Reinhard",
-            ToneMap::Aces => "ACES filmic",
-        }
-    }
 
     #[inline]
     fn apply(self, x: f32) -> f32 {

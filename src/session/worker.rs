@@ -182,12 +182,8 @@ impl Worker {
                 s.radiance_map = m;
                 p.update = true;
             }
-            Command::SetDirect(d) => {
-                if s.direct != d {
-                    s.direct = d;
-                    p.restart = true;
-                }
-            }
+            // A change of what is traced: `apply` sees that the method needs a rebuild.
+            Command::SetDirect(d) => s.direct = d,
             Command::SetCamera {
                 camera,
                 interactive,
@@ -248,7 +244,11 @@ impl Worker {
                 }
             }
         }
-        if p.restart || self.renderer.is_none() {
+        let rebuild = self
+            .renderer
+            .as_ref()
+            .is_none_or(|r| methods::needs_rebuild(r.settings(), &self.config.settings));
+        if p.restart || rebuild {
             self.restart();
             return;
         }
