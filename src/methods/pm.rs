@@ -5,8 +5,6 @@
 
 use crate::film::Film;
 use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
-use crate::pipeline::cache::{PixelGeometry, sample_values};
-use crate::pipeline::filter::filter_samples;
 use crate::pipeline::photon::PhotonRay;
 use crate::pipeline::photon_map::{PmStats, build_maps, estimate_targets};
 use crate::settings::MethodKind;
@@ -59,24 +57,8 @@ impl Resolver for PmFilm {
         let t = Instant::now();
         // The estimate is already averaged over the batches.
         let mut map = core.resolve_indirect(1);
-        let filter = core.settings.filter;
-        if filter.enabled {
-            let side = &core.side;
-            let geo = PixelGeometry::new(&side.eye, core.settings.width, core.settings.height);
-            let mode = side.acc_indirect.mode;
-            let mut values =
-                sample_values(&side.eye, &side.tree.target_slot, &side.acc_indirect, 1);
-            let splats: Vec<f32> = map.info.iter().map(|i| i.splats).collect();
-            filter_samples(
-                &side.eye,
-                &geo,
-                &core.camera,
-                &splats,
-                1,
-                filter,
-                &mut values,
-            );
-            map.resolve_interpolated(&core.scene, &side.eye, &values, mode);
+        if core.settings.filter.enabled {
+            core.resolve_samples(&mut map, None, 1, true);
         }
         // Direct photons, when stored, are in the global map already.
         let film = core.compose(&map, 1, false);

@@ -10,8 +10,9 @@ use crate::film::Film;
 use crate::methods::eye_side::EyeSide;
 use crate::methods::photon_store::PhotonStore;
 use crate::methods::{Method, MethodStats, Step, Timings};
-use crate::pipeline::cache::Cache;
+use crate::pipeline::cache::{Cache, PixelGeometry, sample_values};
 use crate::pipeline::eye::{EyeSamples, SplatTargets};
+use crate::pipeline::filter::filter_samples;
 use crate::pipeline::photon::{Bandwidth, BandwidthParams, PhotonRay};
 use crate::pipeline::photon_map::PmStats;
 use crate::pipeline::radiance_map::RadianceMap;
@@ -106,18 +107,7 @@ impl Progressive {
     pub fn step(&mut self) -> Step {
         if let Some(b) = self.resplat_queue.pop() {
             let t = Instant::now();
-            let batch = &self.store.batches()[b];
-            let bw = self.bandwidths(batch.m);
-            self.counters += splat_rays(
-                &mut self.side,
-                &batch.rays,
-                &bw,
-                self.splatted_classes,
-                self.settings.direct == DirectMode::Photons,
-                self.settings.radiance_map,
-            );
-            self.splatted += 1;
-            self.generation += 1;
+            self.splat_stored(b);
             self.timings.t_splat += t.elapsed().as_secs_f64();
             Step::Resplatted
         } else {
@@ -139,6 +129,15 @@ impl Progressive {
         self.timings.t_light += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
+        self.splat_stored(b);
+        let dropped = self.store.fold();
+        self.folded += dropped;
+        self.splatted -= dropped;
+        self.timings.t_splat += t.elapsed().as_secs_f64();
+    }
+
+    /// Splat stored batch `b` with the bandwidth of its M under the current parameters.
+    fn splat_stored(&mut self, b: usize) {
         let batch = &self.store.batches()[b];
         let bw = self.bandwidths(batch.m);
         self.counters += splat_rays(
@@ -150,11 +149,7 @@ impl Progressive {
             self.settings.radiance_map,
         );
         self.splatted += 1;
-        let dropped = self.store.fold();
-        self.folded += dropped;
-        self.splatted -= dropped;
         self.generation += 1;
-        self.timings.t_splat += t.elapsed().as_secs_f64();
     }
 
     /// Start re-splatting every stored batch with new bandwidth parameters (no re-tracing).
@@ -220,6 +215,49 @@ impl Progressive {
             batches,
         );
         map
+    }
+
+    /// Resolve `map` again from per-sample incident light: the cache's interpolation of
+    /// `cache`, or else the accumulators' own values over `batches`, filtered in image space
+    /// when the filter is on (§8.2), with the splat statistics of `map` when `splat_stats`
+    /// (none exist at interpolated samples: the filter then takes its default radius).
+    pub fn resolve_samples(
+        &self,
+        map: &mut RadianceMap,
+        cache: Option<&Cache>,
+        batches: u32,
+        splat_stats: bool,
+    ) {
+        let side = &self.side;
+        let geo = PixelGeometry::new(&side.eye, self.settings.width, self.settings.height);
+        let mode = side.acc_indirect.mode;
+        let mut values = match cache {
+            Some(c) => crate::pipeline::cache::interpolate(c, &side.eye, &geo, mode),
+            None => sample_values(
+                &side.eye,
+                &side.tree.target_slot,
+                &side.acc_indirect,
+                batches,
+            ),
+        };
+        let filter = self.settings.filter;
+        if filter.enabled {
+            let splats: Vec<f32> = if splat_stats {
+                map.info.iter().map(|i| i.splats).collect()
+            } else {
+                vec![0.0; map.info.len()]
+            };
+            filter_samples(
+                &side.eye,
+                &geo,
+                &self.camera,
+                &splats,
+                batches,
+                filter,
+                &mut values,
+            );
+        }
+        map.resolve_interpolated(&self.scene, &side.eye, &values, mode);
     }
 
     /// Compose the film: emission + direct light (NEE, or splatted direct photons when

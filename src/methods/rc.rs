@@ -6,7 +6,6 @@
 use crate::film::Film;
 use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
 use crate::pipeline::cache::{self, Cache, PixelGeometry, record_value};
-use crate::pipeline::filter::filter_samples;
 use crate::pipeline::radiance_map::Accumulators;
 use crate::pipeline::splat::{SplatBatch, SplatCounters, prepare, splat};
 use crate::pipeline::splat_tree::SplatTree;
@@ -38,25 +37,7 @@ impl Resolver for RcFilm {
         // The caustics, splatted onto every target.
         let mut map = core.resolve_indirect(b);
         let caustics = map.radiance.clone();
-        let side = &core.side;
-        let geo = PixelGeometry::new(&side.eye, core.settings.width, core.settings.height);
-        let mode = side.acc_indirect.mode;
-        let mut values = cache::interpolate(&cache, &side.eye, &geo, mode);
-        let filter = core.settings.filter;
-        if filter.enabled {
-            // No splat statistics exist at interpolated samples: the filter's default radius.
-            let splats = vec![0.0; map.info.len()];
-            filter_samples(
-                &side.eye,
-                &geo,
-                &core.camera,
-                &splats,
-                b,
-                filter,
-                &mut values,
-            );
-        }
-        map.resolve_interpolated(&core.scene, &side.eye, &values, mode);
+        core.resolve_samples(&mut map, Some(&cache), b, false);
         for (m, c) in map.radiance.iter_mut().zip(caustics) {
             *m += c;
         }

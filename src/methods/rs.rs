@@ -6,8 +6,7 @@
 
 use crate::film::Film;
 use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
-use crate::pipeline::cache::{self, Cache, PixelGeometry, record_value, sample_values};
-use crate::pipeline::filter::filter_samples;
+use crate::pipeline::cache::{self, Cache, PixelGeometry, record_value};
 use crate::settings::MethodKind;
 use std::time::Instant;
 
@@ -38,28 +37,8 @@ impl Resolver for RsFilm {
             core.timings.t_splat += cache_time;
         }
         let mut map = core.resolve_indirect(b);
-        let filter = core.settings.filter;
-        if self.cache.is_some() || filter.enabled {
-            let side = &core.side;
-            let geo = PixelGeometry::new(&side.eye, core.settings.width, core.settings.height);
-            let mode = side.acc_indirect.mode;
-            let mut values = match &self.cache {
-                Some(c) => cache::interpolate(c, &side.eye, &geo, mode),
-                None => sample_values(&side.eye, &side.tree.target_slot, &side.acc_indirect, b),
-            };
-            if filter.enabled {
-                let splats: Vec<f32> = map.info.iter().map(|i| i.splats).collect();
-                filter_samples(
-                    &side.eye,
-                    &geo,
-                    &core.camera,
-                    &splats,
-                    b,
-                    filter,
-                    &mut values,
-                );
-            }
-            map.resolve_interpolated(&core.scene, &side.eye, &values, mode);
+        if self.cache.is_some() || core.settings.filter.enabled {
+            core.resolve_samples(&mut map, self.cache.as_ref(), b, true);
         }
         let film = core.compose(&map, b, core.splat_direct());
         core.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;
