@@ -6,11 +6,12 @@ use super::args::{SettingsArgs, ToneArgs};
 use super::{choice, in_range, load_scene, output, set_threads};
 use clap::Args;
 use glam::Vec3;
+use indicatif::{ProgressBar, ProgressStyle};
 use raysplat::choice::Choice;
 use raysplat::film::Film;
 use raysplat::film::display::{ViewMode, display};
 use raysplat::film::error::{error_map, mean_bias, rmse};
-use raysplat::methods::{Budget, render_method};
+use raysplat::methods::{self, Budget, render_method};
 use raysplat::scene::Scene;
 use raysplat::settings::{MethodKind, RenderSettings, limits};
 use serde::{Deserialize, Serialize};
@@ -121,8 +122,16 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
         "{:<6} {:>8} {:>8} {:>8} {:>8} {:>10} {:>10} {:>8}",
         "method", "T_E", "T_L", "T_S", "ΣT", "RMSE", "relMSE", "bias"
     );
-    for &m in &args.methods {
+    for (i, &m) in args.methods.iter().enumerate() {
+        let spinner = ProgressBar::new_spinner().with_message(format!(
+            "rendering {} ({} of {})",
+            m.name(),
+            i + 1,
+            args.methods.len()
+        ));
+        spinner.enable_steady_tick(std::time::Duration::from_millis(100));
         let r = render_method(&scene, m, &settings, budget)?;
+        spinner.finish_and_clear();
         let t = r.timings;
         let row = CompareRow {
             t_eye: t.t_eye + t.t_direct,
@@ -208,16 +217,32 @@ fn reference(
         }
         return Ok(px);
     }
-    eprintln!(
-        "rendering the reference: path tracing at {} spp…",
-        args.ref_spp
-    );
+    // One path per pixel per step (the same paths as one call of ref_spp), so that the bar
+    // can show progress and an ETA.
     let reference_settings = RenderSettings {
         seed: settings.seed ^ 0x5eed,
-        pt_spp: args.ref_spp,
+        pt_spp: 1,
+        method: MethodKind::Pt,
         ..settings.clone()
     };
-    let r = render_method(scene, MethodKind::Pt, &reference_settings, Budget::Fixed)?;
+    let bar = ProgressBar::new(args.ref_spp as u64).with_style(
+        ProgressStyle::with_template(
+            "{spinner} reference: path tracing [{bar:30}] {pos}/{len} spp {elapsed_precise} (ETA {eta})",
+        )
+        .expect("static template")
+        .progress_chars("=> "),
+    );
+    let mut pt = methods::build(scene.clone(), reference_settings)?;
+    methods::run(pt.as_mut(), Budget::Passes(args.ref_spp as u64), |m| {
+        bar.set_position(m.passes());
+        !super::interrupt_flag().load(std::sync::atomic::Ordering::Relaxed)
+    });
+    bar.finish_and_clear();
+    if super::interrupt_flag().load(std::sync::atomic::Ordering::Relaxed) {
+        eprintln!("interrupted while rendering the reference; nothing written");
+        std::process::exit(130);
+    }
+    let r = methods::finish(pt.as_mut());
     let path = args.out_dir.join("reference.exr");
     r.film.write_exr(&path)?;
     eprintln!("wrote {} ({:.1} s)", path.display(), r.timings.total());

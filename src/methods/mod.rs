@@ -227,6 +227,9 @@ pub enum Budget {
     /// Until the film holds one unit of work: one photon batch, one pass of `pt_spp` paths per
     /// pixel, one complete gathering pass.
     Fixed,
+    /// Steps until the film holds this many units of work (a path tracer with `pt_spp` = 1
+    /// and `Passes(n)` traces n paths per pixel, one step each, so progress can be shown).
+    Passes(u64),
     /// Steps until this many seconds are spent (at least one step; a final-gathering pass
     /// then may be partial, its steps being bands of rows).
     Seconds(f64),
@@ -259,6 +262,7 @@ pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dy
         }
         let more = match budget {
             Budget::Fixed => method.passes() == 0,
+            Budget::Passes(n) => method.passes() < n,
             Budget::Seconds(b) => start.elapsed().as_secs_f64() < b,
         };
         if !more {
