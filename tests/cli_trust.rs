@@ -150,10 +150,11 @@ fn the_format_follows_the_extension() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(&std::fs::read(d.join("t.jpg")).unwrap()[..2], b"\xff\xd8");
     refused(
-        &["render", "--out", "a.exr", "--png", "a.exr"],
-        "a.exr",
+        &["render", "--out", "a.png", "--png", "a.png"],
+        "a.png",
         "two outputs",
     );
+    refused(&["render", "--png", "y.exr"], "--png y.exr", ".png or .jpg");
     refused(&["render", "--out", "o.tif"], "o.tif", "format");
 }
 
@@ -214,6 +215,8 @@ fn the_time_budget_bounds_final_gathering() {
     let j: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
     assert_eq!(j["passes"], 0, "{j}");
+    assert_eq!(j["partial"], true, "an unfinished pass must say so: {j}");
+    assert!(stderr(&o).contains("partial"), "{}", stderr(&o));
     assert!(d.join("out.exr").exists());
 }
 

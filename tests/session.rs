@@ -342,3 +342,39 @@ fn ray_budget_folds_old_batches() {
     assert_eq!(g.stats.folded_batches, 0);
     assert!(g.stats.batches >= 1 && g.stats.photon_rays <= 8_000);
 }
+
+/// A view too large for the machine's memory (4096×4096×64 eye samples, hundreds of GB) is
+/// refused by the worker with the memory estimate, before anything is allocated; the old view
+/// keeps rendering. Settings whose method cannot be built are not retried in a loop.
+#[test]
+fn a_view_too_large_for_memory_is_refused_and_the_old_one_stays() {
+    let _watchdog = Watchdog::new(120);
+    let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
+    let session = Session::spawn(scene, None, small_config(), None);
+    let first = wait(&session, 60, |f| f.stats.batches >= 1);
+    session.send(Command::SetResolution {
+        width: 4096,
+        height: 4096,
+    });
+    session.send(Command::SetSamplesPerPixel(64));
+    let start = Instant::now();
+    let mut refused = None;
+    while refused.is_none() && start.elapsed() < Duration::from_secs(60) {
+        refused = session.try_events().into_iter().find_map(|e| match e {
+            Event::Error(m) if m.contains("needs about") => Some(m),
+            _ => None,
+        });
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let message = refused.expect("the worker refused the view with its memory estimate");
+    assert!(message.contains("4096×4096"), "{message}");
+    // Frames keep coming at the old size (the configured 48×48, or its coarse first frame).
+    let f = wait(&session, 60, |f| f.seq > first.seq + 2);
+    let s = small_config().settings;
+    assert!(
+        f.film.width <= s.width && f.film.height <= s.height,
+        "{}×{}",
+        f.film.width,
+        f.film.height
+    );
+}

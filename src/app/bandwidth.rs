@@ -62,7 +62,8 @@ impl BandwidthPanel {
                 Color32::from_rgb(230, 170, 60),
                 format!(
                     "Ray store full: {} older batches are folded into the image. Slider and camera \
-                     changes re-splat the stored {} rays only; older photons are re-traced.",
+                     changes re-splat the stored {} rays only: the folded light leaves the image and \
+                     new batches replace it.",
                     s.folded_batches, s.photon_rays
                 ),
             );

@@ -40,7 +40,7 @@ pub struct SettingsArgs {
     pub image: ImageArgs,
     #[command(flatten)]
     pub photons: PhotonArgs,
-    // The seed of every random stream: images depend on it and the settings only.
+    /// The seed of every random stream: images depend on it and the settings only.
     #[arg(long, default_value_t = RenderSettings::default().seed)]
     pub seed: u64,
     #[command(flatten)]
@@ -82,10 +82,10 @@ pub struct PhotonArgs {
     /// C: smoothness (eq. 8).
     #[arg(long, default_value_t = BandwidthParams::default().smoothness_c, allow_negative_numbers = true, value_parser = in_range(limits::SMOOTHNESS_C))]
     pub c: f32,
-    /// S: bandwidth sensitivity in (0, 1] (eq. 8).
+    /// S: bandwidth sensitivity in [0.01, 1] (eq. 8).
     #[arg(long, default_value_t = BandwidthParams::default().sensitivity_s, allow_negative_numbers = true, value_parser = in_range(limits::SENSITIVITY_S))]
     pub s: f32,
-    /// R in (0, 1]: bandwidth range; every h lies within [R·h̄, h̄/R] of the typical bandwidth.
+    /// R in [0.01, 1]: bandwidth range; every h lies within [R·h̄, h̄/R] of the typical bandwidth.
     #[arg(long, default_value_t = BandwidthParams::default().max_bandwidth_r, allow_negative_numbers = true, value_parser = in_range(limits::MAX_BANDWIDTH_R))]
     pub r: f32,
 }
@@ -237,7 +237,13 @@ impl SettingsArgs {
             pm_caustic_k: method.pm_caustic_k,
             fg_rays: method.fg_rays,
             radiance_map: method.radiance_map,
-            pt_spp: image.spp,
+            // With a time budget the path tracer adds one path per pixel per step, so the
+            // budget bounds it; otherwise --spp paths in one step.
+            pt_spp: if self.run.time_budget.is_some() {
+                1
+            } else {
+                image.spp
+            },
             cache: self.cache_filter.cache(),
             cache_on: self.cache_filter.cache,
             filter: self.cache_filter.filter(),

@@ -25,7 +25,8 @@ pub struct BenchArgs {
     /// Repetitions; the fastest run is reported.
     #[arg(long, default_value_t = 3, value_parser = in_range(limits::RUNS))]
     runs: u32,
-    #[arg(long)]
+    /// Worker threads (default: all cores).
+    #[arg(long, value_parser = in_range(limits::THREADS))]
     threads: Option<usize>,
     /// A path-traced EXR of builtin:glossy at 500×500 (`raysplat render builtin:glossy
     /// --method pt --spp 1024 --width 500 --height 500`): the glossy rows report relMSE to it.

@@ -102,7 +102,12 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
     let reference = reference(&args, &scene, &settings)?;
     let budget = args.settings.run.budget();
     let settings = RenderSettings {
-        pt_spp: args.pt_spp,
+        // With a time budget the path tracer adds one path per pixel per step.
+        pt_spp: if args.settings.run.time_budget.is_some() {
+            1
+        } else {
+            args.pt_spp
+        },
         ..settings
     };
     let tone = args.tone.tonemap;

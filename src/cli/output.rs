@@ -125,6 +125,9 @@ pub fn check(outputs: &[(&Path, bool)], inputs: &[&Path]) -> Result<(), String> 
         if image {
             Format::of(path)?;
         }
+        if path.is_dir() {
+            return Err(format!("{} is a folder, not a file", path.display()));
+        }
         check_folder(path)?;
     }
     Ok(())

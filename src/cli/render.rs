@@ -21,6 +21,14 @@ use std::time::{Duration, Instant};
 pub fn run(args: RenderArgs) -> Result<(), String> {
     let interrupted = super::interrupt_flag();
     let settings = args.settings()?;
+    if let Some(png) = &args.output.png
+        && output::Format::of(png)? == output::Format::Exr
+    {
+        return Err(format!(
+            "--png {}: a tone-mapped image is .png or .jpg (use --out for an EXR)",
+            png.display()
+        ));
+    }
     let images = args.output.images();
     let mut outputs: Vec<(&Path, bool)> = images.iter().map(|p| (p.as_path(), true)).collect();
     if let Some(stats) = &args.output.stats {
@@ -67,12 +75,19 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         progress.set_message(format!("pass {}", m.passes()));
         !interrupted.load(Ordering::Relaxed)
     });
-    let partial = interrupted.load(Ordering::Relaxed);
+    let stopped = interrupted.load(Ordering::Relaxed);
+    // A film that holds no complete unit of work: a gathering pass cut by the time budget.
+    let partial = stopped || m.passes() == 0;
     progress.set_message("resolving");
     let film = m.film();
     progress.finish_and_clear();
-    if partial {
+    if stopped {
         eprintln!("interrupted: writing the image after {} passes", m.passes());
+    } else if partial {
+        eprintln!(
+            "warning: the time budget ended inside the first pass; rows not gathered yet hold \
+             direct light and caustics only (partial in the stats)"
+        );
     }
     let stats = m.stats();
     print_table(&scene.name, m.kind(), m.timings(), &stats);
@@ -94,7 +109,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         raysplat::film::write_atomic(path, &bytes)?;
         eprintln!("wrote {}", path.display());
     }
-    if partial {
+    if stopped {
         std::process::exit(130);
     }
     Ok(())

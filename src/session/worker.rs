@@ -29,6 +29,8 @@ pub(super) struct Worker {
     config: SessionConfig,
     camera: Camera,
     interactive: bool,
+    /// The settings whose method could not be built (the previous one keeps running).
+    failed: Option<RenderSettings>,
     renderer: Option<Box<dyn Method>>,
     /// A (re)start renders its first frame at the interactive resolution, then switches to
     /// full resolution (re-splatting, no re-trace): an image appears sooner.
@@ -64,6 +66,7 @@ impl Worker {
             config,
             camera,
             interactive: false,
+            failed: None,
             renderer: None,
             coarse_start: false,
             paused: false,
@@ -244,10 +247,13 @@ impl Worker {
                 }
             }
         }
-        let rebuild = self
-            .renderer
-            .as_ref()
-            .is_none_or(|r| methods::needs_rebuild(r.settings(), &self.config.settings));
+        // Settings whose build just failed are not tried again until something changes.
+        let failed = self.failed.as_ref() == Some(&self.config.settings);
+        let rebuild = !failed
+            && self
+                .renderer
+                .as_ref()
+                .is_none_or(|r| methods::needs_rebuild(r.settings(), &self.config.settings));
         if p.restart || rebuild {
             self.restart();
             return;
@@ -321,8 +327,12 @@ impl Worker {
             Ok(mut r) => {
                 r.set_ray_budget(self.config.max_stored_rays);
                 self.renderer = Some(r);
+                self.failed = None;
             }
-            Err(e) => self.emit(Event::Error(e)),
+            Err(e) => {
+                self.failed = Some(self.config.settings.clone());
+                self.emit(Event::Error(e));
+            }
         }
         self.generation += 1;
     }
