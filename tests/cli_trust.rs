@@ -290,6 +290,37 @@ fn every_numeric_flag_has_a_range() {
     }
 }
 
+/// The help documents each numeric flag's range, the same range the parser holds it to.
+#[test]
+fn the_help_shows_every_range() {
+    let d = dir("help_ranges");
+    let help = String::from_utf8_lossy(&run(&["render", "--help"], &d).stdout).into_owned();
+    for (flag, range) in [
+        ("--width", "8..=4096"),
+        ("--spp", "1..=1048576"),
+        ("--photons", "100..=100000000"),
+        ("--c", "0.05..=5"),
+        ("--s", "0.01..=1"),
+        ("--r", "0.01..=1"),
+        ("--nee-samples", "1..=256"),
+        ("--pm-k", "1..=100000"),
+        ("--cache-error", "0.05..=2"),
+        ("--time-budget", "0.001..=1000000"),
+        ("--threads", "1..=1024"),
+    ] {
+        let at = help
+            .find(&format!("{flag} <"))
+            .unwrap_or_else(|| panic!("{flag} missing from the help"));
+        let entry = &help[at..];
+        let end = entry[2..].find("\n      -").map_or(entry.len(), |e| e + 2);
+        assert!(
+            entry[..end].contains(&format!("[range: {range}]")),
+            "{flag}: {}",
+            &entry[..end]
+        );
+    }
+}
+
 #[test]
 fn compare_lists_only_the_flags_it_uses() {
     let d = dir("compare_help");

@@ -3,8 +3,8 @@
 //! ([`RenderSettings`], [`BandwidthParams`], [`CacheParams`], [`FilterParams`]), so that the
 //! command line starts from the same settings as the window and the worker.
 
+use super::choice;
 use super::output::{Exposure, parse_exposure, parse_tonemap};
-use super::{choice, in_range};
 use clap::Args;
 use raysplat::choice::Choice;
 use raysplat::film::display::ToneMap;
@@ -56,12 +56,14 @@ pub struct SettingsArgs {
 /// The image: its size and eye samples per pixel.
 #[derive(Args, Clone, Debug)]
 pub struct ImageArgs {
-    #[arg(long, default_value_t = RenderSettings::default().width, value_parser = in_range(limits::RESOLUTION))]
+    /// Image width, pixels.
+    #[arg(long, default_value_t = RenderSettings::default().width)]
     pub width: u32,
-    #[arg(long, default_value_t = RenderSettings::default().height, value_parser = in_range(limits::RESOLUTION))]
+    /// Image height, pixels.
+    #[arg(long, default_value_t = RenderSettings::default().height)]
     pub height: u32,
     /// Eye samples per pixel (paths per pixel for --method pt).
-    #[arg(long, default_value_t = RenderSettings::default().spp, value_parser = in_range(limits::PT_SPP))]
+    #[arg(long, default_value_t = RenderSettings::default().spp)]
     pub spp: u32,
 }
 
@@ -69,7 +71,7 @@ pub struct ImageArgs {
 #[derive(Args, Clone, Debug)]
 pub struct PhotonArgs {
     /// M: stored photon rays per batch.
-    #[arg(long, default_value_t = RenderSettings::default().photons, value_parser = in_range(limits::PHOTONS))]
+    #[arg(long, default_value_t = RenderSettings::default().photons)]
     pub photons: u64,
     /// Fractions of M for direct, indirect-diffuse and caustic photons (Table 2).
     #[arg(
@@ -80,13 +82,13 @@ pub struct PhotonArgs {
     )]
     pub fractions: Vec<f32>,
     /// C: smoothness (eq. 8).
-    #[arg(long, default_value_t = BandwidthParams::default().smoothness_c, allow_negative_numbers = true, value_parser = in_range(limits::SMOOTHNESS_C))]
+    #[arg(long, default_value_t = BandwidthParams::default().smoothness_c, allow_negative_numbers = true)]
     pub c: f32,
     /// S: bandwidth sensitivity in [0.01, 1] (eq. 8).
-    #[arg(long, default_value_t = BandwidthParams::default().sensitivity_s, allow_negative_numbers = true, value_parser = in_range(limits::SENSITIVITY_S))]
+    #[arg(long, default_value_t = BandwidthParams::default().sensitivity_s, allow_negative_numbers = true)]
     pub s: f32,
     /// R in [0.01, 1]: bandwidth range; every h lies within [R·h̄, h̄/R] of the typical bandwidth.
-    #[arg(long, default_value_t = BandwidthParams::default().max_bandwidth_r, allow_negative_numbers = true, value_parser = in_range(limits::MAX_BANDWIDTH_R))]
+    #[arg(long, default_value_t = BandwidthParams::default().max_bandwidth_r, allow_negative_numbers = true)]
     pub r: f32,
 }
 
@@ -97,7 +99,7 @@ pub struct DirectArgs {
     #[arg(long, default_value = RenderSettings::default().direct.name(), value_parser = choice::<DirectMode>())]
     pub direct: DirectMode,
     /// Light samples per eye sample for --direct nee.
-    #[arg(long, default_value_t = RenderSettings::default().nee_samples, value_parser = in_range(limits::NEE_SAMPLES))]
+    #[arg(long, default_value_t = RenderSettings::default().nee_samples)]
     pub nee_samples: u32,
 }
 
@@ -144,13 +146,13 @@ pub struct ToneArgs {
 #[derive(Args, Clone, Debug)]
 pub struct RunArgs {
     /// Render progressively in batches of --photons until this many seconds are spent.
-    #[arg(long, allow_negative_numbers = true, value_parser = in_range(limits::TIME_BUDGET))]
+    #[arg(long, allow_negative_numbers = true)]
     pub time_budget: Option<f64>,
     /// Camera by name (default: the scene's first).
     #[arg(long)]
     pub camera: Option<String>,
     /// Worker threads (default: all cores).
-    #[arg(long, value_parser = in_range(limits::THREADS))]
+    #[arg(long)]
     pub threads: Option<usize>,
 }
 
@@ -158,13 +160,13 @@ pub struct RunArgs {
 #[derive(Args, Clone, Debug)]
 pub struct MethodArgs {
     /// K of the global photon map (--method pm).
-    #[arg(long, default_value_t = RenderSettings::default().pm_k, value_parser = in_range(limits::PM_K))]
+    #[arg(long, default_value_t = RenderSettings::default().pm_k)]
     pub pm_k: usize,
     /// K of the caustic photon map (--method pm).
-    #[arg(long, default_value_t = RenderSettings::default().pm_caustic_k, value_parser = in_range(limits::PM_K))]
+    #[arg(long, default_value_t = RenderSettings::default().pm_caustic_k)]
     pub pm_caustic_k: usize,
     /// Gather rays per eye sample (--method rs-fg, pm-fg).
-    #[arg(long, default_value_t = RenderSettings::default().fg_rays, value_parser = in_range(limits::FG_RAYS))]
+    #[arg(long, default_value_t = RenderSettings::default().fg_rays)]
     pub fg_rays: u32,
     /// Splat onto every eye sample instead of sharing one splat target among the samples of
     /// a pixel that lie on the same surface.
@@ -181,10 +183,10 @@ pub struct MethodArgs {
 pub struct CacheFilterArgs {
     /// ε, the radiance cache error (§8.3): records are valid up to ε × their harmonic mean
     /// distance. Used by --method rc, and by rs with --cache.
-    #[arg(long, default_value_t = CacheParams::default().error, allow_negative_numbers = true, value_parser = in_range(limits::CACHE_ERROR))]
+    #[arg(long, default_value_t = CacheParams::default().error, allow_negative_numbers = true)]
     pub cache_error: f32,
     /// Every pixel is covered by at least this many cache records.
-    #[arg(long, default_value_t = CacheParams::default().min_records, value_parser = in_range(limits::MIN_RECORDS))]
+    #[arg(long, default_value_t = CacheParams::default().min_records)]
     pub min_records: u32,
     /// rs: resolve the full radiance map through the radiance cache (as the previewer does).
     #[arg(long)]
@@ -193,7 +195,7 @@ pub struct CacheFilterArgs {
     #[arg(long)]
     pub filter: bool,
     /// Scale of the filter's box radius (1 = as the splat statistics ask).
-    #[arg(long, default_value_t = FilterParams::default().strength, allow_negative_numbers = true, value_parser = in_range(limits::FILTER_STRENGTH))]
+    #[arg(long, default_value_t = FilterParams::default().strength, allow_negative_numbers = true)]
     pub filter_strength: f32,
 }
 

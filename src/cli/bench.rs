@@ -2,7 +2,7 @@
 //! glossy rows (one per directional mode) and the previewer's latencies; one line per row on
 //! stdout and, with `--json`, the rows merged into a JSON file (docs/benchmarks.md quotes both).
 
-use super::{in_range, set_threads};
+use super::set_threads;
 use clap::Args;
 use glam::Vec3;
 use raysplat::choice::Choice;
@@ -11,7 +11,7 @@ use raysplat::pipeline::cache::CacheParams;
 use raysplat::pipeline::directional::DirectionalMode;
 use raysplat::pipeline::photon::BandwidthParams;
 use raysplat::scene::{BuiltinScene, Scene};
-use raysplat::settings::{DirectMode, MethodKind, RenderSettings, limits};
+use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
 use serde_json::json;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -23,10 +23,10 @@ pub struct BenchArgs {
     #[arg(long)]
     json: Option<PathBuf>,
     /// Repetitions; the fastest run is reported.
-    #[arg(long, default_value_t = 3, value_parser = in_range(limits::RUNS))]
+    #[arg(long, default_value_t = 3)]
     runs: u32,
     /// Worker threads (default: all cores).
-    #[arg(long, value_parser = in_range(limits::THREADS))]
+    #[arg(long)]
     threads: Option<usize>,
     /// A path-traced EXR of builtin:glossy at 500×500 (`raysplat render builtin:glossy
     /// --method pt --spp 1024 --width 500 --height 500`): the glossy rows report relMSE to it.

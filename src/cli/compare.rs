@@ -3,7 +3,7 @@
 //! map, Fig. 10's montage and compare.json.
 
 use super::args::{SettingsArgs, ToneArgs};
-use super::{choice, in_range, load_scene, output, set_threads};
+use super::{choice, load_scene, output, set_threads};
 use clap::Args;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -13,7 +13,7 @@ use raysplat::film::display::{ViewMode, display};
 use raysplat::film::error::{error_map, mean_bias, rmse};
 use raysplat::methods::{self, Budget, render_method};
 use raysplat::scene::Scene;
-use raysplat::settings::{MethodKind, RenderSettings, limits};
+use raysplat::settings::{MethodKind, RenderSettings};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -30,10 +30,10 @@ pub struct CompareArgs {
     #[arg(long)]
     reference: Option<PathBuf>,
     /// Paths per pixel of the path-traced reference.
-    #[arg(long, default_value_t = 512, value_parser = in_range(limits::PT_SPP))]
+    #[arg(long, default_value_t = 512)]
     ref_spp: u32,
     /// Paths per pixel of the pt method in the comparison (without --time-budget).
-    #[arg(long, default_value_t = 16, value_parser = in_range(limits::PT_SPP))]
+    #[arg(long, default_value_t = 16)]
     pt_spp: u32,
     /// The folder for every method's EXR and error map, the reference, the montage and
     /// compare.json.

@@ -12,7 +12,7 @@ mod scenes;
 mod tonemap;
 mod view;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use raysplat::choice::Choice;
 use raysplat::scene::{BuiltinScene, Scene};
 use raysplat::settings::Limit;
@@ -54,7 +54,8 @@ enum Command {
 
 /// Parses the command line and runs the command; the process's exit status.
 pub fn main() -> i32 {
-    let cli = Cli::parse();
+    let matches = with_ranges(Cli::command()).get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
         None => view::run(cli.view),
         Some(Command::View(args)) => view::run(args),
@@ -99,6 +100,53 @@ fn choice<T: Choice>() -> impl clap::builder::TypedValueParser<Value = T> {
     use clap::builder::TypedValueParser;
     clap::builder::PossibleValuesParser::new(T::ALL.iter().map(|c| c.name()))
         .map(|s| T::from_name(&s).expect("clap checked the name"))
+}
+
+/// Every numeric flag's row of the limits table (`raysplat::settings::limits`), applied to
+/// each command that has the flag: the value parser refuses a value outside the range before
+/// any work, and the help shows the range. The one place that ties flags to limits.
+fn with_ranges(mut cmd: clap::Command) -> clap::Command {
+    use raysplat::settings::limits::*;
+    for sub in ["render", "compare", "bench", "tonemap"] {
+        cmd = cmd.mut_subcommand(sub, |c| {
+            let c = ranged(c, "width", RESOLUTION);
+            let c = ranged(c, "height", RESOLUTION);
+            let c = ranged(c, "spp", PT_SPP);
+            let c = ranged(c, "photons", PHOTONS);
+            let c = ranged(c, "c", SMOOTHNESS_C);
+            let c = ranged(c, "s", SENSITIVITY_S);
+            let c = ranged(c, "r", MAX_BANDWIDTH_R);
+            let c = ranged(c, "nee_samples", NEE_SAMPLES);
+            let c = ranged(c, "pm_k", PM_K);
+            let c = ranged(c, "pm_caustic_k", PM_K);
+            let c = ranged(c, "fg_rays", FG_RAYS);
+            let c = ranged(c, "cache_error", CACHE_ERROR);
+            let c = ranged(c, "min_records", MIN_RECORDS);
+            let c = ranged(c, "filter_strength", FILTER_STRENGTH);
+            let c = ranged(c, "time_budget", TIME_BUDGET);
+            let c = ranged(c, "threads", THREADS);
+            let c = ranged(c, "runs", RUNS);
+            let c = ranged(c, "ref_spp", PT_SPP);
+            ranged(c, "pt_spp", PT_SPP)
+        });
+    }
+    cmd
+}
+
+/// `cmd` with the flag `id` (if it has one) parsed by [`in_range`] and its range in the help.
+fn ranged<T>(cmd: clap::Command, id: &str, limit: Limit<T>) -> clap::Command
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync + 'static,
+{
+    if !cmd.get_arguments().any(|a| a.get_id() == id) {
+        return cmd;
+    }
+    cmd.mut_arg(id, |a| {
+        let help = a.get_help().map(|h| h.to_string()).unwrap_or_default();
+        let sep = if help.is_empty() { "" } else { " " };
+        a.value_parser(in_range(limit))
+            .help(format!("{help}{sep}[range: {}..={}]", limit.min, limit.max))
+    })
 }
 
 /// A clap value parser for a number within `limit` (one row of the limits table): a value
