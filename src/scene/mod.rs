@@ -96,14 +96,21 @@ impl Scene {
         Self::from_glb_bytes(&which.to_glb(), which.title()).expect("built-in scenes always load")
     }
 
-    /// Load a .gltf or .glb file.
+    /// Load a .gltf or .glb file. No input panics: a panic inside the glTF reader (the last
+    /// line of defence behind the loader's own checks) becomes the one-line error.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
-        load::load_path(path).and_then(|parts| Self::build(parts, &path.display().to_string()))
+        let source = path.display().to_string();
+        guarded(&source, || {
+            load::load_path(path).and_then(|parts| Self::build(parts, &source))
+        })
     }
 
-    /// Load glTF (binary or JSON with embedded buffers) from memory.
+    /// Load glTF (binary or JSON with embedded buffers) from memory; guarded as
+    /// [`Scene::load`].
     pub fn from_glb_bytes(bytes: &[u8], name: &str) -> Result<Self, SceneError> {
-        load::load_slice(bytes, name).and_then(|parts| Self::build(parts, name))
+        guarded(name, || {
+            load::load_slice(bytes, name).and_then(|parts| Self::build(parts, name))
+        })
     }
 
     pub(crate) fn build(parts: SceneParts, source: &str) -> Result<Self, SceneError> {
@@ -199,4 +206,42 @@ impl Scene {
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
     }
+}
+
+thread_local! {
+    /// True while this thread runs a guarded load: its panics are turned into errors, so the
+    /// panic hook stays quiet for them.
+    static IN_GUARDED_LOAD: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Run `load`, turning a panic (inside a dependency) into a [`SceneError`] for `source`. A
+/// process-wide panic hook, installed once, keeps such panics off stderr; every other panic
+/// is reported by the hook that was there before.
+fn guarded<T>(source: &str, load: impl FnOnce() -> Result<T, SceneError>) -> Result<T, SceneError> {
+    static QUIET_HOOK: std::sync::Once = std::sync::Once::new();
+    QUIET_HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !IN_GUARDED_LOAD.with(|g| g.get()) {
+                previous(info);
+            }
+        }));
+    });
+    let outer = IN_GUARDED_LOAD.with(|g| g.replace(true));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(load));
+    IN_GUARDED_LOAD.with(|g| g.set(outer));
+    result.unwrap_or_else(|panic| {
+        let why = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown failure".into());
+        Err(SceneError {
+            source: source.to_string(),
+            message: format!(
+                "the glTF reader failed on this file ({})",
+                why.lines().next().unwrap_or("")
+            ),
+        })
+    })
 }

@@ -22,29 +22,14 @@ pub(crate) fn load_path(path: &Path) -> Result<SceneParts, SceneError> {
         message: format!("cannot read the file: {e}"),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    load_impl(&bytes, Some(base), &source)
+    load_checked(&bytes, Some(base), &source)
 }
 
 pub(crate) fn load_slice(bytes: &[u8], name: &str) -> Result<SceneParts, SceneError> {
-    load_impl(bytes, None, name)
+    load_checked(bytes, None, name)
 }
 
-fn load_impl(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<SceneParts, SceneError> {
-    let err = |message: String| SceneError {
-        source: source.to_string(),
-        message,
-    };
-    // The gltf crate indexes with unchecked slices in a few places; our checks below should
-    // catch every such case first, and this keeps a missed one from taking the program down.
-    let result = std::panic::catch_unwind(|| load_checked(bytes, base, source));
-    match result {
-        Ok(r) => r,
-        Err(_) => Err(err(
-            "the file is malformed (the glTF reader failed on it)".into()
-        )),
-    }
-}
-
+/// Parse and convert (a panic inside the `gltf` crate is caught by `Scene::load`).
 fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<SceneParts, SceneError> {
     let err = |message: String| SceneError {
         source: source.to_string(),
