@@ -285,6 +285,8 @@ fn every_numeric_flag_has_a_range() {
         (vec!["render", "--spp", "4294967295"], "--spp"),
         (vec!["render", "--spp", "100"], "--spp"),
         (vec!["compare", "--ref-spp", "0"], "--ref-spp"),
+        (vec!["render", "--width", "-5"], "--width"),
+        (vec!["render", "--photons", "2.5"], "--photons"),
     ] {
         refused(&args, flag, "..=");
     }

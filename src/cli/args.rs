@@ -41,7 +41,7 @@ pub struct SettingsArgs {
     #[command(flatten)]
     pub photons: PhotonArgs,
     /// The seed of every random stream: images depend on it and the settings only.
-    #[arg(long, default_value_t = RenderSettings::default().seed)]
+    #[arg(long, default_value_t = RenderSettings::default().seed, allow_negative_numbers = true)]
     pub seed: u64,
     #[command(flatten)]
     pub direct: DirectArgs,

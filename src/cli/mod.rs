@@ -144,7 +144,9 @@ where
     cmd.mut_arg(id, |a| {
         let help = a.get_help().map(|h| h.to_string()).unwrap_or_default();
         let sep = if help.is_empty() { "" } else { " " };
+        // A negative number is a value (refused by its range), never taken for a flag.
         a.value_parser(in_range(limit))
+            .allow_negative_numbers(true)
             .help(format!("{help}{sep}[range: {}..={}]", limit.min, limit.max))
     })
 }
@@ -158,10 +160,17 @@ where
     T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync + 'static,
 {
     move |s: &str| {
-        let v: T = s
-            .trim()
-            .parse()
-            .map_err(|_| format!("'{s}' is not a number in {}..={}", limit.min, limit.max))?;
+        let v: T = match s.trim().parse() {
+            Ok(v) => v,
+            // A number, but not of this flag's kind (negative, or a fraction for a count).
+            Err(_) if s.trim().parse::<f64>().is_ok() => {
+                return Err(format!(
+                    "must be in {}..={} (a whole number)",
+                    limit.min, limit.max
+                ));
+            }
+            Err(_) => return Err(format!("'{s}' is not a number")),
+        };
         if limit.contains(v) {
             Ok(v)
         } else {
