@@ -82,8 +82,14 @@ impl RenderingPanel {
         out.on_change(
             &mut r.radiance_map,
             |map| {
+                // The short name on the button keeps it and its label on one line in the
+                // side panel; the menu gives the long ones.
                 egui::ComboBox::from_label("Glossy radiance map")
-                    .selected_text(directional_label(*map))
+                    .selected_text(match *map {
+                        DirectionalMode::Diffuse => "diffuse",
+                        DirectionalMode::Sh => "SH, 16 coeff.",
+                        DirectionalMode::Histogram => "20 strata",
+                    })
                     .show_ui(ui, |ui| {
                         for &m in DirectionalMode::ALL {
                             ui.selectable_value(map, m, directional_label(m));
