@@ -35,6 +35,7 @@ fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<Scene
         source: source.to_string(),
         message,
     };
+    let images_usable = precheck(bytes).map_err(err)?;
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(|e| {
         if bytes.starts_with(b"glTF") {
             err(format!("the GLB file is truncated or corrupt ({e})"))
@@ -47,16 +48,21 @@ fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<Scene
     check_buffers(&document, &buffers).map_err(err)?;
 
     let mut warnings = Vec::new();
-    let images = match gltf::import_images(&document, base, &buffers) {
-        Ok(images) => images,
-        Err(e) => {
+    let images = match images_usable {
+        Err(why) => {
+            warnings.push(format!(
+                "textures ignored, base colour factors used instead: {why}"
+            ));
+            Vec::new()
+        }
+        Ok(()) => gltf::import_images(&document, base, &buffers).unwrap_or_else(|e| {
             if document.images().len() > 0 {
                 warnings.push(format!(
                     "textures ignored, base colour factors used instead: {e}"
                 ));
             }
             Vec::new()
-        }
+        }),
     };
     let textures: Vec<Texture> = images.iter().map(decode_texture).collect();
 
@@ -203,4 +209,47 @@ fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<Scene
         ));
     }
     Ok(parts)
+}
+
+/// What the `gltf` crate would index before checking (it panics there): every primitive's
+/// attributes and indices must name existing accessors, an error otherwise; every image must
+/// have a uri or a buffer view, or else textures are ignored (`Ok(Err(why))`). Files whose
+/// JSON cannot be read are left to the crate, which reports them.
+fn precheck(bytes: &[u8]) -> Result<Result<(), String>, String> {
+    let json: std::borrow::Cow<[u8]> = if bytes.starts_with(b"glTF") {
+        match gltf::Glb::from_slice(bytes) {
+            Ok(glb) => glb.json,
+            Err(_) => return Ok(Ok(())),
+        }
+    } else {
+        bytes.into()
+    };
+    let Ok(root) = gltf::json::Root::from_slice(&json) else {
+        return Ok(Ok(()));
+    };
+    let accessors = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let named = prim
+                .attributes
+                .values()
+                .chain(prim.indices.as_ref())
+                .map(|i| i.value());
+            for a in named {
+                if a >= accessors {
+                    return Err(format!(
+                        "mesh {m} primitive {p} reads accessor {a}, but the file has {accessors}"
+                    ));
+                }
+            }
+        }
+    }
+    for (i, image) in root.images.iter().enumerate() {
+        if image.uri.is_none() && image.buffer_view.is_none() {
+            return Ok(Err(format!(
+                "image {i} has neither a uri nor a buffer view"
+            )));
+        }
+    }
+    Ok(Ok(()))
 }
