@@ -411,8 +411,9 @@ fn ctrl_c_writes_the_image_so_far() {
         .unwrap();
     // Wait until it renders (the progress bar is not a file: poll for a while, then signal).
     std::thread::sleep(std::time::Duration::from_millis(2500));
-    let killed = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+    // The shell's own `kill`, so that no procps package is needed.
+    let killed = Command::new("sh")
+        .args(["-c", &format!("kill -INT {}", child.id())])
         .status()
         .unwrap();
     assert!(killed.success());
