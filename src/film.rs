@@ -68,11 +68,6 @@ impl Film {
     pub fn write_exr(&self, path: &Path) -> Result<(), String> {
         write_exr(path, self.width, self.height, &self.rgb)
     }
-
-    /// Write the final image as 8-bit sRGB PNG after `exposure` stops ([`tonemap`]).
-    pub fn write_png(&self, path: &Path, exposure: f32) -> Result<(), String> {
-        write_png(path, self.width, self.height, &tonemap(&self.rgb, exposure))
-    }
 }
 
 /// sRGB transfer function of a linear value in [0, 1].
@@ -84,17 +79,6 @@ pub fn linear_to_srgb(x: f32) -> f32 {
     } else {
         1.055 * x.powf(1.0 / 2.4) - 0.055
     }
-}
-
-/// Exposure in stops, then clamp and the sRGB curve: 8-bit RGB.
-pub fn tonemap(rgb: &[Vec3], exposure_stops: f32) -> Vec<u8> {
-    let k = 2f32.powf(exposure_stops);
-    rgb.iter()
-        .flat_map(|c| {
-            let c = if c.is_finite() { *c * k } else { Vec3::ZERO };
-            [c.x, c.y, c.z].map(|v| (linear_to_srgb(v) * 255.0 + 0.5) as u8)
-        })
-        .collect()
 }
 
 /// Fig. 5's colour scale: red (t = 0, smallest) through yellow, green, cyan to blue (t = 1).
