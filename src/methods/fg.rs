@@ -148,12 +148,14 @@ impl Method for FinalGathering {
         height: u32,
         spp: u32,
     ) -> Result<(), String> {
-        if width == 0 || height == 0 || spp == 0 {
-            return Err("width, height and samples per pixel must be positive".into());
-        }
-        self.settings.width = width;
-        self.settings.height = height;
-        self.settings.spp = spp;
+        let settings = RenderSettings {
+            width,
+            height,
+            spp,
+            ..self.settings.clone()
+        };
+        crate::methods::check(&settings)?;
+        self.settings = settings;
         self.camera = camera;
         self.sum = vec![Vec3::ZERO; (width * height) as usize];
         self.passes = 0;

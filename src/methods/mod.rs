@@ -191,8 +191,7 @@ pub fn build_for(
     settings: RenderSettings,
     camera: Camera,
 ) -> Result<Box<dyn Method>, String> {
-    settings.validate()?;
-    memory::check(&settings, memory::available_bytes())?;
+    check(&settings)?;
     Ok(match settings.method {
         MethodKind::Rs => Box::new(rs::RaySplatting::new(scene, settings, camera)?),
         MethodKind::Rc => Box::new(rc::RadianceCaching::new(scene, settings, camera)?),
@@ -202,6 +201,13 @@ pub fn build_for(
             Box::new(fg::FinalGathering::new(scene, settings, camera)?)
         }
     })
+}
+
+/// Settings within the limits table and a render that fits in the machine's memory: checked
+/// by the factory and by every method's `set_view`, before anything is allocated.
+pub fn check(settings: &RenderSettings) -> Result<(), String> {
+    settings.validate()?;
+    memory::check(settings, memory::available_bytes())
 }
 
 /// True when going from `old` to `new` changes what is traced, so the method must be built

@@ -177,8 +177,7 @@ impl Progressive {
         settings.width = width;
         settings.height = height;
         settings.spp = spp;
-        settings.validate()?;
-        crate::methods::memory::check(&settings, crate::methods::memory::available_bytes())?;
+        crate::methods::check(&settings)?;
         self.side = EyeSide::new(&self.scene, &camera, &settings, &mut self.timings)?;
         self.settings = settings;
         self.camera = camera;

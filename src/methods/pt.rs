@@ -212,12 +212,14 @@ impl Method for PathTracer {
         height: u32,
         spp: u32,
     ) -> Result<(), String> {
-        if width == 0 || height == 0 {
-            return Err("width and height must be positive".into());
-        }
-        self.render.width = width;
-        self.render.height = height;
-        self.render.spp = spp;
+        let render = RenderSettings {
+            width,
+            height,
+            spp,
+            ..self.render.clone()
+        };
+        crate::methods::check(&render)?;
+        self.render = render;
         self.settings.width = width;
         self.settings.height = height;
         self.camera = camera;
