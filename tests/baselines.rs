@@ -140,17 +140,7 @@ fn pm_and_rs_converge_to_the_path_tracer() {
         pm_caustic_k: 50,
         ..RenderSettings::default()
     };
-    let reference = render_method(
-        &scene,
-        MethodKind::Pt,
-        &RenderSettings {
-            pt_spp: 1024,
-            ..base.clone()
-        },
-        Budget::Fixed,
-    )
-    .unwrap()
-    .film;
+    let reference = common::path_traced(&scene, &base, 1024);
     for method in [MethodKind::Rs, MethodKind::Pm] {
         let err = |m: u64| {
             let s = RenderSettings {
@@ -195,17 +185,7 @@ fn final_gathering_agrees_with_the_path_tracer() {
         seed: 6,
         ..RenderSettings::default()
     };
-    let reference = render_method(
-        &scene,
-        MethodKind::Pt,
-        &RenderSettings {
-            pt_spp: 1024,
-            ..base.clone()
-        },
-        Budget::Fixed,
-    )
-    .unwrap()
-    .film;
+    let reference = common::path_traced(&scene, &base, 1024);
     let mean = |f: &[Vec3]| f.iter().copied().sum::<Vec3>() / f.len() as f32;
     for method in [MethodKind::RsFg, MethodKind::PmFg] {
         let r = render_method(
@@ -270,17 +250,7 @@ fn glass_refraction_agrees_between_path_tracer_and_eye_pass() {
     )
     .unwrap()
     .film;
-    let pt = render_method(
-        &scene,
-        MethodKind::Pt,
-        &RenderSettings {
-            pt_spp: 512,
-            ..settings.clone()
-        },
-        Budget::Fixed,
-    )
-    .unwrap()
-    .film;
+    let pt = common::path_traced(&scene, &settings, 512);
     let err = rel_mse(&eye.rgb, &pt.rgb);
     let (me, mp) = (eye.mean(), pt.mean());
     assert!(err < 0.01, "relMSE {err}, means {me} vs {mp}");
@@ -459,28 +429,16 @@ fn without_indirect_photons_the_path_tracer_renders_direct_light_and_caustics() 
     };
     let mean =
         |v: &[Vec3]| v.iter().map(|c| (c.x + c.y + c.z) as f64).sum::<f64>() / v.len() as f64;
-    let pt = render_method(
+    let pt = common::path_traced(&scene, &settings, 256);
+    let full = common::path_traced(
         &scene,
-        MethodKind::Pt,
-        &RenderSettings {
-            pt_spp: 256,
-            ..settings.clone()
-        },
-        Budget::Fixed,
-    )
-    .unwrap();
-    let full = render_method(
-        &scene,
-        MethodKind::Pt,
         &RenderSettings {
             fractions: [0.2, 0.6, 0.2],
-            pt_spp: 64,
             ..settings.clone()
         },
-        Budget::Fixed,
-    )
-    .unwrap();
-    let (m_pt, m_full) = (mean(&pt.film.rgb), mean(&full.film.rgb));
+        64,
+    );
+    let (m_pt, m_full) = (mean(&pt.rgb), mean(&full.rgb));
     eprintln!("path tracer: direct and caustics {m_pt:.4}, full {m_full:.4}");
     assert!(
         m_full > 1.1 * m_pt,

@@ -56,19 +56,9 @@ fn refused(args: &[&str], flag: &str, also: &str) {
 /// A small linear EXR to tone-map.
 fn small_exr(path: &Path) {
     let o = bin()
-        .args([
-            "render",
-            "builtin:classic",
-            "--width",
-            "24",
-            "--height",
-            "24",
-            "--spp",
-            "1",
-            "--photons",
-            "2000",
-            "--out",
-        ])
+        .args(["render", "builtin:classic"])
+        .args(SMALL)
+        .arg("--out")
         .arg(path)
         .output()
         .unwrap();

@@ -52,17 +52,7 @@ fn glossy_plate_matches_the_path_tracer_in_both_directional_modes() {
         seed: 7,
         ..RenderSettings::default()
     };
-    let reference = render_method(
-        &scene,
-        MethodKind::Pt,
-        &RenderSettings {
-            pt_spp: 1024,
-            ..base.clone()
-        },
-        Budget::Fixed,
-    )
-    .unwrap()
-    .film;
+    let reference = common::path_traced(&scene, &base, 1024);
     let err_of = |method: MethodKind, mode: DirectionalMode| {
         let s = RenderSettings {
             radiance_map: mode,

@@ -5,8 +5,12 @@ pub mod chi2;
 pub mod glb;
 
 use glam::Vec3;
+use raysplat::film::Film;
+use raysplat::methods::{Budget, render_method};
 use raysplat::scene::{GlbBuilder, Scene};
+use raysplat::settings::{MethodKind, RenderSettings};
 use serde_json::json;
+use std::sync::Arc;
 
 /// A square diffuse plane at y = 0 (half size `half`), front face up.
 pub fn plane(g: &mut GlbBuilder, half: f32, material: u32) {
@@ -61,4 +65,16 @@ pub fn area_light_over_plane(side: f32, radiance: f32, height: f32) -> Scene {
     g.mesh("light", &p, &[-Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
     g.camera("top", Vec3::new(0.0, 2.0 * height, 0.01), Vec3::ZERO, 0.6);
     Scene::from_glb_bytes(&g.to_glb(), "area light over plane").expect("test scene loads")
+}
+
+/// The built-in path tracer's image of `scene` with `settings` at `spp` paths per pixel (the
+/// transport the settings' photon fractions carry).
+pub fn path_traced(scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> Film {
+    let s = RenderSettings {
+        pt_spp: spp,
+        ..settings.clone()
+    };
+    render_method(scene, MethodKind::Pt, &s, Budget::Fixed)
+        .expect("the path tracer renders")
+        .film
 }
