@@ -13,13 +13,4 @@ pub trait Choice: Copy + Eq + Send + Sync + 'static {
     fn from_name(name: &str) -> Option<Self> {
         Self::ALL.iter().copied().find(|c| c.name() == name)
     }
-
-    /// Every name, comma-separated (for error messages).
-    fn names() -> String {
-        Self::ALL
-            .iter()
-            .map(|c| c.name())
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
 }

@@ -378,3 +378,29 @@ fn a_view_too_large_for_memory_is_refused_and_the_old_one_stays() {
         f.film.height
     );
 }
+
+/// Commands beyond the limits table are clamped by the worker to the table's bounds (the
+/// window's sliders already stop there; a script or a persisted file might not).
+#[test]
+fn the_worker_clamps_commands_to_the_limits_table() {
+    let _watchdog = Watchdog::new(120);
+    let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
+    let session = Session::spawn(scene, None, small_config(), None);
+    let first = wait(&session, 60, |f| f.stats.batches >= 1);
+    session.send(Command::SetSamplesPerPixel(1000));
+    session.send(Command::SetBandwidth(BandwidthParams {
+        smoothness_c: 100.0,
+        sensitivity_s: f32::NAN,
+        max_bandwidth_r: 0.5,
+    }));
+    session.send(Command::SetPhotonsPerBatch(1));
+    let f = wait(&session, 60, |f| {
+        f.generation > first.generation && !f.interactive && f.settings.spp != 1
+    });
+    let l = raysplat::settings::limits::SPP;
+    assert_eq!(f.settings.spp, l.max);
+    assert_eq!(f.settings.bandwidth.smoothness_c, 5.0);
+    assert_eq!(f.settings.bandwidth.sensitivity_s, 0.01);
+    assert_eq!(f.settings.bandwidth.max_bandwidth_r, 0.5);
+    assert_eq!(f.settings.photons, 100);
+}

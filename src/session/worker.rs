@@ -157,27 +157,24 @@ impl Worker {
         match c {
             Command::SetBandwidth(b) => p.bandwidth = Some(b),
             Command::SetPhotonsPerBatch(n) => {
-                s.photons = limits::PHOTONS.clamp(n);
+                s.photons = n;
                 p.update = true;
             }
             Command::SetSamplesPerPixel(spp) => {
-                s.spp = limits::SPP.clamp(spp);
+                s.spp = spp;
                 p.view = true;
             }
             Command::SetResolution { width, height } => {
-                s.width = limits::RESOLUTION.clamp(width);
-                s.height = limits::RESOLUTION.clamp(height);
+                s.width = width;
+                s.height = height;
                 p.view = true;
             }
-            Command::SetCache { on, mut params } => {
-                params.error = limits::CACHE_ERROR.clamp(params.error);
-                params.min_records = limits::MIN_RECORDS.clamp(params.min_records);
+            Command::SetCache { on, params } => {
                 s.cache_on = on;
                 s.cache = params;
                 p.update = true;
             }
-            Command::SetFilter(mut f) => {
-                f.strength = limits::FILTER_STRENGTH.clamp(f.strength);
+            Command::SetFilter(f) => {
                 s.filter = f;
                 p.update = true;
             }
@@ -222,12 +219,11 @@ impl Worker {
             // The reference shows the current view only.
             self.reference = None;
         }
-        if let Some(mut b) = p.bandwidth {
-            b.smoothness_c = limits::SMOOTHNESS_C.clamp(b.smoothness_c);
-            b.sensitivity_s = limits::SENSITIVITY_S.clamp(b.sensitivity_s);
-            b.max_bandwidth_r = limits::MAX_BANDWIDTH_R.clamp(b.max_bandwidth_r);
+        if let Some(b) = p.bandwidth {
             self.config.settings.bandwidth = b;
         }
+        // Whatever the commands asked for, into the limits table's ranges (one place).
+        self.config.settings = std::mem::take(&mut self.config.settings).within_limits();
         if let Some(i) = p.interactive {
             self.interactive = i;
         }
