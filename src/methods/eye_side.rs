@@ -126,15 +126,15 @@ impl EyeSide {
         } else {
             &self.acc_indirect
         };
+        if acc.is_empty() {
+            return vec![Vec3::ZERO; self.tree.target_slot.len()];
+        }
         let b = batches.max(1) as f32;
         self.tree
             .target_slot
             .iter()
             .map(|&slot| {
                 let slot = slot as usize;
-                if acc.is_empty() {
-                    return Vec3::ZERO;
-                }
                 Vec3::new(
                     acc.get(Channel::R, slot),
                     acc.get(Channel::G, slot),
