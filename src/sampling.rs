@@ -173,6 +173,20 @@ impl Distribution1D {
         self.cdf[i] - lo
     }
 
+    /// Sample an index and where `u` fell inside its bin: (index, pmf, u remapped to [0, 1)),
+    /// for a piecewise-constant continuous distribution (uniform within each bin).
+    #[inline]
+    pub fn sample_continuous(&self, u: f32) -> (usize, f32, f32) {
+        let (i, pmf) = self.sample(u);
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let within = if pmf > 0.0 {
+            ((u - lo) / pmf).clamp(0.0, 1.0 - f32::EPSILON)
+        } else {
+            0.5
+        };
+        (i, pmf, within)
+    }
+
     /// Sample an index; returns (index, pmf).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32) {

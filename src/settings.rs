@@ -281,6 +281,18 @@ impl<T: Copy + PartialOrd> Limit<T> {
 /// The one table of accepted ranges.
 pub mod limits {
     use super::Limit;
+    use crate::scene::environment::{ANGLE_RANGE, STRENGTH_RANGE};
+
+    /// Environment (and sun) strength, a multiplier of radiance.
+    pub const ENV_STRENGTH: Limit<f32> = Limit {
+        min: *STRENGTH_RANGE.start(),
+        max: *STRENGTH_RANGE.end(),
+    };
+    /// Environment rotation about +Y, degrees.
+    pub const ENV_ROTATION: Limit<f32> = Limit {
+        min: *ANGLE_RANGE.start(),
+        max: *ANGLE_RANGE.end(),
+    };
 
     /// Image width and height, pixels.
     pub const RESOLUTION: Limit<u32> = Limit { min: 8, max: 4096 };

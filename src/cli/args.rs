@@ -13,6 +13,7 @@ use raysplat::pipeline::cache::CacheParams;
 use raysplat::pipeline::directional::DirectionalMode;
 use raysplat::pipeline::filter::FilterParams;
 use raysplat::pipeline::photon::BandwidthParams;
+use raysplat::scene::{EnvironmentKind, EnvironmentSettings, Sun};
 use raysplat::settings::{DirectMode, MethodKind, RenderSettings, limits, normalised_fractions};
 use std::path::PathBuf;
 
@@ -33,7 +34,7 @@ pub struct RenderArgs {
 #[derive(Args, Clone, Debug)]
 pub struct SettingsArgs {
     /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic |
-    /// builtin:glossy.
+    /// builtin:glossy | builtin:outdoor.
     /// Without it, the embedded CORNELL BOX I.
     pub scene: Option<String>,
     #[command(flatten)]
@@ -51,6 +52,47 @@ pub struct SettingsArgs {
     pub method: MethodArgs,
     #[command(flatten)]
     pub cache_filter: CacheFilterArgs,
+    #[command(flatten)]
+    pub environment: EnvArgs,
+}
+
+/// The environment: light from infinitely far away, and the sun.
+#[derive(Args, Clone, Debug, Default)]
+pub struct EnvArgs {
+    /// Light from every direction: none, uniform, sky (the CIE clear sky), or an
+    /// equirectangular .hdr/.exr map. Without it: none when the file has lights, uniform when
+    /// it has none.
+    #[arg(long, value_name = "none|uniform|sky|FILE")]
+    pub environment: Option<String>,
+    /// The environment's (and sun's) strength: uniform has radiance (X, X, X).
+    #[arg(long, value_name = "X", default_value_t = EnvironmentSettings::default().strength)]
+    pub env_strength: f32,
+    /// Turns the environment (and the sun) about +Y, degrees.
+    #[arg(long, value_name = "DEG", default_value_t = EnvironmentSettings::default().rotation_deg, allow_negative_numbers = true)]
+    pub env_rotation: f32,
+    /// A sun of 0.53° at ELEVATION and AZIMUTH degrees (azimuth from -Z towards +X), giving
+    /// STRENGTH W/m² on a surface facing it [default strength: 5π].
+    #[arg(long, value_name = "ELEVATION,AZIMUTH[,STRENGTH]", value_parser = parse_sun, allow_hyphen_values = true)]
+    pub sun: Option<Sun>,
+}
+
+impl EnvArgs {
+    /// The environment settings these flags ask for.
+    pub fn settings(&self) -> EnvironmentSettings {
+        EnvironmentSettings {
+            kind: self
+                .environment
+                .as_deref()
+                .map_or(EnvironmentKind::Auto, EnvironmentKind::parse),
+            strength: self.env_strength,
+            rotation_deg: self.env_rotation,
+            sun: self.sun,
+        }
+    }
+}
+
+fn parse_sun(s: &str) -> Result<Sun, String> {
+    Sun::parse(s)
 }
 
 /// The image: its size and eye samples per pixel.

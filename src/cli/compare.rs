@@ -98,7 +98,10 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
     }
     output::check(&outputs, &inputs)?;
     set_threads(args.settings.run.threads)?;
-    let scene = Arc::new(load_scene(args.settings.scene.as_deref())?);
+    let scene = Arc::new(load_scene(
+        args.settings.scene.as_deref(),
+        &args.settings.environment,
+    )?);
     let reference = reference(&args, &scene, &settings)?;
     let budget = args.settings.run.budget();
     let settings = RenderSettings {

@@ -107,8 +107,10 @@ fn choice<T: Choice>() -> impl clap::builder::TypedValueParser<Value = T> {
 /// any work, and the help shows the range. The one place that ties flags to limits.
 fn with_ranges(mut cmd: clap::Command) -> clap::Command {
     use raysplat::settings::limits::*;
-    for sub in ["render", "compare", "bench", "tonemap"] {
+    cmd = env_ranged(cmd);
+    for sub in ["render", "compare", "bench", "tonemap", "view"] {
         cmd = cmd.mut_subcommand(sub, |c| {
+            let c = env_ranged(c);
             let c = ranged(c, "width", RESOLUTION);
             let c = ranged(c, "height", RESOLUTION);
             let c = ranged(c, "spp", PT_SPP);
@@ -131,6 +133,13 @@ fn with_ranges(mut cmd: clap::Command) -> clap::Command {
         });
     }
     cmd
+}
+
+/// `cmd` with the environment's numeric flags (if it has them) ranged.
+fn env_ranged(cmd: clap::Command) -> clap::Command {
+    use raysplat::settings::limits::*;
+    let c = ranged(cmd, "env_strength", ENV_STRENGTH);
+    ranged(c, "env_rotation", ENV_ROTATION)
 }
 
 /// `cmd` with the flag `id` (if it has one) parsed by [`in_range`] and its range in the help.
@@ -181,7 +190,24 @@ where
 
 /// The scene a command names: a glTF file, `builtin:<key>`, or (without one) the embedded
 /// CORNELL BOX I.
-fn load_scene(arg: Option<&str>) -> Result<Scene, String> {
+/// Load the scene (`None`: the embedded one, `builtin:KEY`, or a file), light it with the
+/// environment `env` asks for, and print its warnings and lighting notice on stderr.
+fn load_scene(arg: Option<&str>, env: &args::EnvArgs) -> Result<Scene, String> {
+    let mut scene = load_scene_file(arg)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let settings = env.settings();
+    if settings != raysplat::scene::EnvironmentSettings::default() {
+        scene.set_environment(&settings)?;
+    }
+    if let Some(notice) = &scene.lighting_notice {
+        eprintln!("note: {notice} (--environment to choose another)");
+    }
+    Ok(scene)
+}
+
+fn load_scene_file(arg: Option<&str>) -> Result<Scene, String> {
     match arg {
         None => Ok(Scene::default_scene()),
         Some(name) if name.starts_with("builtin:") => {

@@ -43,11 +43,11 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     output::check(&outputs, scene_file.as_slice())?;
     set_threads(args.settings.run.threads)?;
     let t_load = Instant::now();
-    let scene = Arc::new(load_scene(args.settings.scene.as_deref())?);
+    let scene = Arc::new(load_scene(
+        args.settings.scene.as_deref(),
+        &args.settings.environment,
+    )?);
     let t_load = t_load.elapsed().as_secs_f64();
-    for w in &scene.warnings {
-        eprintln!("warning: {w}");
-    }
     let time_budget = args.settings.run.time_budget;
     let progress = match time_budget {
         Some(b) => ProgressBar::new((b * 1000.0) as u64).with_style(

@@ -10,17 +10,16 @@ use std::sync::Arc;
 #[derive(Args, Default)]
 pub struct ViewArgs {
     /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic |
-    /// builtin:glossy; without it, the embedded CORNELL BOX I.
+    /// builtin:glossy | builtin:outdoor; without it, the embedded CORNELL BOX I.
     pub scene: Option<String>,
+    #[command(flatten)]
+    pub environment: super::args::EnvArgs,
 }
 
 /// Loads the scene (a failure is reported here, on stderr, and no window opens), then opens
 /// the previewer window on it and returns when the window closes.
 pub fn run(args: ViewArgs) -> Result<(), String> {
-    let scene = load_scene(args.scene.as_deref())?;
-    for w in &scene.warnings {
-        eprintln!("warning: {w}");
-    }
+    let scene = load_scene(args.scene.as_deref(), &args.environment)?;
     let path = args
         .scene
         .as_deref()

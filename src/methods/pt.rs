@@ -4,7 +4,7 @@
 
 use crate::film::Film;
 use crate::methods::{Method, MethodStats, Step, Timings};
-use crate::pipeline::direct::{bsdf_emission_weight, power_heuristic};
+use crate::pipeline::direct::{bsdf_emission_weight, escaped_weight, power_heuristic};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 use crate::settings::{MethodKind, RenderSettings};
@@ -277,6 +277,16 @@ pub fn radiance(
     let mut leaving = u32::MAX;
     for depth in 0..max_depth {
         let Some(hit) = scene.intersect_except(origin, dir, f32::INFINITY, leaving) else {
+            // Escaped: the environment, MIS-weighted like emission after a non-specular bounce.
+            let le = scene.background(dir);
+            if le != Vec3::ZERO {
+                let w = if specular {
+                    1.0
+                } else {
+                    escaped_weight(scene, prev_n, dir, prev_pdf)
+                };
+                l += beta * le * w;
+            }
             break;
         };
         let wo = -dir;

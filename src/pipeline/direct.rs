@@ -49,6 +49,18 @@ pub fn bsdf_emission_weight(
     )
 }
 
+/// The MIS weight (power heuristic, against light sampling) of the environment seen along a
+/// BSDF-sampled direction `wi` that escapes the scene, sampled with solid-angle density `pdf`
+/// at a point whose viewer-side shading normal is `n` (below it the BSDF sample takes the
+/// whole weight, as in [`bsdf_emission_weight`]). Shared by NEE at eye samples and the path
+/// tracer.
+pub fn escaped_weight(scene: &Scene, n: Vec3, wi: Vec3, pdf: f32) -> f32 {
+    if n.dot(wi) <= 0.0 {
+        return 1.0;
+    }
+    power_heuristic(pdf, scene.lights.pdf_escaped(wi))
+}
+
 /// Area lights tested one by one before a BSDF-sampled ray's full traversal (at most this
 /// many): a ray that meets none of them cannot find an emitter.
 const EMITTERS_TESTED_DIRECTLY: usize = 64;
@@ -62,6 +74,8 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
     // rays miss every light). The same triangle test as the BVH's, so nothing changes.
     let emitters: Vec<u32> = scene.lights.area_triangles().collect();
     let few_emitters = (emitters.len() <= EMITTERS_TESTED_DIRECTLY).then_some(emitters.as_slice());
+    // Rays that meet no emitter may still escape to the environment.
+    let has_environment = scene.lights.has_environment();
     let radiance: Vec<Vec3> = (0..eye.len())
         .into_par_iter()
         .map(|i| {
@@ -105,11 +119,17 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
                 let origin =
                     crate::scene::offset_ray_origin(p, eye.geo_normal[i], eye.offset[i], s.wi);
                 if let Some(tris) = few_emitters
+                    && !has_environment
                     && !scene.meets_any(origin, s.wi, tris)
                 {
                     continue;
                 }
                 let Some(hit) = scene.intersect(origin, s.wi, f32::INFINITY) else {
+                    // Escaped: the environment, weighted against its light sampling.
+                    let le = scene.background(s.wi);
+                    if le != Vec3::ZERO {
+                        sum += s.weight * le * escaped_weight(scene, n, s.wi, s.pdf);
+                    }
                     continue;
                 };
                 let le = scene.emitted(&hit, -s.wi);

@@ -3,7 +3,8 @@
 //!
 //! Specular chains are followed deterministically: a mirror reflects, a dielectric splits into
 //! its reflected and refracted branches weighted by Fresnel, up to `max_specular_depth`.
-//! Emission seen directly or through a chain goes straight to the film (`emitted`).
+//! Emission seen directly or through a chain goes straight to the film (`emitted`), and so
+//! does the environment seen where a ray escapes.
 
 use crate::bsdf::{Bsdf, fresnel_dielectric, reflect, refract};
 use crate::sampling::Rng;
@@ -336,6 +337,8 @@ fn trace_chain(
         top -= 1;
         let (o, d, w, depth, travelled, leaving) = stack[top];
         let Some(hit) = scene.intersect_except(o, d, f32::INFINITY, leaving) else {
+            // Escaped: the environment seen directly or through the chain.
+            emitted += w * scene.background(d);
             continue;
         };
         let path_length = travelled + hit.t;

@@ -4,6 +4,7 @@
 //! Lights are chosen in proportion to their power (§3: "photons emitted in proportion to power"),
 //! so every emitted photon carries about the same luminous power.
 
+use super::environment::{EnvLight, Environment, SunLight};
 use super::{Material, TriShading};
 use crate::sampling::{
     Distribution1D, Rng, cosine_hemisphere, luminance, to_world, uniform_cone, uniform_sphere,
@@ -56,6 +57,13 @@ pub enum Light {
         /// `spot_falloff`).
         cos_outer: f32,
     },
+    /// The environment's radiance from every direction ([`Lights::environment`] holds it).
+    Environment {
+        /// ∫ L dω over the sphere (RGB).
+        integral: Vec3,
+    },
+    /// The sun: a small disc of constant radiance infinitely far away.
+    Sun(SunLight),
     /// Parallel light travelling along `direction` with `irradiance` (W/m²) on a facing surface.
     Directional {
         /// Unit direction the light travels in.
@@ -88,8 +96,8 @@ pub struct EmittedPhoton {
     pub offset: f32,
     /// The emitting triangle (`u32::MAX` for punctual lights): the photon never hits it.
     pub triangle: u32,
-    /// A directional light's photon: it starts on a disc outside the scene and travels
-    /// parallel to the others.
+    /// A photon from infinitely far away (a directional light, the sun, the environment): it
+    /// starts on a disc outside the scene, and its density does not fall with distance.
     pub parallel: bool,
 }
 
@@ -121,6 +129,11 @@ pub struct Lights {
     scene_radius: f32,
     /// The area light of each triangle (`u32::MAX` for triangles that do not emit).
     light_of_triangle: Vec<u32>,
+    /// Light from infinitely far away: what escaping rays see.
+    pub environment: Environment,
+    /// Selection probability of the environment's light and of the sun (0 without them).
+    p_environment: f32,
+    p_sun: f32,
 }
 
 impl Lights {
@@ -129,6 +142,7 @@ impl Lights {
         shading: &[TriShading],
         materials: &[Material],
         punctual: Vec<Light>,
+        environment: Environment,
         bmin: Vec3,
         bmax: Vec3,
     ) -> Self {
@@ -161,6 +175,14 @@ impl Lights {
                 triangle: ti as u32,
             });
         }
+        if let Some(env) = &environment.light {
+            lights.push(Light::Environment {
+                integral: env.integral(),
+            });
+        }
+        if let Some(sun) = environment.sun {
+            lights.push(Light::Sun(sun));
+        }
         lights.extend(punctual.into_iter().filter(|l| {
             let p = Self::power_of(l, scene_radius);
             p.is_finite() && p.max_element() > 0.0
@@ -178,6 +200,15 @@ impl Lights {
             lights.clear();
             light_of_triangle.fill(u32::MAX);
         }
+        let pmf_of = |want: fn(&Light) -> bool| {
+            lights
+                .iter()
+                .position(want)
+                .zip(dist.as_ref())
+                .map_or(0.0, |(i, d)| d.pmf(i))
+        };
+        let p_environment = pmf_of(|l| matches!(l, Light::Environment { .. }));
+        let p_sun = pmf_of(|l| matches!(l, Light::Sun(_)));
         Self {
             lights,
             dist,
@@ -185,7 +216,44 @@ impl Lights {
             scene_center,
             scene_radius,
             light_of_triangle,
+            environment,
+            p_environment,
+            p_sun,
         }
+    }
+
+    /// Radiance arriving along a ray that leaves the scene in direction `d` (the
+    /// environment's and the sun's; black without them).
+    #[inline]
+    pub fn escaped(&self, d: Vec3) -> Vec3 {
+        self.environment.radiance(d)
+    }
+
+    /// Solid-angle pdf with which [`Lights::sample_direct`] picks direction `d` towards the
+    /// environment or the sun (selection included): the light-sampling side of MIS for a
+    /// BSDF-sampled ray that escapes.
+    #[inline]
+    pub fn pdf_escaped(&self, d: Vec3) -> f32 {
+        let mut p = 0.0;
+        if let Some(e) = &self.environment.light {
+            p += self.p_environment * e.pdf(d);
+        }
+        if let Some(s) = &self.environment.sun {
+            p += self.p_sun * s.pdf(d);
+        }
+        p
+    }
+
+    /// Light arrives from infinitely far away (escaping rays may carry some).
+    #[inline]
+    pub fn has_environment(&self) -> bool {
+        !self.environment.is_empty()
+    }
+
+    /// Radius of the disc that photons from infinitely far away start on (the scene's
+    /// bounding sphere, 1% larger).
+    pub fn scene_radius(&self) -> f32 {
+        self.scene_radius
     }
 
     /// Solid-angle pdf with which [`Lights::sample_direct`] from `from` picks the point `at`
@@ -248,6 +316,9 @@ impl Lights {
                 intensity * 2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer) / 3.0)
             }
             Light::Directional { irradiance, .. } => irradiance * PI * scene_radius * scene_radius,
+            // What crosses a disc of radius r facing each direction: ∫ L dω · πr².
+            Light::Environment { integral } => integral * PI * scene_radius * scene_radius,
+            Light::Sun(sun) => sun.radiance * sun.solid_angle * PI * scene_radius * scene_radius,
         }
     }
 
@@ -338,6 +409,15 @@ impl Lights {
                     parallel: false,
                 }
             }
+            Light::Environment { .. } => {
+                let (towards, radiance, pdf_dir) =
+                    self.environment.light.as_ref()?.sample(u_dir)?;
+                self.photon_from_afar(towards, radiance, pdf_dir, p_sel, u_pos)?
+            }
+            Light::Sun(sun) => {
+                let towards = sun.sample(u_dir);
+                self.photon_from_afar(towards, sun.radiance, 1.0 / sun.solid_angle, p_sel, u_pos)?
+            }
             Light::Directional {
                 direction,
                 irradiance,
@@ -360,6 +440,39 @@ impl Lights {
             }
         };
         Some(photon)
+    }
+
+    /// A photon arriving from infinitely far away along −`towards` with radiance `radiance`
+    /// (direction sampled with solid-angle pdf `pdf_dir`, the light with `p_sel`): it starts
+    /// on the disc of radius r facing `towards` on the scene's bounding sphere, so its power is
+    /// L·πr²/(p_sel·pdf_dir). Its eq. 7 density is the disc's, p_sel/(πr²), as a directional
+    /// light's: the direction's density is left out (docs/deviations.md, "Light from afar").
+    fn photon_from_afar(
+        &self,
+        towards: Vec3,
+        radiance: Vec3,
+        pdf_dir: f32,
+        p_sel: f32,
+        u_pos: Vec2,
+    ) -> Option<EmittedPhoton> {
+        if pdf_dir.is_nan() || pdf_dir <= 0.0 || radiance == Vec3::ZERO {
+            return None;
+        }
+        let r = self.scene_radius;
+        let d = crate::sampling::concentric_disk(u_pos) * r;
+        let (t, b) = crate::sampling::onb(towards);
+        let area = PI * r * r;
+        Some(EmittedPhoton {
+            origin: self.scene_center + towards * r + t * d.x + b * d.y,
+            direction: -towards,
+            normal: -towards,
+            power: radiance * (area / (p_sel * pdf_dir)),
+            pdf: p_sel / area,
+            pdf_per_area: true,
+            offset: 0.0,
+            triangle: u32::MAX,
+            parallel: true,
+        })
     }
 
     /// Sample a point on a light as seen from `p` for next-event estimation.
@@ -436,6 +549,27 @@ impl Lights {
                     distance,
                     value: intensity * (fall / (dist2 * p_sel)),
                     pdf: f32::INFINITY,
+                    triangle: u32::MAX,
+                })
+            }
+            Light::Environment { .. } => {
+                let env: &EnvLight = self.environment.light.as_ref()?;
+                let (wi, radiance, pdf) = env.sample(u)?;
+                (pdf > 0.0).then(|| LightSample {
+                    wi,
+                    distance: f32::INFINITY,
+                    value: radiance / (p_sel * pdf),
+                    pdf: p_sel * pdf,
+                    triangle: u32::MAX,
+                })
+            }
+            Light::Sun(sun) => {
+                let pdf = 1.0 / sun.solid_angle;
+                Some(LightSample {
+                    wi: sun.sample(u),
+                    distance: f32::INFINITY,
+                    value: sun.radiance / (p_sel * pdf),
+                    pdf: p_sel * pdf,
                     triangle: u32::MAX,
                 })
             }

@@ -7,6 +7,7 @@
 
 mod builtin;
 mod camera;
+pub mod environment;
 mod geometry;
 mod light;
 mod load;
@@ -15,6 +16,7 @@ mod trace;
 
 pub use builtin::{BuiltinScene, DEFAULT_SCENE_GLB, GlbBuilder, uv_sphere};
 pub use camera::Camera;
+pub use environment::{Environment, EnvironmentKind, EnvironmentSettings, Sun};
 use camera::framing_camera;
 pub(crate) use geometry::tri;
 pub use geometry::{Hit, SHADOW_EPSILON, TriShading, gamma, offset_ray_origin, surface_offset};
@@ -47,7 +49,9 @@ impl fmt::Display for SceneError {
 impl std::error::Error for SceneError {}
 
 /// A loaded scene, ready to render: triangles with shading data and materials, lights,
-/// cameras and the BVH.
+/// cameras and the BVH. Cloning copies everything (the window clones a scene to light it
+/// with another environment).
+#[derive(Clone)]
 pub struct Scene {
     /// Display name (the file's stem, or the built-in scene's title).
     pub name: String,
@@ -59,8 +63,15 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Decoded base-colour textures.
     pub textures: Vec<Texture>,
-    /// The lights (emissive triangles and punctual lights).
+    /// The lights (emissive triangles, punctual lights, the environment and the sun).
     pub lights: Lights,
+    /// The environment the lights hold, as chosen (never `Auto`: resolved).
+    pub environment: EnvironmentSettings,
+    /// One line for the user when the environment was chosen for them (a file without
+    /// lights of its own, lit by the uniform environment); `None` otherwise.
+    pub lighting_notice: Option<String>,
+    /// The file's punctual lights (kept to rebuild the lights with another environment).
+    punctual: Vec<Light>,
     /// The scene's cameras; a framing camera when the file has none (never empty).
     pub cameras: Vec<Camera>,
     /// Lower corner of the triangles' bounding box.
@@ -96,8 +107,10 @@ impl Scene {
         Self::from_glb_bytes(&which.to_glb(), which.title()).expect("built-in scenes always load")
     }
 
-    /// Load a .gltf or .glb file. No input panics: a panic inside the glTF reader (the last
-    /// line of defence behind the loader's own checks) becomes the one-line error.
+    /// Load a .gltf or .glb file, lit by the `Auto` environment (a uniform white when the
+    /// file has no light of its own, [`Scene::lighting_notice`] then says so). No input
+    /// panics: a panic inside the glTF reader (the last line of defence behind the loader's
+    /// own checks) becomes the one-line error.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
         let source = path.display().to_string();
         guarded(&source, || {
@@ -139,15 +152,11 @@ impl Scene {
             &parts.triangles,
             &parts.shading,
             &parts.materials,
-            parts.punctual,
+            parts.punctual.clone(),
+            Environment::default(),
             bounds_min,
             bounds_max,
         );
-        if lights.is_empty() {
-            return Err(err(
-                "the scene has no light: add an emissive material (emissiveFactor > 0) or a KHR_lights_punctual light".into(),
-            ));
-        }
         let bvh = build_cwbvh_from_tris(
             &parts.triangles,
             BvhBuildParams::medium_build(),
@@ -157,19 +166,90 @@ impl Scene {
         if cameras.is_empty() {
             cameras.push(framing_camera(bounds_min, bounds_max));
         }
-        Ok(Self {
+        let mut scene = Self {
             name: parts.name,
             triangles: parts.triangles,
             shading: parts.shading,
             materials: parts.materials,
             textures: parts.textures,
             lights,
+            environment: EnvironmentSettings {
+                kind: EnvironmentKind::None,
+                ..Default::default()
+            },
+            lighting_notice: None,
+            punctual: parts.punctual,
             cameras,
             bounds_min,
             bounds_max,
             warnings: parts.warnings,
             bvh,
+        };
+        if scene.lights.is_empty() {
+            scene
+                .set_environment(&EnvironmentSettings::default())
+                .map_err(err)?;
+        }
+        Ok(scene)
+    }
+
+    /// The file's own lights (emissive triangles with power, punctual lights) light it.
+    pub fn has_own_lights(&self) -> bool {
+        self.lights.lights.iter().any(|l| {
+            !matches!(
+                l,
+                Light::Environment { .. } | Light::Sun(_)
+            )
         })
+    }
+
+    /// Light the scene with the environment `settings` ask for, rebuilding its lights. `Auto`
+    /// resolves to `none` when the file has lights of its own and to `uniform` (at the
+    /// settings' strength) when it has none; [`Scene::lighting_notice`] then says so. On an
+    /// error (an unreadable map, or a scene left with no light at all) nothing changes.
+    pub fn set_environment(&mut self, settings: &EnvironmentSettings) -> Result<(), String> {
+        let own = self.has_own_lights();
+        let mut resolved = settings.clone();
+        let mut notice = None;
+        if resolved.kind == EnvironmentKind::Auto {
+            resolved.kind = if own {
+                EnvironmentKind::None
+            } else {
+                notice = Some(format!(
+                    "the file has no light of its own: lit by the uniform environment at strength {}",
+                    resolved.strength
+                ));
+                EnvironmentKind::Uniform
+            };
+        }
+        let environment = Environment::build(&resolved)?;
+        let lights = Lights::build(
+            &self.triangles,
+            &self.shading,
+            &self.materials,
+            self.punctual.clone(),
+            environment,
+            self.bounds_min,
+            self.bounds_max,
+        );
+        if lights.is_empty() {
+            return Err(if own {
+                "that environment gives no light".into()
+            } else {
+                "the scene has no light of its own and the environment gives none: choose the uniform or sky environment, or a map".into()
+            });
+        }
+        self.lights = lights;
+        self.environment = resolved;
+        self.lighting_notice = notice;
+        Ok(())
+    }
+
+    /// Radiance arriving along a ray that leaves the scene in direction `d` (the
+    /// environment's; black without one).
+    #[inline]
+    pub fn background(&self, d: Vec3) -> Vec3 {
+        self.lights.escaped(d)
     }
 
     /// Length of the bounding box's diagonal (scene units).

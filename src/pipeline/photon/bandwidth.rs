@@ -66,12 +66,13 @@ impl Bandwidth {
     }
 
     /// (h0, dh) of a ray (§6): h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i))/|x_{i+1} − x_i|.
+    /// A ray from afar (bounce 0 with `pdf_start` > 0) is a cylinder of radius h(x_1).
     /// A ray that escapes has no end vertex: it keeps its start bandwidth (a cylinder) up to
     /// where it leaves the scene, so the bounding box only clips it.
     #[inline]
     pub fn cone(&self, ray: &PhotonRay) -> (f32, f32) {
-        let hi = if ray.bounce == 0 {
-            0.0 // h(x_0) = 0 (eq. 8)
+        let hi = if ray.bounce == 0 && ray.pdf_start <= 0.0 {
+            0.0 // h(x_0) = 0 (eq. 8); a ray from afar has pdf_start > 0: a cylinder
         } else {
             self.h(ray.pdf_start)
         };
@@ -271,8 +272,12 @@ mod tests {
         assert_eq!(bw.cone(&ray), (bw.h(4.0), 0.0));
         // h(x_0) = 0: the segment leaving the light starts as a point (eq. 8).
         ray.bounce = 0;
+        ray.pdf_start = 0.0;
         let (h0, dh) = bw.cone(&ray);
         assert_eq!(h0, 0.0);
         assert!((dh - bw.h(4.0) / 2.0).abs() < 1e-7);
+        // A ray from afar keeps its density: a cylinder of h(x_1), also when it escapes.
+        ray.pdf_start = 4.0;
+        assert_eq!(bw.cone(&ray), (bw.h(4.0), 0.0));
     }
 }

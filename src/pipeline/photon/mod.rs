@@ -85,7 +85,8 @@ pub struct PhotonRay {
     /// the geometric surface into the shading-normal cosine that the path tracer and the
     /// splat kernel use, for photon mapping's density estimate (Veach 1997, §5.3).
     pub end_shading_ratio: f32,
-    /// p̃(x_i | x_{i−1}) (unused for bounce 0, where h(x_0) = 0).
+    /// p̃(x_i | x_{i−1}); for bounce 0, 0 (h(x_0) = 0) or, for a ray from afar (a
+    /// directional light, the sun, the environment), its constant density p̃(x_1 | x_0).
     pub pdf_start: f32,
     /// p̃(x_{i+1} | x_i), eq. 7.
     pub pdf_end: f32,

@@ -125,7 +125,10 @@ pub(super) fn trace_photon(
             PhotonClass::Caustic
         };
         let (pdf_start, pdf_end) = match class {
-            PhotonClass::Direct => (0.0, u_next),
+            // A ray from afar has the same density all along (it does not spread from a
+            // point): it starts with the bandwidth it ends with. Rays leaving a light in the
+            // scene start as a point, h(x_0) = 0 (pdf_start 0 says so).
+            PhotonClass::Direct => (if parallel { u_next } else { 0.0 }, u_next),
             PhotonClass::Indirect => (u_here, u_next),
             PhotonClass::Caustic => (c_here, c_next),
         };

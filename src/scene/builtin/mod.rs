@@ -31,15 +31,19 @@ pub enum BuiltinScene {
     CornellClassic,
     /// Three moderately glossy metal spheres (roughness 0.5, 0.65, 0.8) for §8.1.
     CornellGlossy,
+    /// Objects on a floor with no light of their own (a white and a glass sphere, a red
+    /// block): lit by the environment, like most glTF files people have.
+    Outdoor,
 }
 
 impl BuiltinScene {
     /// Every built-in scene, in the order `raysplat scenes` writes them and help lists them.
-    pub const ALL: [BuiltinScene; 4] = [
+    pub const ALL: [BuiltinScene; 5] = [
         BuiltinScene::CornellBox1,
         BuiltinScene::CornellBox2,
         BuiltinScene::CornellClassic,
         BuiltinScene::CornellGlossy,
+        BuiltinScene::Outdoor,
     ];
 
     /// The name after `builtin:` on the command line.
@@ -49,6 +53,7 @@ impl BuiltinScene {
             BuiltinScene::CornellBox2 => "cornell2",
             BuiltinScene::CornellClassic => "classic",
             BuiltinScene::CornellGlossy => "glossy",
+            BuiltinScene::Outdoor => "outdoor",
         }
     }
 
@@ -64,6 +69,7 @@ impl BuiltinScene {
             BuiltinScene::CornellBox2 => "cornell_box_2.glb",
             BuiltinScene::CornellClassic => "cornell_classic.glb",
             BuiltinScene::CornellGlossy => "cornell_glossy.glb",
+            BuiltinScene::Outdoor => "outdoor.glb",
         }
     }
 
@@ -74,15 +80,21 @@ impl BuiltinScene {
             BuiltinScene::CornellBox2 => "CORNELL BOX II",
             BuiltinScene::CornellClassic => "Cornell box (classic)",
             BuiltinScene::CornellGlossy => "Glossy Cornell box",
+            BuiltinScene::Outdoor => "Outdoor",
         }
     }
 
     /// Generate the scene as GLB bytes (deterministic).
     pub fn to_glb(self) -> Vec<u8> {
         let mut g = GlbBuilder::default();
+        if self == BuiltinScene::Outdoor {
+            outdoor(&mut g);
+            return g.to_glb();
+        }
         let bumpy = self == BuiltinScene::CornellBox1;
         cornell_shell(&mut g, bumpy);
         match self {
+            BuiltinScene::Outdoor => unreachable!("generated above"),
             BuiltinScene::CornellBox1 => {
                 // Brushed brass: Phong exponent 9.2, a lobe the 16 SH coefficients carry.
                 let gloss = g.material(json!({
@@ -201,6 +213,48 @@ fn glass_material(g: &mut GlbBuilder) -> u32 {
             "KHR_materials_ior": {"ior": 1.5}
         }
     }))
+}
+
+/// [`BuiltinScene::Outdoor`]: a 6 m square grey floor, a white sphere, a red block and a
+/// glass sphere (metres, Y up), and a camera; no light.
+fn outdoor(g: &mut GlbBuilder) {
+    let floor = g.material(diffuse_json("floor", [0.5, 0.5, 0.5]));
+    let white = g.material(diffuse_json("white", WHITE));
+    let red = g.material(diffuse_json("red", RED));
+    let glass = glass_material(g);
+    let mut f = Quads::default();
+    f.add(
+        [
+            Vec3::new(-3.0, 0.0, 3.0),
+            Vec3::new(3.0, 0.0, 3.0),
+            Vec3::new(3.0, 0.0, -3.0),
+            Vec3::new(-3.0, 0.0, -3.0),
+        ],
+        Vec3::Y,
+    );
+    g.mesh("floor", &f.p, &f.n, &f.i, floor);
+    let (p, n, i) = uv_sphere(Vec3::new(-0.7, 0.5, 0.0), 0.5, 64, 32);
+    g.mesh("white_sphere", &p, &n, &i, white);
+    // The block's footprint in the Cornell generator's millimetres (x, z, see `cornell`),
+    // turned about 17°, 600 mm tall.
+    let (p, n, i) = block(
+        [
+            [-600.0, 150.0],
+            [-100.0, 300.0],
+            [-250.0, 800.0],
+            [-750.0, 650.0],
+        ],
+        600.0,
+    );
+    g.mesh("red_block", &p, &n, &i, red);
+    let (p, n, i) = uv_sphere(Vec3::new(0.3, 0.3, 0.9), 0.3, 64, 32);
+    g.mesh("glass_sphere", &p, &n, &i, glass);
+    g.camera(
+        "outdoor_camera",
+        Vec3::new(0.0, 1.5, 4.2),
+        Vec3::new(0.0, 0.35, 0.0),
+        40f32.to_radians(),
+    );
 }
 
 /// Walls, ceiling, floor (flat or bumpy) and the ceiling light.
