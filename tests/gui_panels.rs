@@ -11,6 +11,7 @@ use raysplat::app::bandwidth::BandwidthPanel;
 use raysplat::app::cache_filter::CacheFilterPanel;
 use raysplat::app::camera::CameraPanel;
 use raysplat::app::display::DisplayPanel;
+use raysplat::app::environment::{EnvironmentPanel, EnvironmentRequest};
 use raysplat::app::rendering::RenderingPanel;
 use raysplat::app::snapshots::{SnapshotPanel, SnapshotRequest};
 use raysplat::app::stats::{Messages, StatsPanel};
@@ -18,7 +19,7 @@ use raysplat::app::widgets::Commands;
 use raysplat::film::Film;
 use raysplat::film::display::{ToneMap, ViewMode};
 use raysplat::pipeline::directional::DirectionalMode;
-use raysplat::scene::Camera;
+use raysplat::scene::{Camera, EnvironmentKind, EnvironmentSettings};
 use raysplat::session::{Command, Frame, SessionStats};
 use raysplat::settings::{DirectMode, RenderSettings, limits};
 use std::path::PathBuf;
@@ -562,4 +563,57 @@ impl MemStorage {
     fn set_string_for_test(&mut self, value: &str) {
         eframe::Storage::set_string(self, UiSettings::STORAGE_KEY, value.to_string());
     }
+}
+
+/// The environment panel: each choice and slider sends the whole environment to the worker
+/// (one `SetEnvironment` per change); "Map file…" asks the window for a dialog instead; the
+/// strength stops at the limits table's bound; the sun appears with its sliders.
+#[test]
+fn environment_panel_emits_set_environment() {
+    let mut h = harness(
+        EnvironmentPanel::default(),
+        settings(),
+        |ui, s: &mut State<EnvironmentPanel, EnvironmentRequest>| {
+            if let Some(r) = s.panel.ui(ui, &mut s.settings, &mut s.out) {
+                s.returned.push(r);
+            }
+        },
+    );
+    let mut env = EnvironmentSettings::default();
+    choose(&mut h, "Environment", "Sky");
+    env.kind = EnvironmentKind::Sky;
+    assert_commands(&mut h.state_mut().out, &[Command::SetEnvironment(env.clone())]);
+    h.get_by_role_and_label(Role::Slider, "Strength")
+        .set_value_accesskit(3.0);
+    h.run_steps(2);
+    env.strength = 3.0;
+    assert_commands(&mut h.state_mut().out, &[Command::SetEnvironment(env.clone())]);
+    h.get_by_role_and_label(Role::Slider, "Rotation")
+        .set_value_accesskit(-45.0);
+    h.run_steps(2);
+    env.rotation_deg = -45.0;
+    assert_commands(&mut h.state_mut().out, &[Command::SetEnvironment(env.clone())]);
+    h.get_by_role_and_label(Role::Slider, "Strength")
+        .set_value_accesskit(1e9);
+    h.run_steps(2);
+    let strength = h.state().settings.environment.strength;
+    assert!(strength <= limits::ENV_STRENGTH.max, "{strength}");
+    h.state_mut().out.take();
+    h.get_by_label("Sun").click();
+    h.run_steps(3);
+    let sun = h.state().settings.environment.sun.expect("the sun is on");
+    assert_eq!(h.state_mut().out.take().len(), 1);
+    h.get_by_role_and_label(Role::Slider, "Sun elevation")
+        .set_value_accesskit(20.0);
+    h.run_steps(2);
+    assert_eq!(
+        h.state().settings.environment.sun.map(|s| s.elevation_deg),
+        Some(20.0)
+    );
+    assert_ne!(Some(sun), h.state().settings.environment.sun);
+    assert_eq!(h.state_mut().out.take().len(), 1);
+    assert!(h.state().returned.is_empty());
+    choose(&mut h, "Environment", "Map file…");
+    assert_eq!(h.state().returned, [EnvironmentRequest::ChooseMap]);
+    assert_commands(&mut h.state_mut().out, &[]);
 }

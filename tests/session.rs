@@ -404,3 +404,67 @@ fn the_worker_clamps_commands_to_the_limits_table() {
     assert_eq!(f.settings.bandwidth.max_bandwidth_r, 0.5);
     assert_eq!(f.settings.photons, 100);
 }
+
+/// Wait for the first event `pick` accepts; panics after `secs`.
+fn wait_event<T>(s: &Session, secs: u64, mut pick: impl FnMut(Event) -> Option<T>) -> T {
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(secs) {
+        if let Some(t) = s.try_events().into_iter().find_map(&mut pick) {
+            return t;
+        }
+        let _ = s.wait_frame(Duration::from_millis(20));
+    }
+    panic!("no matching event within {secs} s");
+}
+
+/// A scene without lights opens lit by the uniform environment and says so; the window's
+/// environment change re-traces under the sky (frames after it are lit differently); a map
+/// that cannot be read is one line and the lighting stays.
+#[test]
+fn the_environment_changes_under_the_worker() {
+    use raysplat::scene::{EnvironmentKind, EnvironmentSettings};
+    let _watchdog = Watchdog::new(120);
+    let scene = Arc::new(Scene::builtin(BuiltinScene::Outdoor));
+    let session = Session::spawn(scene, None, small_config(), None);
+    let (env, notice) = wait_event(&session, 30, |e| match e {
+        Event::SceneLoaded {
+            environment,
+            notice,
+            ..
+        } => Some((environment, notice)),
+        _ => None,
+    });
+    assert_eq!(env.kind, EnvironmentKind::Uniform);
+    assert!(notice.expect("a notice").contains("no light of its own"));
+    let first = wait(&session, 60, |f| f.stats.batches >= 1);
+    let sky = EnvironmentSettings {
+        kind: EnvironmentKind::Sky,
+        strength: 3.0,
+        ..Default::default()
+    };
+    session.send(Command::SetEnvironment(sky.clone()));
+    let changed = wait_event(&session, 30, |e| match e {
+        Event::EnvironmentChanged { environment, .. } => Some(environment),
+        _ => None,
+    });
+    assert_eq!(changed, sky);
+    let after = wait(&session, 60, |f| {
+        f.generation > first.generation && f.stats.batches >= 1
+    });
+    assert!(
+        (after.film.mean() - first.film.mean()).length() > 0.1 * first.film.mean().length(),
+        "the image did not change: {} then {}",
+        first.film.mean(),
+        after.film.mean()
+    );
+    session.send(Command::SetEnvironment(EnvironmentSettings {
+        kind: EnvironmentKind::File("/nonexistent/map.exr".into()),
+        ..Default::default()
+    }));
+    let err = wait_event(&session, 30, |e| match e {
+        Event::Error(m) => Some(m),
+        _ => None,
+    });
+    assert!(err.contains("map.exr") && err.contains("stays") && !err.contains('\n'), "{err}");
+    wait(&session, 60, |f| f.seq > after.seq + 2);
+}

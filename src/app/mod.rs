@@ -23,6 +23,7 @@ pub mod bandwidth;
 pub mod cache_filter;
 pub mod camera;
 pub mod display;
+pub mod environment;
 pub mod rendering;
 pub mod snapshot;
 pub mod snapshots;

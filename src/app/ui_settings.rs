@@ -2,6 +2,7 @@
 //! starts from, and the display-only choices beside them.
 
 use crate::film::display::{ToneMap, ViewMode};
+use crate::scene::EnvironmentSettings;
 use crate::session::SessionConfig;
 use crate::settings::{RenderSettings, limits};
 use serde::{Deserialize, Serialize};
@@ -26,6 +27,8 @@ pub struct UiSettings {
     pub tone_map: ToneMap,
     /// Where snapshots are written.
     pub snapshot_dir: PathBuf,
+    /// The environment scenes are lit by.
+    pub environment: EnvironmentSettings,
 }
 
 impl Default for UiSettings {
@@ -38,6 +41,7 @@ impl Default for UiSettings {
             exposure: 0.0,
             tone_map: ToneMap::Aces,
             snapshot_dir: std::env::current_dir().unwrap_or_else(|_| PathBuf::from(".")),
+            environment: EnvironmentSettings::default(),
         }
     }
 }
@@ -63,6 +67,12 @@ impl UiSettings {
         self.render = self.render.within_limits();
         self.ray_budget = limits::RAY_BUDGET.clamp(self.ray_budget);
         self.exposure = limits::EXPOSURE.clamp(self.exposure);
+        let e = &mut self.environment;
+        e.strength = limits::ENV_STRENGTH.clamp(e.strength);
+        e.rotation_deg = limits::ENV_ROTATION.clamp(e.rotation_deg);
+        if e.sun.is_some_and(|s| s.check().is_err()) {
+            e.sun = None;
+        }
         self
     }
 
@@ -71,6 +81,7 @@ impl UiSettings {
         SessionConfig {
             settings: self.render.clone(),
             max_stored_rays: self.ray_budget,
+            environment: self.environment.clone(),
             ..SessionConfig::default()
         }
     }

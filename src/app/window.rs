@@ -7,6 +7,8 @@ use crate::app::bandwidth::BandwidthPanel;
 use crate::app::cache_filter::CacheFilterPanel;
 use crate::app::camera::CameraPanel;
 use crate::app::display::{DisplayPanel, set_view_mode};
+use crate::app::environment::{EnvironmentPanel, EnvironmentRequest};
+use crate::scene::environment::describe;
 use crate::app::rendering::{RenderingPanel, toggle_pause};
 use crate::app::snapshot::{SnapshotFiles, SnapshotMeta, write_snapshot_in_background};
 use crate::app::snapshots::{SnapshotPanel, SnapshotRequest};
@@ -67,6 +69,7 @@ pub struct App {
     bandwidth: BandwidthPanel,
     cache_filter: CacheFilterPanel,
     rendering: RenderingPanel,
+    environment: EnvironmentPanel,
     camera: CameraPanel,
     display: DisplayPanel,
     snapshots: SnapshotPanel,
@@ -79,6 +82,15 @@ pub struct App {
 enum PickResult {
     Scene(Option<PathBuf>),
     Folder(Option<PathBuf>),
+    EnvironmentMap(Option<PathBuf>),
+}
+
+/// What a file dialog is for.
+#[derive(Clone, Copy)]
+enum Pick {
+    Scene,
+    Folder,
+    EnvironmentMap,
 }
 
 impl App {
@@ -135,6 +147,7 @@ impl App {
             bandwidth: BandwidthPanel,
             cache_filter: CacheFilterPanel,
             rendering: RenderingPanel,
+            environment: EnvironmentPanel::default(),
             camera: CameraPanel::default(),
             display: DisplayPanel,
             snapshots: SnapshotPanel,
@@ -176,6 +189,14 @@ impl App {
         self.session.send(Command::LoadScene(path));
     }
 
+    /// Light the scene with the environment map at `path` (the Environment panel's "Map
+    /// file…", tests); the worker re-traces, or says why it cannot and keeps the lighting.
+    pub fn set_environment_map(&mut self, path: PathBuf) {
+        self.settings.environment.kind = crate::scene::EnvironmentKind::File(path);
+        self.session
+            .send(Command::SetEnvironment(self.settings.environment.clone()));
+    }
+
     /// Save the displayed image, the linear film and the metadata into the snapshot folder
     /// (on a helper thread; a message reports the files or the error).
     pub fn snapshot(&mut self) {
@@ -203,8 +224,11 @@ impl App {
                     cameras,
                     center,
                     warnings,
+                    environment,
+                    notice,
                 } => {
                     self.scene_name = name;
+                    self.environment.lit_by = Some(environment);
                     self.viewport.set_scene(center, cameras.first());
                     self.camera = CameraPanel::new(cameras);
                     if let Some(p) = path {
@@ -213,6 +237,20 @@ impl App {
                     for w in warnings {
                         self.messages.error(format!("warning: {w}"));
                     }
+                    if let Some(n) = notice {
+                        self.messages
+                            .info(format!("{n} (the Environment panel chooses another)"));
+                    }
+                }
+                Event::EnvironmentChanged {
+                    environment,
+                    notice,
+                } => {
+                    self.messages.info(match notice {
+                        Some(n) => format!("{n}: re-tracing"),
+                        None => format!("lit by {}: re-tracing", describe(&environment)),
+                    });
+                    self.environment.lit_by = Some(environment);
                 }
                 Event::LoadFailed(msg) => {
                     self.messages
@@ -247,6 +285,7 @@ impl App {
             match result {
                 PickResult::Scene(Some(p)) => self.open_scene(p),
                 PickResult::Folder(Some(p)) => self.settings.snapshot_dir = p,
+                PickResult::EnvironmentMap(Some(p)) => self.set_environment_map(p),
                 _ => {}
             }
         }
@@ -299,19 +338,26 @@ impl App {
         }
     }
 
-    /// Open a file dialog on a helper thread: a scene, or the snapshot folder.
-    fn pick(&mut self, folder: bool) {
+    /// Open a file dialog on a helper thread: a scene, the snapshot folder, or an
+    /// environment map.
+    fn pick(&mut self, what: Pick) {
         let (tx, rx) = unbounded();
         let start = self.settings.snapshot_dir.clone();
         std::thread::spawn(move || {
-            let r = if folder {
-                PickResult::Folder(rfd::FileDialog::new().set_directory(&start).pick_folder())
-            } else {
-                PickResult::Scene(
+            let r = match what {
+                Pick::Folder => {
+                    PickResult::Folder(rfd::FileDialog::new().set_directory(&start).pick_folder())
+                }
+                Pick::Scene => PickResult::Scene(
                     rfd::FileDialog::new()
                         .add_filter("glTF", &["gltf", "glb"])
                         .pick_file(),
-                )
+                ),
+                Pick::EnvironmentMap => PickResult::EnvironmentMap(
+                    rfd::FileDialog::new()
+                        .add_filter("Environment map", &["hdr", "exr"])
+                        .pick_file(),
+                ),
             };
             let _ = tx.send(r);
         });
@@ -322,7 +368,7 @@ impl App {
         egui::MenuBar::new().ui(ui, |ui| {
             ui.menu_button("File", |ui| {
                 if ui.button("Open…").clicked() {
-                    self.pick(false);
+                    self.pick(Pick::Scene);
                     ui.close();
                 }
                 if ui.button("Save snapshot (Ctrl+S)").clicked() {
@@ -362,6 +408,11 @@ impl App {
         self.rendering
             .ui(ui, &mut self.settings, &mut self.paused, out);
         ui.separator();
+        if let Some(EnvironmentRequest::ChooseMap) = self.environment.ui(ui, &mut self.settings, out)
+        {
+            self.pick(Pick::EnvironmentMap);
+        }
+        ui.separator();
         if let Some(camera) = self.camera.ui(ui, out) {
             self.viewport.reset_orbit(&camera);
         }
@@ -369,7 +420,7 @@ impl App {
         self.display.ui(ui, &mut self.settings, out);
         ui.separator();
         match self.snapshots.ui(ui, &mut self.settings) {
-            Some(SnapshotRequest::ChooseFolder) => self.pick(true),
+            Some(SnapshotRequest::ChooseFolder) => self.pick(Pick::Folder),
             Some(SnapshotRequest::Save) => self.snapshot(),
             None => {}
         }

@@ -105,6 +105,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         let mut j = stats_json(&scene.name, m.as_ref(), &stats, &film, t_load);
         j["partial"] = json!(partial);
         j["exposure"] = json!(stops);
+        j["environment"] = json!(scene.environment);
         let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
         raysplat::film::write_atomic(path, &bytes)?;
         eprintln!("wrote {}", path.display());

@@ -202,6 +202,31 @@ impl EnvironmentSettings {
     }
 }
 
+/// A one-line description of a resolved environment ("uniform × 1", "sky × 2, sun", …).
+pub fn describe(env: &EnvironmentSettings) -> String {
+    let kind = match &env.kind {
+        EnvironmentKind::Auto => "automatic".to_string(),
+        EnvironmentKind::None => "none".to_string(),
+        EnvironmentKind::Uniform => "uniform".to_string(),
+        EnvironmentKind::Sky => "sky".to_string(),
+        EnvironmentKind::File(p) => p
+            .file_name()
+            .map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into()),
+    };
+    let mut s = if env.kind == EnvironmentKind::None {
+        kind
+    } else {
+        format!("{kind} × {}", env.strength)
+    };
+    if env.rotation_deg != 0.0 && env.kind != EnvironmentKind::None {
+        s += &format!(", turned {}°", env.rotation_deg);
+    }
+    if env.sun.is_some() {
+        s += ", sun";
+    }
+    s
+}
+
 /// Radiance arriving from infinitely far away: uniform, or a map (the sky is tabulated as one).
 #[derive(Clone, Debug)]
 pub enum EnvLight {
@@ -689,5 +714,21 @@ mod tests {
             EnvironmentKind::parse("a.hdr"),
             EnvironmentKind::File("a.hdr".into())
         );
+    }
+
+    #[test]
+    fn descriptions_name_what_lights() {
+        let mut env = EnvironmentSettings {
+            kind: EnvironmentKind::Uniform,
+            ..Default::default()
+        };
+        assert_eq!(describe(&env), "uniform × 1");
+        env.kind = EnvironmentKind::File("/maps/studio.hdr".into());
+        env.strength = 2.0;
+        env.rotation_deg = 90.0;
+        assert_eq!(describe(&env), "studio.hdr × 2, turned 90°");
+        env.kind = EnvironmentKind::None;
+        env.sun = Some(Sun::parse("30,0").unwrap());
+        assert_eq!(describe(&env), "none, sun");
     }
 }

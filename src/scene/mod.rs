@@ -72,6 +72,8 @@ pub struct Scene {
     pub lighting_notice: Option<String>,
     /// The file's punctual lights (kept to rebuild the lights with another environment).
     punctual: Vec<Light>,
+    /// What [`Scene::set_environment`] was last asked for (`Auto` after loading).
+    requested: EnvironmentSettings,
     /// The scene's cameras; a framing camera when the file has none (never empty).
     pub cameras: Vec<Camera>,
     /// Lower corner of the triangles' bounding box.
@@ -179,6 +181,7 @@ impl Scene {
             },
             lighting_notice: None,
             punctual: parts.punctual,
+            requested: EnvironmentSettings::default(),
             cameras,
             bounds_min,
             bounds_max,
@@ -242,7 +245,14 @@ impl Scene {
         self.lights = lights;
         self.environment = resolved;
         self.lighting_notice = notice;
+        self.requested = settings.clone();
         Ok(())
+    }
+
+    /// The scene is lit as `Auto` with default strength, rotation and no sun decides (as
+    /// it loaded).
+    pub fn environment_is_auto(&self) -> bool {
+        self.requested == EnvironmentSettings::default()
     }
 
     /// Radiance arriving along a ray that leaves the scene in direction `d` (the

@@ -18,7 +18,7 @@ use crate::pipeline::cache::CacheParams;
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::filter::FilterParams;
 use crate::pipeline::photon::BandwidthParams;
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, EnvironmentSettings, Scene};
 use crate::settings::{DirectMode, RenderSettings};
 use crossbeam_channel::{Receiver, Sender, bounded, unbounded};
 use serde::{Deserialize, Serialize};
@@ -74,6 +74,10 @@ pub enum Command {
     Resume,
     /// Load a .gltf/.glb; on failure the current scene stays and `Event::LoadFailed` says why.
     LoadScene(PathBuf),
+    /// Light the scene (and every scene loaded later) with this environment: re-traces.
+    /// On failure (an unreadable map, a scene left without light) the lighting stays and
+    /// `Event::Error` says why.
+    SetEnvironment(EnvironmentSettings),
     /// Drop all photons and trace from scratch.
     Restart,
     /// Path trace the current view progressively (the reference view mode) instead of tracing
@@ -98,6 +102,17 @@ pub enum Event {
         center: glam::Vec3,
         /// What the loader skipped or repaired.
         warnings: Vec<String>,
+        /// The environment lighting it (resolved: never `Auto`).
+        environment: EnvironmentSettings,
+        /// One line when the environment was chosen for the user (a file without lights).
+        notice: Option<String>,
+    },
+    /// The scene is now lit by `environment` (resolved) and tracing restarted.
+    EnvironmentChanged {
+        /// The environment lighting it.
+        environment: EnvironmentSettings,
+        /// One line when the environment was chosen for the user (a file without lights).
+        notice: Option<String>,
     },
     /// A [`Command::LoadScene`] failed, and why; the previous scene stays.
     LoadFailed(String),
@@ -190,6 +205,9 @@ pub struct SessionConfig {
     pub publish_interval: Duration,
     /// Interactive views divide width and height by this and use 1 sample per pixel.
     pub interactive_divisor: u32,
+    /// The environment every scene is lit by (`Auto`: none when the file has lights, uniform
+    /// when it has none).
+    pub environment: EnvironmentSettings,
 }
 
 impl Default for SessionConfig {
@@ -203,6 +221,7 @@ impl Default for SessionConfig {
             max_stored_rays: 4_000_000,
             publish_interval: Duration::from_millis(100),
             interactive_divisor: 2,
+            environment: EnvironmentSettings::default(),
         }
     }
 }

@@ -4,7 +4,7 @@
 use super::{Command, Event, Frame, Notify, SessionConfig, SessionStats};
 use crate::methods::{self, Method, Step};
 use crate::pipeline::photon::BandwidthParams;
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, EnvironmentSettings, Scene};
 use crate::settings::{MethodKind, RenderSettings, limits};
 use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::path::PathBuf;
@@ -21,6 +21,8 @@ struct Pending {
     bandwidth: Option<BandwidthParams>,
     /// Settings that need no re-trace changed ([`Method::update`]).
     update: bool,
+    /// The environment changed (`SessionConfig::environment` holds it).
+    environment: bool,
 }
 
 pub(super) struct Worker {
@@ -60,6 +62,15 @@ impl Worker {
         notify: Option<Notify>,
     ) -> Self {
         let camera = scene.cameras[0].clone();
+        let mut lighting_error = None;
+        let scene = match lit(&scene, &config.environment) {
+            Ok(Some(s)) => Arc::new(s),
+            Ok(None) => scene,
+            Err(e) => {
+                lighting_error = Some(e);
+                scene
+            }
+        };
         let mut w = Self {
             scene,
             scene_path,
@@ -82,6 +93,9 @@ impl Worker {
             last_splat_ms: 0.0,
         };
         w.announce_scene();
+        if let Some(e) = lighting_error {
+            w.emit(Event::Error(e));
+        }
         w.restart();
         w
     }
@@ -201,6 +215,10 @@ impl Worker {
             Command::Pause => self.paused = true,
             Command::Resume => self.paused = false,
             Command::LoadScene(path) => p.load = Some(path),
+            Command::SetEnvironment(env) => {
+                self.config.environment = env;
+                p.environment = true;
+            }
             Command::Restart => p.restart = true,
             Command::SetReference(on) => {
                 self.reference_on = on;
@@ -230,17 +248,43 @@ impl Worker {
         if let Some(path) = p.load {
             match Scene::load(&path) {
                 Ok(scene) => {
-                    self.scene = Arc::new(scene);
+                    let scene = Arc::new(scene);
+                    // Lit as asked; a map that cannot be read leaves the scene's own lighting.
+                    let (scene, lighting_error) = match lit(&scene, &self.config.environment) {
+                        Ok(Some(s)) => (Arc::new(s), None),
+                        Ok(None) => (scene, None),
+                        Err(e) => (scene, Some(e)),
+                    };
+                    self.scene = scene;
                     self.scene_path = Some(path);
                     self.camera = self.scene.cameras[0].clone();
                     self.interactive = false;
                     self.announce_scene();
+                    if let Some(e) = lighting_error {
+                        self.emit(Event::Error(e));
+                    }
                     self.restart();
                     return;
                 }
                 Err(e) => {
                     self.emit(Event::LoadFailed(e.to_string()));
                 }
+            }
+        }
+        if p.environment {
+            match lit(&self.scene, &self.config.environment) {
+                Ok(relit) => {
+                    if let Some(s) = relit {
+                        self.scene = Arc::new(s);
+                    }
+                    self.emit(Event::EnvironmentChanged {
+                        environment: self.scene.environment.clone(),
+                        notice: self.scene.lighting_notice.clone(),
+                    });
+                    self.restart();
+                    return;
+                }
+                Err(e) => self.emit(Event::Error(e)),
             }
         }
         // Settings whose build just failed are not tried again until something changes.
@@ -340,6 +384,8 @@ impl Worker {
             cameras: self.scene.cameras.clone(),
             center: self.scene.center(),
             warnings: self.scene.warnings.clone(),
+            environment: self.scene.environment.clone(),
+            notice: self.scene.lighting_notice.clone(),
         });
     }
 
@@ -423,4 +469,17 @@ impl Worker {
             n();
         }
     }
+}
+
+/// `scene` lit by `env`: `None` when it already is (the `Auto` default on a freshly loaded
+/// scene), a relit copy otherwise, or the one-line reason it cannot be (the scene unchanged).
+fn lit(scene: &Scene, env: &EnvironmentSettings) -> Result<Option<Scene>, String> {
+    if *env == EnvironmentSettings::default() && scene.environment_is_auto() {
+        return Ok(None);
+    }
+    let mut relit = scene.clone();
+    relit
+        .set_environment(env)
+        .map_err(|e| format!("environment {}: {e} — the lighting stays", env.kind.name()))?;
+    Ok(Some(relit))
 }
