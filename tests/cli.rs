@@ -86,14 +86,65 @@ fn nan_positions_are_a_clean_error() {
     expect_clean_error(&path, "nan");
 }
 
+/// A file with no light of its own renders under the uniform environment, and stderr says
+/// so in one line; the environment flags are checked before anything is rendered.
 #[test]
-fn scene_without_lights_is_a_clean_error() {
+fn scene_without_lights_renders_under_the_uniform_environment() {
     let mut g = GlbBuilder::default();
     let m = common::white(&mut g);
     common::plane(&mut g, 1.0, m);
     let path = tmp("no_lights.glb");
     std::fs::write(&path, g.to_glb()).unwrap();
-    expect_clean_error(&path, "no light");
+    let exr = tmp("no_lights.exr");
+    let small = ["--width", "16", "--height", "16", "--photons", "2000"];
+    let out = bin()
+        .args(["render", path.to_str().unwrap(), "--out"])
+        .arg(&exr)
+        .args(small)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let notes: Vec<&str> = stderr.lines().filter(|l| l.contains("no light")).collect();
+    assert_eq!(notes.len(), 1, "{stderr}");
+    assert!(notes[0].contains("uniform environment"), "{stderr}");
+    assert!(exr.exists());
+    // Asked for, a sky and a sun: no note.
+    let out = bin()
+        .args(["render", path.to_str().unwrap(), "--out"])
+        .arg(&exr)
+        .args(small)
+        .args(["--environment", "sky", "--sun", "30,40", "--env-rotation", "-90"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("no light"), "{stderr}");
+    // Out of range or unreadable: one line, nothing rendered.
+    for (args, keyword) in [
+        (vec!["--env-strength", "-1"], "env-strength"),
+        (vec!["--env-rotation", "400"], "env-rotation"),
+        (vec!["--sun", "100,0"], "elevation"),
+        (vec!["--sun", "30"], "elevation,azimuth"),
+        (vec!["--environment", "/nonexistent/sky.hdr"], "sky.hdr"),
+        (vec!["--environment", "none"], "no light"),
+    ] {
+        let out = bin()
+            .args(["render", path.to_str().unwrap(), "--out"])
+            .arg(tmp("never.exr"))
+            .args(small)
+            .args(&args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(
+            stderr.to_lowercase().contains(keyword),
+            "{args:?}: {stderr}"
+        );
+        assert!(!tmp("never.exr").exists());
+    }
 }
 
 #[test]
