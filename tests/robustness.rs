@@ -1,6 +1,7 @@
 //! Bad input never takes raysplat down: hand-written malformed scenes (truncated files, missing
 //! and wrong-sized buffers, bad accessors, out-of-range indices, NaN/Inf positions and normals,
-//! degenerate triangles, zero-area and negative-strength lights, no lights, no geometry, a
+//! degenerate triangles, zero-area and negative-strength lights, no lights (lit by the uniform
+//! environment), no geometry, a
 //! zero field of view, a million triangles) each give a clear one-line error or a sane render,
 //! never a panic and never NaN in the output; NaN/Inf contributions are dropped and counted;
 //! outputs are written atomically.
@@ -79,12 +80,24 @@ fn outcome(bytes: &[u8]) -> Outcome {
             Outcome::Refused(msg)
         }
         Ok(Ok(scene)) => {
-            let warnings = scene.warnings.clone();
+            let mut warnings = scene.warnings.clone();
+            warnings.extend(scene.lighting_notice.clone());
             if catch_unwind(AssertUnwindSafe(|| render_all(scene))).is_err() {
                 panic!("rendering a loaded scene panicked or produced NaN");
             }
             Outcome::Rendered(warnings)
         }
+    }
+}
+
+/// A file left without a light of its own renders under the uniform environment and says so.
+fn lit_by_environment(bytes: &[u8]) {
+    match outcome(bytes) {
+        Outcome::Rendered(w) => assert!(
+            w.iter().any(|w| w.contains("no light of its own")),
+            "no notice: {w:?}"
+        ),
+        Outcome::Refused(m) => panic!("expected a render under the environment, got: {m}"),
     }
 }
 
@@ -220,20 +233,20 @@ fn degenerate_triangles_are_skipped_with_a_warning() {
 
 #[test]
 fn lights_of_zero_area_or_negative_strength_do_not_emit() {
-    // The light's quad collapsed to a line: no light left.
+    // The light's quad collapsed to a line: no light left (the uniform environment lights it).
     let bytes = edited(|j, bin| {
         let at = accessor_offset(j, 3);
         for k in 0..4 {
             put_f32(bin, at + 12 * k, 0.0);
         }
     });
-    refused(&bytes, "no light");
+    lit_by_environment(&bytes);
     // Negative strength: said, and not a light.
     let bytes = edited(|j, _| {
         j["materials"][1]["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"] =
             json!(-10.0)
     });
-    refused(&bytes, "no light");
+    lit_by_environment(&bytes);
     // With a second, good light the scene renders and warns about the bad one.
     let mut g = GlbBuilder::default();
     let m = common::white(&mut g);
@@ -256,18 +269,18 @@ fn lights_of_zero_area_or_negative_strength_do_not_emit() {
     let m = common::white(&mut g);
     common::plane(&mut g, 1.0, m);
     g.point_light("negative", Vec3::new(0.0, 1.0, 0.0), Vec3::ONE, -5.0);
-    refused(&g.to_glb(), "no light");
+    lit_by_environment(&g.to_glb());
 }
 
 #[test]
-fn no_lights_and_no_geometry_are_refused() {
+fn no_lights_are_lit_by_the_environment_and_no_geometry_is_refused() {
     let bytes = edited(|j, _| {
         j["materials"][1]
             .as_object_mut()
             .unwrap()
             .remove("emissiveFactor");
     });
-    refused(&bytes, "no light");
+    lit_by_environment(&bytes);
     let bytes = edited(|j, _| {
         j["nodes"] = json!([{"name": "lamp", "extensions": {"KHR_lights_punctual": {"light": 0}}}]);
         j["scenes"] = json!([{"nodes": [0]}]);
