@@ -192,7 +192,7 @@ fn add_primitive(
         let cross = (e1 / scale).cross(e2 / scale);
         if !(scale.is_finite() && cross.length_squared() > 0.0) {
             stats.degenerate += 1;
-            return Ok(());
+            continue;
         }
         let ng = cross.normalize();
         let pick = |i: u32| -> Vec3 {
