@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::glb::{join, small_scene, split};
+use common::glb::{base64, join, small_scene, split};
 use raysplat::methods;
 use raysplat::methods::{Budget, render_method};
 use raysplat::sampling::Rng;
@@ -34,24 +34,6 @@ fn seeds() -> Vec<Vec<u8>> {
     });
     s.push(serde_json::to_vec(&json).unwrap());
     s
-}
-
-fn base64(b: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for c in b.chunks(3) {
-        let n = (c[0] as u32) << 16
-            | (*c.get(1).unwrap_or(&0) as u32) << 8
-            | *c.get(2).unwrap_or(&0) as u32;
-        for i in 0..4 {
-            if i <= c.len() {
-                out.push(A[(n >> (18 - 6 * i) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
 }
 
 const WORDS: [u32; 9] = [

@@ -1,19 +1,43 @@
-//! glTF 2.0 / GLB loading through the `gltf` crate, with the bounds checks the crate leaves to
-//! us: buffer views and accessors are checked against the loaded buffers before any is read,
-//! indices against vertex counts, positions for NaN/Inf. Bad input is an error, never a panic.
-//!
-//! The buffer checks and the triangle conversion are in `mesh`; materials, textures and lights
-//! are converted in `convert`.
+//! glTF 2.0 / GLB loading. The JSON is read leniently (`document`: integers written as `1.0`,
+//! scenes without nodes) into the `gltf` crate's typed JSON, without the crate's validation,
+//! which refuses valid files; instead every index is checked where the loader follows it, and
+//! accessors are read by the loader's own bounds-checked reader (`data`: no buffer view, sparse
+//! substitution, every component type with `normalized`, byte strides). Meshes become triangles
+//! in `mesh`; materials, textures (KHR_texture_transform, extension-only images falling back to
+//! the base colour factor) and lights are converted in `convert`. Bad input is an error of one
+//! line, never a panic; `Scene::load` still catches a dependency's panic as the last line of
+//! defence.
 
 mod convert;
+mod data;
+mod document;
 mod mesh;
 
-use convert::{convert_light, convert_material, decode_texture};
-use mesh::{LoadStats, add_mesh, check_buffers};
+use convert::{TextureLoader, convert_light, convert_material};
+use data::Buffers;
+use document::get;
+use mesh::{LoadStats, MeshInput, add_mesh};
 
-use super::{Camera, Material, SceneError, SceneParts, Texture};
-use glam::{Mat4, Vec3};
+use super::{Camera, Material, SceneError, SceneParts};
+use glam::{Mat4, Quat, Vec3};
+use gltf::json::{self, validation::Checked};
 use std::path::Path;
+
+/// Extensions that change what the geometry is: a file that requires one cannot be shown.
+const UNSUPPORTED_GEOMETRY: [&str; 2] = ["KHR_draco_mesh_compression", "EXT_meshopt_compression"];
+
+/// Extensions the loader reads (others are ignored; a required one is a warning).
+const SUPPORTED: [&str; 9] = [
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_volume",
+    "KHR_materials_unlit",
+];
 
 pub(crate) fn load_path(path: &Path) -> Result<SceneParts, SceneError> {
     let source = path.display().to_string();
@@ -29,173 +53,77 @@ pub(crate) fn load_slice(bytes: &[u8], name: &str) -> Result<SceneParts, SceneEr
     load_checked(bytes, None, name)
 }
 
-/// Parse and convert (a panic inside the `gltf` crate is caught by `Scene::load`).
+/// Parse and convert (a panic inside a dependency is caught by `Scene::load`).
 fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<SceneParts, SceneError> {
     let err = |message: String| SceneError {
         source: source.to_string(),
         message,
     };
-    let images_usable = precheck(bytes).map_err(err)?;
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(|e| {
-        if bytes.starts_with(b"glTF") {
-            err(format!("the GLB file is truncated or corrupt ({e})"))
-        } else {
-            err(format!("not valid glTF ({e})"))
-        }
-    })?;
-    let buffers = gltf::import_buffers(&document, base, blob)
-        .map_err(|e| err(format!("cannot load buffers: {e}")))?;
-    check_buffers(&document, &buffers).map_err(err)?;
+    let name = Path::new(source)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| source.to_string());
+    convert_file(bytes, base, name).map_err(err)
+}
 
+fn convert_file(bytes: &[u8], base: Option<&Path>, name: String) -> Result<SceneParts, String> {
+    let document::Parsed { root, raw, blob } = document::parse(bytes)?;
     let mut warnings = Vec::new();
-    let images = match images_usable {
-        Err(why) => {
-            warnings.push(format!(
-                "textures ignored, base colour factors used instead: {why}"
+    for ext in &root.extensions_required {
+        if UNSUPPORTED_GEOMETRY.contains(&ext.as_str()) {
+            return Err(format!(
+                "the file requires {ext}, which raysplat does not support"
             ));
-            Vec::new()
         }
-        Ok(()) => gltf::import_images(&document, base, &buffers).unwrap_or_else(|e| {
-            if document.images().len() > 0 {
-                warnings.push(format!(
-                    "textures ignored, base colour factors used instead: {e}"
-                ));
-            }
-            Vec::new()
-        }),
+        if !SUPPORTED.contains(&ext.as_str()) {
+            warnings.push(format!(
+                "the file requires {ext}, which raysplat does not support: it may look different"
+            ));
+        }
+    }
+    let buffers = Buffers::load(&root, base, blob);
+    let mut textures = TextureLoader {
+        root: &root,
+        raw: &raw,
+        buffers: &buffers,
+        base,
+        decoded: vec![None; root.images.len()],
+        textures: Vec::new(),
+        warnings,
     };
-    let textures: Vec<Texture> = images.iter().map(decode_texture).collect();
-
+    let mut materials = Vec::with_capacity(root.materials.len() + 1);
+    let mut tex_coords = Vec::with_capacity(root.materials.len() + 1);
+    for (i, m) in root.materials.iter().enumerate() {
+        let (material, set) = convert_material(i, m, &mut textures)?;
+        materials.push(material);
+        tex_coords.push(set);
+    }
+    // The default material for primitives without one (glTF spec: white, metallic 1 — we use
+    // a plain light-grey Lambertian, the usual choice of viewers).
+    let default_material = materials.len() as u32;
+    materials.push(Material::diffuse("default", Vec3::splat(0.8)));
+    tex_coords.push(0);
+    let TextureLoader {
+        textures, warnings, ..
+    } = textures;
     let mut parts = SceneParts {
-        name: Path::new(source)
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| source.to_string()),
+        name,
         triangles: Vec::new(),
         shading: Vec::new(),
-        materials: document
-            .materials()
-            .map(|m| convert_material(&m, &textures))
-            .collect(),
+        materials,
         textures,
         punctual: Vec::new(),
         cameras: Vec::new(),
         warnings,
     };
-    for m in document.materials() {
-        if let Some(s) = m.emissive_strength()
-            && !(s.is_finite() && s >= 0.0)
-        {
-            parts.warnings.push(format!(
-                "material {} ({}): emissive strength {s} ignored, it does not emit",
-                m.index().map_or("default".into(), |i| i.to_string()),
-                m.name().unwrap_or("unnamed")
-            ));
-        }
-    }
-    // The default material for primitives without one (glTF spec: white, metallic 1 — we use
-    // a plain light-grey Lambertian, the usual choice of viewers).
-    let default_material = parts.materials.len() as u32;
-    parts
-        .materials
-        .push(Material::diffuse("default", Vec3::splat(0.8)));
-
-    let scene = document
-        .default_scene()
-        .or_else(|| document.scenes().next());
-    let roots: Vec<gltf::Node> = match &scene {
-        Some(s) => s.nodes().collect(),
-        None => document.nodes().collect(),
+    let input = MeshInput {
+        root: &root,
+        buffers: &buffers,
+        tex_coords: &tex_coords,
+        default_material,
     };
     let mut stats = LoadStats::default();
-    // Each camera's (glTF camera index, node index): cameras are listed in the file's order,
-    // whatever order the node traversal meets them in.
-    let mut camera_keys: Vec<(usize, usize)> = Vec::new();
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
-        roots.into_iter().map(|n| (n, Mat4::IDENTITY, 0)).collect();
-    while let Some((node, parent, depth)) = stack.pop() {
-        if depth > 256 {
-            return Err(err(
-                "the node hierarchy is deeper than 256 levels (a cycle?)".into(),
-            ));
-        }
-        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
-        let world = parent * local;
-        if !world.is_finite() {
-            return Err(err(format!(
-                "node {} has a non-finite transform",
-                node.index()
-            )));
-        }
-        if let Some(mesh) = node.mesh() {
-            add_mesh(
-                &mesh,
-                world,
-                &buffers,
-                default_material,
-                &mut parts,
-                &mut stats,
-            )
-            .map_err(|m| {
-                err(format!(
-                    "mesh {} ({}): {m}",
-                    mesh.index(),
-                    mesh.name().unwrap_or("unnamed")
-                ))
-            })?;
-        }
-        if let Some(cam) = node.camera() {
-            match cam.projection() {
-                gltf::camera::Projection::Perspective(p) => {
-                    let (_, rot, pos) = world.to_scale_rotation_translation();
-                    let yfov = p.yfov();
-                    if yfov.is_finite() && yfov > 1e-4 && yfov < std::f32::consts::PI - 1e-3 {
-                        let name = node
-                            .name()
-                            .or(cam.name())
-                            .map(str::to_string)
-                            .unwrap_or_else(|| format!("camera{}", parts.cameras.len()));
-                        camera_keys.push((cam.index(), node.index()));
-                        parts.cameras.push(Camera {
-                            name,
-                            position: pos,
-                            forward: (rot * -Vec3::Z).normalize(),
-                            up: (rot * Vec3::Y).normalize(),
-                            yfov,
-                        });
-                    } else {
-                        parts.warnings.push(format!(
-                            "camera on node {} skipped: field of view {yfov} rad is unusable",
-                            node.index()
-                        ));
-                    }
-                }
-                gltf::camera::Projection::Orthographic(_) => parts.warnings.push(format!(
-                    "orthographic camera on node {} skipped (only perspective cameras are supported)",
-                    node.index()
-                )),
-            }
-        }
-        if let Some(light) = node.light() {
-            if let Some(l) = convert_light(&light, world) {
-                parts.punctual.push(l);
-            } else {
-                parts.warnings.push(format!(
-                    "light {} skipped: non-positive or non-finite intensity or cone",
-                    light.index()
-                ));
-            }
-        }
-        for child in node.children() {
-            stack.push((child, world, depth + 1));
-        }
-    }
-    let mut keyed: Vec<((usize, usize), Camera)> = camera_keys
-        .into_iter()
-        .zip(parts.cameras.drain(..))
-        .collect();
-    keyed.sort_by_key(|(k, _)| *k);
-    parts.cameras = keyed.into_iter().map(|(_, c)| c).collect();
+    traverse(&input, scene_roots(&root)?, &mut parts, &mut stats)?;
     if stats.degenerate > 0 {
         parts.warnings.push(format!(
             "{} degenerate (zero-area) triangles skipped",
@@ -204,52 +132,171 @@ fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<Scene
     }
     if stats.skipped_primitives > 0 {
         parts.warnings.push(format!(
-            "{} point or line primitives skipped",
+            "{} point, line or unknown-mode primitives skipped",
             stats.skipped_primitives
         ));
+    }
+    if stats.without_positions > 0 {
+        parts.warnings.push(format!(
+            "{} primitives without POSITION skipped",
+            stats.without_positions
+        ));
+    }
+    // Primitives whose data is not there: without any other triangle the one line says why.
+    if parts.triangles.is_empty()
+        && let Some(first) = stats.unavailable.first()
+    {
+        return Err(format!(
+            "the scene has no triangles to render: {} primitives have no data, {first}",
+            stats.unavailable.len()
+        ));
+    }
+    for u in stats.unavailable {
+        parts.warnings.push(format!("{u}: skipped"));
     }
     Ok(parts)
 }
 
-/// What the `gltf` crate would index before checking (it panics there): every primitive's
-/// attributes and indices must name existing accessors, an error otherwise; every image must
-/// have a uri or a buffer view, or else textures are ignored (`Ok(Err(why))`). Files whose
-/// JSON cannot be read are left to the crate, which reports them.
-fn precheck(bytes: &[u8]) -> Result<Result<(), String>, String> {
-    let json: std::borrow::Cow<[u8]> = if bytes.starts_with(b"glTF") {
-        match gltf::Glb::from_slice(bytes) {
-            Ok(glb) => glb.json,
-            Err(_) => return Ok(Ok(())),
-        }
-    } else {
-        bytes.into()
+/// The root nodes to show: the file's `scene`; without one its first scene; without scenes every
+/// node that is no other node's child. (A scene that lists no nodes shows nothing, and is
+/// refused as having no triangles.)
+fn scene_roots(root: &json::Root) -> Result<Vec<usize>, String> {
+    let scene = match root.scene {
+        Some(s) => Some(get(&root.scenes, s.value(), "the file's default scene")?),
+        None => root.scenes.first(),
     };
-    let Ok(root) = gltf::json::Root::from_slice(&json) else {
-        return Ok(Ok(()));
-    };
-    let accessors = root.accessors.len();
-    for (m, mesh) in root.meshes.iter().enumerate() {
-        for (p, prim) in mesh.primitives.iter().enumerate() {
-            let named = prim
-                .attributes
-                .values()
-                .chain(prim.indices.as_ref())
-                .map(|i| i.value());
-            for a in named {
-                if a >= accessors {
-                    return Err(format!(
-                        "mesh {m} primitive {p} reads accessor {a}, but the file has {accessors}"
-                    ));
+    Ok(match scene {
+        Some(s) => s.nodes.iter().map(|n| n.value()).collect(),
+        None => {
+            let mut child = vec![false; root.nodes.len()];
+            for n in &root.nodes {
+                for c in n.children.iter().flatten() {
+                    if let Some(flag) = child.get_mut(c.value()) {
+                        *flag = true;
+                    }
                 }
             }
+            (0..root.nodes.len()).filter(|&n| !child[n]).collect()
+        }
+    })
+}
+
+/// A node's local transform: its matrix, or translation × rotation (normalised) × scale.
+fn local_transform(node: &json::Node) -> Mat4 {
+    if let Some(m) = node.matrix {
+        return Mat4::from_cols_array(&m);
+    }
+    let rotation = node.rotation.map_or(Quat::IDENTITY, |q| {
+        let q = Quat::from_array(q.0);
+        if q.is_finite() && q.length_squared() > 0.0 {
+            q.normalize()
+        } else {
+            q
+        }
+    });
+    Mat4::from_scale_rotation_translation(
+        Vec3::from(node.scale.unwrap_or([1.0; 3])),
+        rotation,
+        Vec3::from(node.translation.unwrap_or([0.0; 3])),
+    )
+}
+
+/// Walk the node tree from `roots`, adding meshes, cameras and lights to `parts`. Every node is
+/// visited once: one reached twice (a cycle, or a child with two parents) is an error.
+fn traverse(
+    input: &MeshInput,
+    roots: Vec<usize>,
+    parts: &mut SceneParts,
+    stats: &mut LoadStats,
+) -> Result<(), String> {
+    let root = input.root;
+    let no_lights = Vec::new();
+    let lights = root
+        .extensions
+        .as_ref()
+        .and_then(|e| e.khr_lights_punctual.as_ref())
+        .map_or(&no_lights, |l| &l.lights);
+    let mut visited = vec![false; root.nodes.len()];
+    // Each camera's (glTF camera index, node index): cameras are listed in the file's order,
+    // whatever order the node traversal meets them in.
+    let mut keyed: Vec<((usize, usize), Camera)> = Vec::new();
+    let mut stack: Vec<(usize, Mat4, String)> = roots
+        .into_iter()
+        .map(|n| (n, Mat4::IDENTITY, "the scene".to_string()))
+        .collect();
+    // Popped from the end: the order the loader has always met nodes in (triangle order, and
+    // so images, stay as they were).
+    while let Some((n, parent, referrer)) = stack.pop() {
+        let node = get(&root.nodes, n, &referrer)?;
+        if std::mem::replace(&mut visited[n], true) {
+            return Err(format!(
+                "node {n} is reached twice (the node hierarchy has a cycle or a shared child)"
+            ));
+        }
+        let world = parent * local_transform(node);
+        if !world.is_finite() {
+            return Err(format!("node {n} has a non-finite transform"));
+        }
+        if let Some(m) = node.mesh {
+            let mesh = get(&root.meshes, m.value(), &format!("node {n}"))?;
+            add_mesh(input, m.value(), world, parts, stats).map_err(|e| {
+                format!(
+                    "mesh {} ({}): {e}",
+                    m.value(),
+                    mesh.name.as_deref().unwrap_or("unnamed")
+                )
+            })?;
+        }
+        if let Some(c) = node.camera {
+            let cam = get(&root.cameras, c.value(), &format!("node {n}"))?;
+            match (&cam.type_, &cam.perspective) {
+                (Checked::Valid(json::camera::Type::Perspective), Some(p)) => {
+                    let (_, rot, pos) = world.to_scale_rotation_translation();
+                    let yfov = p.yfov;
+                    if yfov.is_finite() && yfov > 1e-4 && yfov < std::f32::consts::PI - 1e-3 {
+                        let name = node
+                            .name
+                            .clone()
+                            .or(cam.name.clone())
+                            .unwrap_or_else(|| format!("camera{}", keyed.len()));
+                        let camera = Camera {
+                            name,
+                            position: pos,
+                            forward: (rot * -Vec3::Z).normalize(),
+                            up: (rot * Vec3::Y).normalize(),
+                            yfov,
+                        };
+                        keyed.push(((c.value(), n), camera));
+                    } else {
+                        parts.warnings.push(format!(
+                            "camera on node {n} skipped: field of view {yfov} rad is unusable"
+                        ));
+                    }
+                }
+                _ => parts.warnings.push(format!(
+                    "camera on node {n} skipped (only perspective cameras are supported)"
+                )),
+            }
+        }
+        let light = node
+            .extensions
+            .as_ref()
+            .and_then(|e| e.khr_lights_punctual.as_ref());
+        if let Some(l) = light {
+            let light = get(lights, l.light.value(), &format!("node {n}"))?;
+            match convert_light(light, world) {
+                Some(l) => parts.punctual.push(l),
+                None => parts.warnings.push(format!(
+                    "light {} skipped: unknown type, or non-positive or non-finite intensity or cone",
+                    l.light.value()
+                )),
+            }
+        }
+        for c in node.children.iter().flatten() {
+            stack.push((c.value(), world, format!("node {n}'s child")));
         }
     }
-    for (i, image) in root.images.iter().enumerate() {
-        if image.uri.is_none() && image.buffer_view.is_none() {
-            return Ok(Err(format!(
-                "image {i} has neither a uri nor a buffer view"
-            )));
-        }
-    }
-    Ok(Ok(()))
+    keyed.sort_by_key(|(k, _)| *k);
+    parts.cameras = keyed.into_iter().map(|(_, c)| c).collect();
+    Ok(())
 }
