@@ -31,15 +31,20 @@ pub enum BuiltinScene {
     CornellClassic,
     /// Three moderately glossy metal spheres (roughness 0.5, 0.65, 0.8) for §8.1.
     CornellGlossy,
+    /// The glossy box from mirror to matte: [`BuiltinScene::CornellGlossy`]'s spheres, a blue
+    /// plastic sphere of roughness 0.1 (Phong exponent 10⁴) and a white plastic floor of
+    /// roughness 0.25 (e ≈ 510): lobes too sharp for any directional mode (issue 13).
+    CornellGlossySharp,
 }
 
 impl BuiltinScene {
     /// Every built-in scene, in the order `raysplat scenes` writes them and help lists them.
-    pub const ALL: [BuiltinScene; 4] = [
+    pub const ALL: [BuiltinScene; 5] = [
         BuiltinScene::CornellBox1,
         BuiltinScene::CornellBox2,
         BuiltinScene::CornellClassic,
         BuiltinScene::CornellGlossy,
+        BuiltinScene::CornellGlossySharp,
     ];
 
     /// The name after `builtin:` on the command line.
@@ -49,6 +54,7 @@ impl BuiltinScene {
             BuiltinScene::CornellBox2 => "cornell2",
             BuiltinScene::CornellClassic => "classic",
             BuiltinScene::CornellGlossy => "glossy",
+            BuiltinScene::CornellGlossySharp => "glossy-sharp",
         }
     }
 
@@ -64,6 +70,7 @@ impl BuiltinScene {
             BuiltinScene::CornellBox2 => "cornell_box_2.glb",
             BuiltinScene::CornellClassic => "cornell_classic.glb",
             BuiltinScene::CornellGlossy => "cornell_glossy.glb",
+            BuiltinScene::CornellGlossySharp => "cornell_glossy_sharp.glb",
         }
     }
 
@@ -74,14 +81,19 @@ impl BuiltinScene {
             BuiltinScene::CornellBox2 => "CORNELL BOX II",
             BuiltinScene::CornellClassic => "Cornell box (classic)",
             BuiltinScene::CornellGlossy => "Glossy Cornell box",
+            BuiltinScene::CornellGlossySharp => "Glossy Cornell box, mirror to matte",
         }
     }
 
     /// Generate the scene as GLB bytes (deterministic).
     pub fn to_glb(self) -> Vec<u8> {
         let mut g = GlbBuilder::default();
-        let bumpy = self == BuiltinScene::CornellBox1;
-        cornell_shell(&mut g, bumpy);
+        let floor = match self {
+            BuiltinScene::CornellBox1 => Floor::Bumpy,
+            BuiltinScene::CornellGlossySharp => Floor::GlossyPlastic(0.25),
+            _ => Floor::Flat,
+        };
+        cornell_shell(&mut g, floor);
         match self {
             BuiltinScene::CornellBox1 => {
                 // Brushed brass: Phong exponent 9.2, a lobe the 16 SH coefficients carry.
@@ -108,7 +120,7 @@ impl BuiltinScene {
                 let (p, n, i) = uv_sphere(Vec3::new(-0.1, 0.1, -0.17), 0.1, 48, 24);
                 g.mesh("glass_sphere", &p, &n, &i, glass);
             }
-            BuiltinScene::CornellGlossy => {
+            BuiltinScene::CornellGlossy | BuiltinScene::CornellGlossySharp => {
                 for (name, color, roughness, center) in [
                     (
                         "silver_r050",
@@ -137,6 +149,15 @@ impl BuiltinScene {
                     }));
                     let (p, n, i) = uv_sphere(center, 0.085, 48, 24);
                     g.mesh(name, &p, &n, &i, m);
+                }
+                if self == BuiltinScene::CornellGlossySharp {
+                    let m = g.material(json!({
+                        "name": "blue_plastic_r010",
+                        "pbrMetallicRoughness": {"baseColorFactor": [0.1, 0.2, 0.7, 1.0],
+                            "metallicFactor": 0.0, "roughnessFactor": 0.1}
+                    }));
+                    let (p, n, i) = uv_sphere(Vec3::new(-0.13, 0.07, -0.12), 0.07, 48, 24);
+                    g.mesh("blue_plastic_sphere", &p, &n, &i, m);
                 }
             }
             BuiltinScene::CornellClassic => {
@@ -203,8 +224,19 @@ fn glass_material(g: &mut GlbBuilder) -> u32 {
     }))
 }
 
-/// Walls, ceiling, floor (flat or bumpy) and the ceiling light.
-fn cornell_shell(g: &mut GlbBuilder, bumpy_floor: bool) {
+/// The floor of a Cornell box.
+#[derive(Clone, Copy, PartialEq)]
+enum Floor {
+    /// Flat and white (Lambertian).
+    Flat,
+    /// CORNELL BOX I's bumpy white floor.
+    Bumpy,
+    /// Flat white plastic (glTF dielectric) of this roughness.
+    GlossyPlastic(f32),
+}
+
+/// Walls, ceiling, floor and the ceiling light.
+fn cornell_shell(g: &mut GlbBuilder, floor: Floor) {
     let white = g.material(diffuse_json("white", WHITE));
     let red = g.material(diffuse_json("red", RED));
     let green = g.material(diffuse_json("green", GREEN));
@@ -253,7 +285,17 @@ fn cornell_shell(g: &mut GlbBuilder, bumpy_floor: bool) {
         Vec3::Z,
     );
     g.mesh("ceiling_and_back", &q.p, &q.n, &q.i, white);
-    if !bumpy_floor {
+    if floor != Floor::Bumpy {
+        // A glossy floor has its own material, made after the shell's four (the other
+        // scenes' files stay as they were).
+        let floor_material = match floor {
+            Floor::GlossyPlastic(roughness) => g.material(json!({
+                "name": "white_plastic_floor",
+                "pbrMetallicRoughness": {"baseColorFactor": [WHITE[0], WHITE[1], WHITE[2], 1.0],
+                    "metallicFactor": 0.0, "roughnessFactor": roughness}
+            })),
+            _ => white,
+        };
         let mut f = Quads::default();
         f.add(
             [
@@ -264,7 +306,7 @@ fn cornell_shell(g: &mut GlbBuilder, bumpy_floor: bool) {
             ],
             Vec3::Y,
         );
-        g.mesh("floor", &f.p, &f.n, &f.i, white);
+        g.mesh("floor", &f.p, &f.n, &f.i, floor_material);
     } else {
         let (p, n, i) = bumpy_floor_mesh(c(x1, 0.0, z1), c(x0, 0.0, z0), 100);
         g.mesh("bumpy_floor", &p, &n, &i, white);
