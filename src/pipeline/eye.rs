@@ -145,6 +145,27 @@ impl EyeSamples {
         })
     }
 
+    /// Per pixel, the share of the eye-sample weight on glossy samples whose lobe went
+    /// through the radiance map and on those whose lobe was traced ([`crate::film::Film`]'s
+    /// `glossy_source`), written into `out` (one entry per pixel).
+    pub fn glossy_sources(&self, out: &mut [[f32; 2]]) {
+        let mut total = vec![0.0f32; out.len()];
+        out.fill([0.0; 2]);
+        for i in 0..self.len() {
+            let (px, w) = (self.pixel[i] as usize, self.weight[i].max_element());
+            total[px] += w;
+            if self.is_glossy(i) {
+                out[px][usize::from(self.lobe_traced[i])] += w;
+            }
+        }
+        for (o, t) in out.iter_mut().zip(total) {
+            if t > 0.0 {
+                o[0] /= t;
+                o[1] /= t;
+            }
+        }
+    }
+
     /// The sample's BSDF: Lambertian, or glossy with the material's Phong exponent.
     #[inline]
     pub fn bsdf(&self, i: usize, scene: &Scene) -> Bsdf {
