@@ -30,6 +30,10 @@ pub struct Film {
     pub harmonic_distance: Vec<f32>,
     /// Accepted splats per batch.
     pub splats: Vec<f32>,
+    /// Where the pixel's glossy reflection comes from (issue 13): the share of its eye-sample
+    /// weight on glossy samples whose lobe went through the radiance map (`[0]`) and on those
+    /// whose lobe the eye path traced (`[1]`); both 0 where nothing glossy is seen.
+    pub glossy_source: Vec<[f32; 2]>,
     /// Contributions dropped on the way to this film because they were NaN or infinite
     /// (photon rays, light samples, eye-sample resolves, pixels), like Mitsuba's
     /// `warn_invalid`: counted, never written.
@@ -50,6 +54,7 @@ impl Film {
             kernel_weight: vec![0.0; n],
             harmonic_distance: vec![0.0; n],
             splats: vec![0.0; n],
+            glossy_source: vec![[0.0; 2]; n],
             invalid_contributions: 0,
         }
     }

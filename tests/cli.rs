@@ -202,6 +202,8 @@ fn render_writes_images_and_stats() {
         "peak_rss_mb",
         "tested_pairs",
         "accepted_pairs",
+        "glossy_map_samples",
+        "glossy_traced_samples",
     ] {
         assert!(j[key].is_number(), "stats lack {key}: {j}");
     }

@@ -476,3 +476,76 @@ fn epsilon_slider_reruns_the_cache_live() {
         a.frame().is_some_and(|f| f.settings.filter.enabled)
     });
 }
+
+/// Issue 13: hovering a pixel tells whether its glossy part came from the radiance map or from
+/// reflections traced by the eye path, and the stats count both kinds of glossy eye sample.
+/// On the mirror-to-matte box with SH records, the floor (roughness 0.25, e ≈ 510) is traced
+/// and the copper sphere (roughness 0.8, e ≈ 2.9) goes through the map.
+#[test]
+fn the_probe_shows_where_the_glossy_part_came_from() {
+    let scene = tmp("glossy_probe").join("glossy_sharp.glb");
+    std::fs::write(&scene, BuiltinScene::CornellGlossySharp.to_glb()).unwrap();
+    let defaults = UiSettings::default();
+    let settings = UiSettings {
+        render: RenderSettings {
+            width: 64,
+            height: 64,
+            spp: 1,
+            photons: 4_000,
+            ..defaults.render.clone()
+        },
+        snapshot_dir: tmp("glossy_probe_snapshots"),
+        ..defaults
+    };
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1100.0, 800.0))
+        .build_eframe(move |cc| {
+            App::new(
+                cc,
+                AppOptions {
+                    scene: Some(scene),
+                    settings: Some(settings),
+                    ..AppOptions::default()
+                },
+            )
+        });
+    run_until(&mut h, 60, "the first full-size image", |a| {
+        a.frame()
+            .is_some_and(|f| f.stats.batches >= 1 && f.film.width == 64)
+            && a.shown().is_some()
+    });
+    pause(&mut h);
+    h.step();
+    let f = h.state().frame().unwrap().clone();
+    assert!(
+        f.stats.glossy_map_samples > 0 && f.stats.glossy_traced_samples > 0,
+        "map {} traced {}",
+        f.stats.glossy_map_samples,
+        f.stats.glossy_traced_samples
+    );
+    let src = &f.film.glossy_source;
+    let traced = src.iter().position(|s| s[0] == 0.0 && s[1] > 0.9).unwrap();
+    let map = src.iter().position(|s| s[0] > 0.9 && s[1] == 0.0).unwrap();
+    let rect = h.get_by_role(Role::Image).rect();
+    for (pixel, text) in [
+        (traced, "glossy: traced reflections"),
+        (map, "glossy: from the radiance map"),
+    ] {
+        let (x, y) = ((pixel % 64) as f32 + 0.5, (pixel / 64) as f32 + 0.5);
+        let pos = rect.min + egui::vec2(x / 64.0 * rect.width(), y / 64.0 * rect.height());
+        // Move onto the pixel, then keep still until the tooltip shows (egui waits for the
+        // pointer to rest).
+        h.hover_at(pos);
+        let start = Instant::now();
+        loop {
+            h.step();
+            if h.query_by_label(text).is_some() {
+                break;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "no \"{text}\" in the probe at pixel {pixel}"
+            );
+        }
+    }
+}

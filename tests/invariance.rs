@@ -168,6 +168,7 @@ fn ceiling_sample(hit: &Hit, albedo: f32, pixel: u32) -> EyeSample {
         albedo: Vec3::splat(albedo),
         specular: Vec3::ZERO,
         primary: true,
+        lobe_traced: false,
     }
 }
 

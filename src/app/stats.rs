@@ -57,6 +57,16 @@ impl StatsPanel {
                     s.directional_bytes as f64 / s.glossy_targets as f64
                 ));
             }
+            if s.glossy_map_samples + s.glossy_traced_samples > 0 {
+                ui.separator();
+                ui.label(format!(
+                    "glossy eye samples: {} radiance map, {} traced",
+                    s.glossy_map_samples, s.glossy_traced_samples
+                ))
+                .on_hover_text(
+                    "lobes sharper than the directional mode resolves are traced by the eye path",
+                );
+            }
             ui.separator();
             ui.label(format!("{}×{}", f.film.width, f.film.height));
             ui.separator();

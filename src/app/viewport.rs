@@ -219,7 +219,27 @@ fn probe(response: egui::Response, pos: egui::Pos2, f: &Frame) {
             "harmonic mean distance {:.3} m",
             film.harmonic_distance[i]
         ));
+        if let Some(text) = glossy_source_text(film.glossy_source[i]) {
+            ui.label(text);
+        }
     });
+}
+
+/// Where a pixel's glossy part came from, for the probe: the radiance map, traced
+/// reflections, or both with their shares of the pixel's eye-sample weight; `None` where the
+/// pixel sees nothing glossy.
+pub fn glossy_source_text(source: [f32; 2]) -> Option<String> {
+    let [map, traced] = source;
+    match (map > 0.0, traced > 0.0) {
+        (false, false) => None,
+        (true, false) => Some("glossy: from the radiance map".into()),
+        (false, true) => Some("glossy: traced reflections".into()),
+        (true, true) => Some(format!(
+            "glossy: radiance map {:.0}%, traced reflections {:.0}%",
+            100.0 * map,
+            100.0 * traced
+        )),
+    }
 }
 
 fn fmt3(c: Vec3) -> String {

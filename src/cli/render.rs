@@ -214,6 +214,8 @@ fn stats_json(
         "cache_records": s.cache_records,
         "cache_records_per_pass": s.cache_records_per_pass,
         "directional_bytes": s.directional_bytes,
+        "glossy_map_samples": s.glossy_map_samples,
+        "glossy_traced_samples": s.glossy_traced_samples,
         "glossy_targets": s.glossy_targets,
         "directional_bytes_per_glossy_target": s.directional_bytes as f64 / s.glossy_targets.max(1) as f64,
         "invalid_pixels": film.invalid_pixels(),

@@ -5,7 +5,7 @@
 //! eye side and re-splats the stored rays.
 
 use crate::methods::Timings;
-use crate::pipeline::direct::direct_light;
+use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
 use crate::pipeline::radiance_map::{Accumulators, Channel};
 use crate::pipeline::splat_tree::SplatTree;
@@ -54,6 +54,7 @@ impl EyeSide {
             max_specular_depth: settings.max_specular_depth,
             seed: settings.seed,
             merge_targets: settings.merge_targets,
+            lobe_limit: settings.radiance_map.lobe_limit(),
         };
         let EyePass {
             samples: eye,
@@ -66,9 +67,13 @@ impl EyeSide {
         let t = Instant::now();
         let mut direct = vec![Vec3::ZERO; (settings.width * settings.height) as usize];
         let mut invalid_direct = 0;
-        if settings.direct == DirectMode::Nee {
-            let (per_sample, invalid) =
-                direct_light(scene, &eye, settings.nee_samples, settings.seed);
+        let any_traced = eye.lobe_traced.iter().any(|&t| t);
+        if settings.direct == DirectMode::Nee || any_traced {
+            let (per_sample, invalid) = if settings.direct == DirectMode::Nee {
+                direct_light(scene, &eye, settings.nee_samples, settings.seed)
+            } else {
+                traced_lobe_direct_light(scene, &eye, settings.nee_samples, settings.seed)
+            };
             invalid_direct = invalid;
             for (i, l) in per_sample.iter().enumerate() {
                 direct[eye.pixel[i] as usize] += eye.weight[i] * *l;

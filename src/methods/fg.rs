@@ -251,6 +251,9 @@ impl Pass {
                 max_specular_depth: s.max_specular_depth,
                 seed: s.seed,
                 merge_targets: false,
+                // Gather rays sample every eye sample's whole BSDF, its lobe included (§8.4):
+                // that traces the lobe already.
+                lobe_limit: f32::INFINITY,
             },
         );
         timings.t_eye += t.elapsed().as_secs_f64();
@@ -411,6 +414,7 @@ fn eye_range(eye: &EyeSamples, lo: u32, hi: u32) -> EyeSamples {
         albedo: eye.albedo[r.clone()].to_vec(),
         specular: eye.specular[r.clone()].to_vec(),
         primary: eye.primary[r.clone()].to_vec(),
+        lobe_traced: eye.lobe_traced[r.clone()].to_vec(),
         target: (0..r.len() as u32).collect(),
     }
 }
@@ -512,6 +516,7 @@ fn gather_from(
             },
             specular: Vec3::ZERO,
             primary: false,
+            lobe_traced: false,
         });
     }
 }

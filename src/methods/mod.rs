@@ -103,6 +103,10 @@ pub struct MethodStats {
     pub directional_bytes: usize,
     /// Splat targets on glossy surfaces (the ones with directional records).
     pub glossy_targets: usize,
+    /// Glossy eye samples whose lobe goes through the radiance map (§8.1).
+    pub glossy_map_samples: usize,
+    /// Glossy eye samples whose lobe is too sharp for the map and traced by the eye path.
+    pub glossy_traced_samples: usize,
     /// Eye samples of the current view.
     pub eye_samples: usize,
     /// Splat targets (eye samples after merging).

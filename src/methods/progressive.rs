@@ -300,12 +300,14 @@ impl Progressive {
             film.harmonic_distance[i] = info.harmonic_mean_distance;
             film.splats[i] = info.splats;
         }
+        side.eye.glossy_sources(&mut film.glossy_source);
         film
     }
 
     /// The counters every photon-based method shares.
     pub fn stats(&mut self) -> MethodStats {
         let (directional_bytes, glossy_targets) = self.side.directional_memory();
+        let (glossy_map_samples, glossy_traced_samples) = self.side.eye.glossy_counts();
         let clamps = self.store.clamps(&self.settings.bandwidth);
         MethodStats {
             photons_traced: self.store.photons_traced,
@@ -318,6 +320,8 @@ impl Progressive {
             splat_bytes: self.side.memory_bytes(),
             directional_bytes,
             glossy_targets,
+            glossy_map_samples,
+            glossy_traced_samples,
             eye_samples: self.side.eye.len(),
             splat_targets: self.side.tree.samples,
             splat_tree_nodes: self.side.tree.nodes.len(),

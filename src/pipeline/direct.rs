@@ -7,6 +7,7 @@
 //! §9). With `--direct photons` this is not used and direct photons are splatted instead (the
 //! paper's way).
 
+use crate::bsdf::Bsdf;
 use crate::pipeline::eye::EyeSamples;
 use crate::sampling::Rng;
 use crate::scene::{Hit, Scene};
@@ -68,6 +69,40 @@ const EMITTERS_TESTED_DIRECTLY: usize = 64;
 /// Reflected direct radiance towards the eye at every sample (BSDF applied, eye weight not),
 /// and the number of samples whose estimate was NaN or infinite (set to zero, not used).
 pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) -> (Vec<Vec3>, u64) {
+    direct_light_through(scene, eye, samples, seed, |i| Some(eye.bsdf(i, scene)))
+}
+
+/// Direct light reflected by the traced glossy lobes only (zero at other samples), for
+/// `--direct photons`: splatted direct photons light a traced sample's diffuse part, and the
+/// lobe's view of the emitters, which its traced direction does not count (the eye pass leaves
+/// emission straight off a traced lobe to NEE), comes from here — light and BSDF samples under
+/// MIS, as with `--direct nee` (docs/deviations.md §38).
+pub fn traced_lobe_direct_light(
+    scene: &Scene,
+    eye: &EyeSamples,
+    samples: u32,
+    seed: u64,
+) -> (Vec<Vec3>, u64) {
+    direct_light_through(scene, eye, samples, seed, |i| {
+        (eye.lobe_traced[i]).then(|| match eye.bsdf(i, scene) {
+            Bsdf::Glossy { ks, exponent, .. } => Bsdf::Glossy {
+                kd: Vec3::ZERO,
+                ks,
+                exponent,
+            },
+            other => other,
+        })
+    })
+}
+
+/// NEE at every eye sample through the BSDF `bsdf_of` gives it (none: no direct light).
+fn direct_light_through(
+    scene: &Scene,
+    eye: &EyeSamples,
+    samples: u32,
+    seed: u64,
+    bsdf_of: impl Fn(usize) -> Option<Bsdf> + Sync,
+) -> (Vec<Vec3>, u64) {
     let samples = samples.max(1);
     // Emitting triangles, when few enough to test one by one: a BSDF-sampled ray that meets
     // none of them cannot find an emitter, so the full traversal is skipped for it (most such
@@ -82,7 +117,9 @@ pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) ->
             let mut rng = Rng::new(seed, 0x2000_0000_0000 + i as u64);
             let p = eye.position[i];
             let n = eye.normal[i];
-            let bsdf = eye.bsdf(i, scene);
+            let Some(bsdf) = bsdf_of(i) else {
+                return Vec3::ZERO;
+            };
             let wo = eye.wo[i];
             let mut sum = Vec3::ZERO;
             for _ in 0..samples {

@@ -7,6 +7,7 @@
 
 use crate::choice::Choice;
 use glam::Vec3;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use std::sync::OnceLock;
@@ -193,6 +194,166 @@ pub fn filter_taps(d: Vec3) -> &'static FilterTaps {
     &filter_table()[j * FILTER_RES + i]
 }
 
+/// The resolution criterion of a directional mode: a lobe is represented faithfully while the
+/// mode's reconstruction of it from light arriving along one direction (its impulse response)
+/// keeps at least this share of the lobe's true peak. Two blurs of equal width halve a peak,
+/// so this is the exponent at which the lobe is as narrow as the mode's own blur
+/// (docs/deviations.md §37).
+pub const RESOLVED_PEAK_SHARE: f32 = 0.5;
+
+/// Share of the Phong lobe's peak that bands 0–3 keep: the truncated lobe
+/// Σ_l (2l+1)/(4π)·a_l at the mirror direction over the true (e+2)/(2π). Rotation-invariant.
+pub fn sh_peak_share(exponent: f32) -> f32 {
+    let a = phong_zonal(exponent);
+    let peak: f32 = (0..4)
+        .map(|l| (2 * l + 1) as f32 / (4.0 * std::f32::consts::PI) * a[l])
+        .sum();
+    peak / crate::bsdf::phong_lobe(1.0, exponent)
+}
+
+/// Exponents of the histogram's lobe table, on a grid linear in ln e from 1 to this.
+/// Lobes sharper than the histogram's resolution limit are traced; the table reaches past it
+/// for the few that are not (at the eye path's depth limit), and clamps beyond.
+pub const HIST_TABLE_MAX_EXPONENT: f32 = 64.0;
+const HIST_E_STEPS: usize = 33;
+const HIST_C_STEPS: usize = 129;
+
+/// The histogram's lobe table (§8.1's precomputed BSDF table for the strata): for exponent e
+/// and c = r·s (r the mirror direction, s a stratum), Ĝ_e(c) = ∫ g_e(r·ω)·κ(ω·s) dω, the
+/// normalised Phong lobe integrated over the stratum's filter footprint κ(t) = max(0, t −
+/// cos 50°)² (the deposit kernel before its normalisation over the strata). Midpoint rule in
+/// the footprint's polar coordinates, 32 × 64 (about 40 ms once, in parallel).
+fn hist_lobe_table() -> &'static [f32] {
+    static T: OnceLock<Vec<f32>> = OnceLock::new();
+    T.get_or_init(|| {
+        let (nt, np) = (32usize, 64usize);
+        let theta_max = FILTER_COS.acos();
+        let dt = theta_max / nt as f32;
+        let dp = 2.0 * std::f32::consts::PI / np as f32;
+        let cos_phi: Vec<f32> = (0..np).map(|j| ((j as f32 + 0.5) * dp).cos()).collect();
+        let mut table = vec![0.0f32; HIST_E_STEPS * HIST_C_STEPS];
+        table
+            .par_chunks_mut(HIST_C_STEPS)
+            .enumerate()
+            .for_each(|(ei, row)| {
+                let e = hist_exponent(ei);
+                for (ci, out) in row.iter_mut().enumerate() {
+                    let c = -1.0 + 2.0 * ci as f32 / (HIST_C_STEPS - 1) as f32;
+                    let s = (1.0 - c * c).max(0.0).sqrt();
+                    let mut sum = 0.0f64;
+                    for i in 0..nt {
+                        let th = (i as f32 + 0.5) * dt;
+                        let (st, ct) = th.sin_cos();
+                        let k = (ct - FILTER_COS).max(0.0).powi(2);
+                        let mut ring = 0.0f32;
+                        // ω at polar angle θ around s: r·ω = c·cos θ + √(1−c²)·sin θ·cos φ.
+                        for &cp in &cos_phi {
+                            ring += crate::bsdf::phong_lobe(c * ct + s * st * cp, e);
+                        }
+                        sum += (k * ring * st * dt * dp) as f64;
+                    }
+                    *out = sum as f32;
+                }
+            });
+        table
+    })
+}
+
+/// Exponent of row `ei` of the histogram's lobe table.
+fn hist_exponent(ei: usize) -> f32 {
+    (HIST_TABLE_MAX_EXPONENT.ln() * ei as f32 / (HIST_E_STEPS - 1) as f32).exp()
+}
+
+/// The lobe table's two rows around `exponent` and the weight of the upper one.
+#[inline]
+fn hist_rows(exponent: f32) -> (usize, usize, f32) {
+    let x = exponent.clamp(1.0, HIST_TABLE_MAX_EXPONENT).ln() / HIST_TABLE_MAX_EXPONENT.ln()
+        * (HIST_E_STEPS - 1) as f32;
+    let lo = (x as usize).min(HIST_E_STEPS - 2);
+    (lo, lo + 1, (x - lo as f32).clamp(0.0, 1.0))
+}
+
+/// Per-stratum weights W_s of the normalised Phong lobe of `exponent` around `r` for the
+/// 20-strata histogram: Σ_s W_s·h_s is the lobe integrated against the incident light, each
+/// stratum's sum h_s spread over its filter footprint. The weights are Ĝ_e(r·s) normalised so
+/// that Σ_s W_s·(4π/20) = ∫ g_e = (e+2)/(e+1): light arriving evenly from every direction
+/// (each stratum then holds 4π/20 of it) is reflected exactly, whatever r is — the lobe's
+/// whole mass is always shared among the strata, so no lobe falls between them.
+#[inline]
+pub fn hist_lobe_weights(r: Vec3, exponent: f32) -> [f32; STRATA] {
+    let table = hist_lobe_table();
+    let (lo, hi, t) = hist_rows(exponent);
+    let (row_lo, row_hi) = (
+        &table[lo * HIST_C_STEPS..(lo + 1) * HIST_C_STEPS],
+        &table[hi * HIST_C_STEPS..(hi + 1) * HIST_C_STEPS],
+    );
+    let mut w = [0.0f32; STRATA];
+    let mut sum = 0.0;
+    for (k, s) in strata().iter().enumerate() {
+        let x = (r.dot(*s).clamp(-1.0, 1.0) + 1.0) * 0.5 * (HIST_C_STEPS - 1) as f32;
+        let i = (x as usize).min(HIST_C_STEPS - 2);
+        let f = x - i as f32;
+        let a = row_lo[i] + f * (row_lo[i + 1] - row_lo[i]);
+        let b = row_hi[i] + f * (row_hi[i + 1] - row_hi[i]);
+        w[k] = (a + t * (b - a)).max(0.0);
+        sum += w[k];
+    }
+    if sum > 0.0 {
+        let e = exponent.max(0.0);
+        let scale = (e + 2.0) / (e + 1.0) * (STRATA as f32 / (4.0 * std::f32::consts::PI)) / sum;
+        for x in &mut w {
+            *x *= scale;
+        }
+    }
+    w
+}
+
+/// Share of the Phong lobe's peak the histogram keeps for light from `d` reflected about
+/// r = d: the deposit kernel's taps at d against the lobe weights.
+pub fn hist_peak_share_at(d: Vec3, exponent: f32) -> f32 {
+    let taps = filter_at(d);
+    let w = hist_lobe_weights(d, exponent);
+    let mut s = 0.0;
+    for k in 0..FILTER_TAPS {
+        s += taps.weight[k] * w[taps.stratum[k] as usize];
+    }
+    s / crate::bsdf::phong_lobe(1.0, exponent)
+}
+
+/// The histogram's peak share at its least favourable directions: the worst over a Fibonacci
+/// set of 256 directions (the dodecahedron's face centres, farthest from every stratum, are
+/// within a few degrees of one of them).
+pub fn hist_peak_share(exponent: f32) -> f32 {
+    let n = 256;
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - (2 * i + 1) as f32 / n as f32;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let p = golden * i as f32;
+            hist_peak_share_at(Vec3::new(r * p.cos(), r * p.sin(), z), exponent)
+        })
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// The largest exponent whose peak share (falling with the exponent) is at least
+/// [`RESOLVED_PEAK_SHARE`], by bisection in ln e over [1, `hi`].
+fn resolution_limit(share: impl Fn(f32) -> f32, hi: f32) -> f32 {
+    let (mut a, mut b) = (0.0f32, hi.ln());
+    if share(1.0) < RESOLVED_PEAK_SHARE {
+        return 1.0;
+    }
+    for _ in 0..40 {
+        let m = 0.5 * (a + b);
+        if share(m.exp()) >= RESOLVED_PEAK_SHARE {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    a.exp()
+}
+
 /// How the radiance map stores the direction of incident light at glossy samples (§8.1).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -207,6 +368,24 @@ pub enum DirectionalMode {
 }
 
 impl DirectionalMode {
+    /// The sharpest Phong lobe (largest exponent) this mode's records represent faithfully
+    /// ([`RESOLVED_PEAK_SHARE`]); sharper lobes are traced by the eye path instead of going
+    /// through the radiance map. Infinite in diffuse mode, the paper without §8.1, which shades
+    /// every lobe matte and traces none (the baseline). SH bands 0–3: e ≈ 11.1 (perceptual
+    /// roughness ≈ 0.63); the 20-strata histogram: e ≈ 2.5 (roughness ≈ 0.82), a lobe 40° wide
+    /// at half maximum where the strata are 42° apart.
+    pub fn lobe_limit(self) -> f32 {
+        static SH: OnceLock<f32> = OnceLock::new();
+        static HIST: OnceLock<f32> = OnceLock::new();
+        match self {
+            DirectionalMode::Diffuse => f32::INFINITY,
+            DirectionalMode::Sh => *SH.get_or_init(|| resolution_limit(sh_peak_share, 1e4)),
+            DirectionalMode::Histogram => {
+                *HIST.get_or_init(|| resolution_limit(hist_peak_share, HIST_TABLE_MAX_EXPONENT))
+            }
+        }
+    }
+
     /// Floats per directional record (all three channels).
     pub fn record_floats(self) -> usize {
         match self {
@@ -409,5 +588,67 @@ mod tests {
             ((total - want) / want).abs().max_element() < 0.03,
             "{total} vs {want}"
         );
+    }
+
+    /// The resolution limits follow from the criterion: SH keeps half the peak at e ≈ 11
+    /// (closed form: 0.533 at 10, 0.471 at 12), the histogram at e ≈ 2.5 (its worst direction
+    /// lies between strata; such a lobe is 40° wide at half maximum, the strata 42° apart);
+    /// just past each limit the share is below one half.
+    #[test]
+    fn resolution_limits_follow_the_half_peak_criterion() {
+        let sh = DirectionalMode::Sh.lobe_limit();
+        let hist = DirectionalMode::Histogram.lobe_limit();
+        println!("limits: sh {sh}, histogram {hist}");
+        assert!((10.0..12.0).contains(&sh), "SH limit {sh}");
+        assert!((2.0..3.0).contains(&hist), "histogram limit {hist}");
+        assert!(sh_peak_share(sh) >= 0.499 && sh_peak_share(sh * 1.05) < 0.5);
+        assert!(hist_peak_share(hist) >= 0.499 && hist_peak_share(hist * 1.05) < 0.5);
+        assert_eq!(DirectionalMode::Diffuse.lobe_limit(), f32::INFINITY);
+    }
+
+    /// The histogram's lobe integration conserves energy for every lobe and every mirror
+    /// direction: light arriving evenly from all directions fills each stratum with 4π/20
+    /// and is reflected as ∫ g = (e+2)/(e+1) (10⁻⁴: f32 sums). And it has no dots: for light
+    /// from one direction d, the reflected radiance as r sweeps a great circle through strata
+    /// and between them never rises again after falling from its peak at r = d by more than
+    /// 2% of the peak (point evaluation at the strata gave one isolated maximum per stratum).
+    #[test]
+    fn histogram_integration_conserves_energy_and_has_no_dots() {
+        let mut rng = Rng::new(5, 6);
+        for e in [1.0f32, 2.0, 3.4, 8.0, 30.0, 64.0, 500.0] {
+            for _ in 0..200 {
+                let r = uniform_sphere(rng.next_2d());
+                let w = hist_lobe_weights(r, e);
+                let total: f32 = w.iter().map(|x| x * 4.0 * PI / STRATA as f32).sum();
+                let want = (e + 2.0) / (e + 1.0);
+                assert!(
+                    (total - want).abs() < 1e-4 * want,
+                    "e={e}: {total} vs {want}"
+                );
+            }
+        }
+        let d = strata()[0];
+        let axis = d.cross(strata()[1]).normalize();
+        for e in [2.0f32, 3.4, 30.0, 500.0] {
+            let taps = filter_at(d);
+            let value = |r: Vec3| {
+                let w = hist_lobe_weights(r, e);
+                (0..FILTER_TAPS)
+                    .map(|k| taps.weight[k] * w[taps.stratum[k] as usize])
+                    .sum::<f32>()
+            };
+            let peak = value(d);
+            let mut prev = peak;
+            for i in 1..=180 {
+                let a = i as f32 * PI / 180.0;
+                let r = d * a.cos() + axis.cross(d) * a.sin();
+                let v = value(r);
+                assert!(
+                    v <= prev + 0.02 * peak,
+                    "e={e}: rises again at {i}°: {prev} → {v}"
+                );
+                prev = prev.min(v);
+            }
+        }
     }
 }

@@ -36,6 +36,12 @@ pub struct EyeSettings {
     pub seed: u64,
     /// Let eye samples of one pixel on the same surface share one splat target.
     pub merge_targets: bool,
+    /// Glossy lobes with a Phong exponent above this are traced by the eye path (one sampled
+    /// direction per eye sample, like a specular chain) instead of going through the radiance
+    /// map: the directional mode's [`lobe_limit`]. Infinite: none are traced.
+    ///
+    /// [`lobe_limit`]: crate::pipeline::directional::DirectionalMode::lobe_limit
+    pub lobe_limit: f32,
 }
 
 /// Eye samples, structure of arrays, in pixel order. Photon rays splat onto their splat
@@ -64,6 +70,10 @@ pub struct EyeSamples {
     pub specular: Vec<Vec3>,
     /// Seen directly from the camera (no specular bounce on the way).
     pub primary: Vec<bool>,
+    /// The glossy lobe is traced by the eye path (too sharp for the radiance map): the
+    /// splatted light is reflected by the diffuse part only, the lobe's light comes from the
+    /// eye samples further along the path and from NEE.
+    pub lobe_traced: Vec<bool>,
     /// The splat target whose splatted irradiance this sample uses.
     pub target: Vec<u32>,
 }
@@ -106,13 +116,55 @@ impl EyeSamples {
 
     /// Bytes held by the sample arrays.
     pub fn memory_bytes(&self) -> usize {
-        self.len() * (7 * 12 + 4 * 4 + 1)
+        self.len() * (7 * 12 + 4 * 4 + 2)
     }
 
     /// True when the sample's BSDF has a glossy lobe.
     #[inline]
     pub fn is_glossy(&self, i: usize) -> bool {
         self.specular[i] != Vec3::ZERO
+    }
+
+    /// True when the sample's glossy lobe goes through the radiance map (a directional record
+    /// at its splat target, §8.1): glossy and not traced.
+    #[inline]
+    pub fn lobe_in_map(&self, i: usize) -> bool {
+        self.is_glossy(i) && !self.lobe_traced[i]
+    }
+
+    /// Glossy eye samples whose lobe goes through the radiance map, and those whose lobe is
+    /// traced (the stats' two kinds of glossy eye sample).
+    pub fn glossy_counts(&self) -> (usize, usize) {
+        (0..self.len()).fold((0, 0), |(m, t), i| {
+            if !self.is_glossy(i) {
+                (m, t)
+            } else if self.lobe_traced[i] {
+                (m, t + 1)
+            } else {
+                (m + 1, t)
+            }
+        })
+    }
+
+    /// Per pixel, the share of the eye-sample weight on glossy samples whose lobe went
+    /// through the radiance map and on those whose lobe was traced ([`crate::film::Film`]'s
+    /// `glossy_source`), written into `out` (one entry per pixel).
+    pub fn glossy_sources(&self, out: &mut [[f32; 2]]) {
+        let mut total = vec![0.0f32; out.len()];
+        out.fill([0.0; 2]);
+        for i in 0..self.len() {
+            let (px, w) = (self.pixel[i] as usize, self.weight[i].max_element());
+            total[px] += w;
+            if self.is_glossy(i) {
+                out[px][usize::from(self.lobe_traced[i])] += w;
+            }
+        }
+        for (o, t) in out.iter_mut().zip(total) {
+            if t > 0.0 {
+                o[0] /= t;
+                o[1] /= t;
+            }
+        }
     }
 
     /// The sample's BSDF: Lambertian, or glossy with the material's Phong exponent.
@@ -145,6 +197,7 @@ impl EyeSamples {
         self.albedo.push(s.albedo);
         self.specular.push(s.specular);
         self.primary.push(s.primary);
+        self.lobe_traced.push(s.lobe_traced);
     }
 }
 
@@ -174,6 +227,8 @@ pub struct EyeSample {
     pub specular: Vec3,
     /// Seen directly from the camera (no specular bounce on the way).
     pub primary: bool,
+    /// The glossy lobe is traced by the eye path ([`EyeSamples::lobe_traced`]).
+    pub lobe_traced: bool,
 }
 
 #[derive(Clone, Copy)]
@@ -222,6 +277,9 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                 let pixel = y * s.width + x;
                 let first = out.len();
                 let mut rng = Rng::new(s.seed, 0x1000_0000_0000 + pixel as u64);
+                // Directions of traced glossy lobes: a stream of their own, so that scenes
+                // without them keep their jitter.
+                let mut lobe_rng = Rng::new(s.seed, 0x3000_0000_0000 + pixel as u64);
                 for k in 0..s.spp {
                     let j = jitter(k, s.spp, &mut rng);
                     let dir = camera.direction(
@@ -236,7 +294,8 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                         dir,
                         w,
                         pixel,
-                        s.max_specular_depth,
+                        s,
+                        &mut lobe_rng,
                         &mut out,
                     );
                 }
@@ -266,6 +325,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     samples.material.reserve_exact(total);
     samples.offset.reserve_exact(total);
     samples.primary.reserve_exact(total);
+    samples.lobe_traced.reserve_exact(total);
     samples.pixel.reserve_exact(total);
     samples.target.reserve_exact(total);
     let mut emitted = Vec::with_capacity((s.width * s.height) as usize);
@@ -311,39 +371,60 @@ fn assign_targets(px: &mut [RawSample], targets: &mut SplatTargets, merge: bool,
             None => {
                 targets.position.push(s.position);
                 targets.normal.push(s.normal);
-                targets.glossy.push(s.specular != Vec3::ZERO);
+                targets
+                    .glossy
+                    .push(s.specular != Vec3::ZERO && !s.lobe_traced);
                 (targets.len() - 1) as u32
             }
         };
     }
 }
 
-/// Follow one camera ray through specular chains; push eye samples, return emitted radiance.
+/// Follow one camera ray through specular chains and traced glossy lobes; push eye samples,
+/// return emitted radiance.
+#[allow(clippy::too_many_arguments)]
 fn trace_chain(
     scene: &Scene,
     origin: Vec3,
     dir: Vec3,
     weight: Vec3,
     pixel: u32,
-    max_depth: u32,
+    s: &EyeSettings,
+    rng: &mut Rng,
     out: &mut Vec<RawSample>,
 ) -> Vec3 {
-    // (origin, direction, weight, depth, length so far, triangle left)
-    let mut stack = [(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0u32, 0f32, u32::MAX); BRANCH_STACK];
-    stack[0] = (origin, dir, weight, 0, 0.0, u32::MAX);
+    let max_depth = s.max_specular_depth;
+    // (origin, direction, weight, depth, length so far, triangle left, leaves a traced lobe)
+    let mut stack = [(
+        Vec3::ZERO,
+        Vec3::ZERO,
+        Vec3::ZERO,
+        0u32,
+        0f32,
+        u32::MAX,
+        false,
+    ); BRANCH_STACK];
+    stack[0] = (origin, dir, weight, 0, 0.0, u32::MAX, false);
     let mut top = 1;
     let mut emitted = Vec3::ZERO;
     while top > 0 {
         top -= 1;
-        let (o, d, w, depth, travelled, leaving) = stack[top];
+        let (o, d, w, depth, travelled, leaving, from_lobe) = stack[top];
         let Some(hit) = scene.intersect_except(o, d, f32::INFINITY, leaving) else {
-            // Escaped: the environment seen directly or through the chain.
-            emitted += w * scene.background(d);
+            // Escaped: the environment seen directly or through the chain (off a traced lobe
+            // it is NEE's at the lobe's eye sample, as emission below).
+            if !from_lobe {
+                emitted += w * scene.background(d);
+            }
             continue;
         };
         let path_length = travelled + hit.t;
         let wo = -d;
-        emitted += w * scene.emitted(&hit, wo);
+        // Light met straight off a traced lobe is NEE's at the lobe's eye sample (its BSDF
+        // sample under MIS holds this path), so it is not counted twice.
+        if !from_lobe {
+            emitted += w * scene.emitted(&hit, wo);
+        }
         let bsdf = scene.bsdf(&hit);
         let surface = match bsdf {
             Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO)),
@@ -370,10 +451,32 @@ fn trace_chain(
                     albedo,
                     specular,
                     primary: depth == 0,
+                    lobe_traced: false,
                 },
                 path_length,
                 target: 0,
             });
+            if depth < max_depth
+                && let Some((d, lobe_w)) = sample_traced_lobe(bsdf, wo, n, ng, s.lobe_limit, rng)
+                && (w * lobe_w).max_element() >= MIN_BRANCH_WEIGHT
+                && top < BRANCH_STACK
+            {
+                out.last_mut().expect("just pushed").sample.lobe_traced = true;
+                stack[top] = (
+                    scene.offset(&hit, d),
+                    d,
+                    w * lobe_w,
+                    depth + 1,
+                    path_length,
+                    hit.triangle,
+                    true,
+                );
+                top += 1;
+            } else if depth < max_depth && traces_lobe(bsdf, s.lobe_limit) {
+                // The lobe is traced, but its sampled direction left through the surface or
+                // carries too little: it adds nothing (f = 0 below the surface).
+                out.last_mut().expect("just pushed").sample.lobe_traced = true;
+            }
             continue;
         }
         // A branch that leaves through the geometric surface the wrong way (a shading normal
@@ -390,6 +493,7 @@ fn trace_chain(
                     depth + 1,
                     path_length,
                     hit.triangle,
+                    false,
                 );
                 *top += 1;
             }
@@ -424,4 +528,43 @@ fn trace_chain(
         }
     }
     emitted
+}
+
+/// True when `bsdf` is glossy with a lobe sharper than `limit` (traced by the eye path).
+#[inline]
+fn traces_lobe(bsdf: Bsdf, limit: f32) -> bool {
+    matches!(bsdf, Bsdf::Glossy { ks, exponent, .. } if exponent > limit && ks != Vec3::ZERO)
+}
+
+/// One direction of a glossy lobe too sharp for the radiance map, sampled from the normalised
+/// Phong lobe about the mirror direction of `wo` (`n` the shading normal facing the viewer,
+/// `ng` the geometric one): the direction and its weight ks·g·cos θ/pdf = ks·(e+2)/(e+1)·cos θ,
+/// an unbiased one-sample estimate of the lobe's reflection. `None` when the lobe is not
+/// traced or the direction leaves below the surface (where f = 0).
+#[inline]
+fn sample_traced_lobe(
+    bsdf: Bsdf,
+    wo: Vec3,
+    n: Vec3,
+    ng: Vec3,
+    limit: f32,
+    rng: &mut Rng,
+) -> Option<(Vec3, Vec3)> {
+    if !traces_lobe(bsdf, limit) {
+        return None;
+    }
+    let Bsdf::Glossy { ks, exponent, .. } = bsdf else {
+        return None;
+    };
+    let u = rng.next_2d();
+    let cos_a = u.x.powf(1.0 / (exponent + 1.0));
+    let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    let local = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
+    let d = crate::sampling::to_world(local, reflect(wo, n));
+    let cos = d.dot(n);
+    if cos <= 0.0 || d.dot(ng) <= 0.0 {
+        return None;
+    }
+    Some((d, ks * ((exponent + 2.0) / (exponent + 1.0) * cos)))
 }

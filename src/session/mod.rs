@@ -141,6 +141,12 @@ pub struct SessionStats {
     pub directional_bytes: usize,
     /// Splat targets on glossy surfaces (the ones with directional records).
     pub glossy_targets: usize,
+    /// Glossy eye samples whose lobe goes through the radiance map (§8.1).
+    #[serde(default)]
+    pub glossy_map_samples: usize,
+    /// Glossy eye samples whose lobe is traced by the eye path (too sharp for the map).
+    #[serde(default)]
+    pub glossy_traced_samples: usize,
     /// Radiance cache records of this frame (0 when the cache is off).
     pub cache_records: usize,
     /// `photons_traced` / `elapsed_s`.

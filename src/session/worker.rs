@@ -424,6 +424,8 @@ impl Worker {
             splat_bytes: m.splat_bytes,
             directional_bytes: m.directional_bytes,
             glossy_targets: m.glossy_targets,
+            glossy_map_samples: m.glossy_map_samples,
+            glossy_traced_samples: m.glossy_traced_samples,
             cache_records: m.cache_records.unwrap_or(0),
             photons_per_second: m.photons_traced as f64 / elapsed.max(1e-9),
             last_splat_ms: self.last_splat_ms,

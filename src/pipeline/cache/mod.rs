@@ -234,6 +234,7 @@ mod tests {
                     albedo: Vec3::splat(0.5),
                     specular: Vec3::ZERO,
                     primary: true,
+                    lobe_traced: false,
                 };
                 let n = eye.len() as u32;
                 eye.push_sample(&s, n);

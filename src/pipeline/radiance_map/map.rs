@@ -3,7 +3,7 @@
 
 use super::{Accumulators, Channel, Interpolated};
 use crate::pipeline::directional::{
-    DirectionalMode, SH_COEFFS, phong_zonal, sh_basis, sh_lobe_integral, strata,
+    DirectionalMode, SH_COEFFS, hist_lobe_weights, phong_zonal, sh_basis, sh_lobe_integral,
 };
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::splat_tree::LANES;
@@ -139,6 +139,7 @@ impl RadianceMap {
 /// Radiance eye sample `i` reflects towards the eye (before its path weight) from irradiance
 /// `e` and, on a glossy surface, its directional record scaled by `rec_scale`:
 /// kd/π·E + ks·(lobe ⋆ record); without a record the lobe's reflectance is treated as matte.
+/// A traced lobe reflects no splatted light here: the eye path carries it (kd/π·E only).
 #[inline]
 fn shade(
     scene: &Scene,
@@ -150,7 +151,7 @@ fn shade(
     mode: DirectionalMode,
 ) -> Vec3 {
     let diffuse = eye.albedo[i] * FRAC_1_PI * e;
-    if !eye.is_glossy(i) {
+    if !eye.lobe_in_map(i) {
         return diffuse;
     }
     let ks = eye.specular[i];
@@ -188,16 +189,14 @@ pub(crate) fn glossy_radiance(
             )
             .max(Vec3::ZERO)
         }
-        // Sample the BSDF at the strata (§8.1): the deposit weights interpolate the incident
-        // direction between neighbouring strata, so each stratum's sum is reflected as if it
-        // arrived from the stratum's direction.
+        // Integrate the lobe over each stratum's filter footprint (§8.1's table, per exponent
+        // like the SH zonal table; docs/deviations.md §27): energy-conserving for every lobe,
+        // so none falls between strata.
         DirectionalMode::Histogram => {
+            let w = hist_lobe_weights(r, exponent);
             let mut sum = Vec3::ZERO;
-            for (k, s) in strata().iter().enumerate() {
-                let f = crate::bsdf::phong_lobe(r.dot(*s), exponent);
-                if f > 0.0 {
-                    sum += f * Vec3::new(rec[3 * k], rec[3 * k + 1], rec[3 * k + 2]);
-                }
+            for (k, wk) in w.iter().enumerate() {
+                sum += *wk * Vec3::new(rec[3 * k], rec[3 * k + 1], rec[3 * k + 2]);
             }
             sum
         }
@@ -228,6 +227,7 @@ mod tests {
                 albedo: Vec3::splat(0.5),
                 specular: Vec3::ZERO,
                 primary: true,
+                lobe_traced: false,
             };
             eye.push_sample(&s, i as u32);
         }

@@ -71,7 +71,7 @@ impl Interpolated {
         let mut n = 0u32;
         let glossy_index = (0..eye.len())
             .map(|i| {
-                if floats > 0 && eye.is_glossy(i) {
+                if floats > 0 && eye.lobe_in_map(i) {
                     n += 1;
                     n - 1
                 } else {

@@ -34,16 +34,21 @@ pub enum BuiltinScene {
     /// Objects on a floor with no light of their own (a white and a glass sphere, a red
     /// block): lit by the environment, like most glTF files people have.
     Outdoor,
+    /// The glossy box from mirror to matte: [`BuiltinScene::CornellGlossy`]'s spheres, a blue
+    /// plastic sphere of roughness 0.1 (Phong exponent 10⁴) and a white plastic floor of
+    /// roughness 0.25 (e ≈ 510): lobes too sharp for any directional mode (issue 13).
+    CornellGlossySharp,
 }
 
 impl BuiltinScene {
     /// Every built-in scene, in the order `raysplat scenes` writes them and help lists them.
-    pub const ALL: [BuiltinScene; 5] = [
+    pub const ALL: [BuiltinScene; 6] = [
         BuiltinScene::CornellBox1,
         BuiltinScene::CornellBox2,
         BuiltinScene::CornellClassic,
         BuiltinScene::CornellGlossy,
         BuiltinScene::Outdoor,
+        BuiltinScene::CornellGlossySharp,
     ];
 
     /// The name after `builtin:` on the command line.
@@ -54,6 +59,7 @@ impl BuiltinScene {
             BuiltinScene::CornellClassic => "classic",
             BuiltinScene::CornellGlossy => "glossy",
             BuiltinScene::Outdoor => "outdoor",
+            BuiltinScene::CornellGlossySharp => "glossy-sharp",
         }
     }
 
@@ -70,6 +76,7 @@ impl BuiltinScene {
             BuiltinScene::CornellClassic => "cornell_classic.glb",
             BuiltinScene::CornellGlossy => "cornell_glossy.glb",
             BuiltinScene::Outdoor => "outdoor.glb",
+            BuiltinScene::CornellGlossySharp => "cornell_glossy_sharp.glb",
         }
     }
 
@@ -81,6 +88,7 @@ impl BuiltinScene {
             BuiltinScene::CornellClassic => "Cornell box (classic)",
             BuiltinScene::CornellGlossy => "Glossy Cornell box",
             BuiltinScene::Outdoor => "Outdoor",
+            BuiltinScene::CornellGlossySharp => "Glossy Cornell box, mirror to matte",
         }
     }
 
@@ -91,8 +99,12 @@ impl BuiltinScene {
             outdoor(&mut g);
             return g.to_glb();
         }
-        let bumpy = self == BuiltinScene::CornellBox1;
-        cornell_shell(&mut g, bumpy);
+        let floor = match self {
+            BuiltinScene::CornellBox1 => Floor::Bumpy,
+            BuiltinScene::CornellGlossySharp => Floor::GlossyPlastic(0.25),
+            _ => Floor::Flat,
+        };
+        cornell_shell(&mut g, floor);
         match self {
             BuiltinScene::Outdoor => unreachable!("generated above"),
             BuiltinScene::CornellBox1 => {
@@ -120,7 +132,7 @@ impl BuiltinScene {
                 let (p, n, i) = uv_sphere(Vec3::new(-0.1, 0.1, -0.17), 0.1, 48, 24);
                 g.mesh("glass_sphere", &p, &n, &i, glass);
             }
-            BuiltinScene::CornellGlossy => {
+            BuiltinScene::CornellGlossy | BuiltinScene::CornellGlossySharp => {
                 for (name, color, roughness, center) in [
                     (
                         "silver_r050",
@@ -149,6 +161,15 @@ impl BuiltinScene {
                     }));
                     let (p, n, i) = uv_sphere(center, 0.085, 48, 24);
                     g.mesh(name, &p, &n, &i, m);
+                }
+                if self == BuiltinScene::CornellGlossySharp {
+                    let m = g.material(json!({
+                        "name": "blue_plastic_r010",
+                        "pbrMetallicRoughness": {"baseColorFactor": [0.1, 0.2, 0.7, 1.0],
+                            "metallicFactor": 0.0, "roughnessFactor": 0.1}
+                    }));
+                    let (p, n, i) = uv_sphere(Vec3::new(-0.13, 0.07, -0.12), 0.07, 48, 24);
+                    g.mesh("blue_plastic_sphere", &p, &n, &i, m);
                 }
             }
             BuiltinScene::CornellClassic => {
@@ -257,8 +278,19 @@ fn outdoor(g: &mut GlbBuilder) {
     );
 }
 
-/// Walls, ceiling, floor (flat or bumpy) and the ceiling light.
-fn cornell_shell(g: &mut GlbBuilder, bumpy_floor: bool) {
+/// The floor of a Cornell box.
+#[derive(Clone, Copy, PartialEq)]
+enum Floor {
+    /// Flat and white (Lambertian).
+    Flat,
+    /// CORNELL BOX I's bumpy white floor.
+    Bumpy,
+    /// Flat white plastic (glTF dielectric) of this roughness.
+    GlossyPlastic(f32),
+}
+
+/// Walls, ceiling, floor and the ceiling light.
+fn cornell_shell(g: &mut GlbBuilder, floor: Floor) {
     let white = g.material(diffuse_json("white", WHITE));
     let red = g.material(diffuse_json("red", RED));
     let green = g.material(diffuse_json("green", GREEN));
@@ -307,7 +339,17 @@ fn cornell_shell(g: &mut GlbBuilder, bumpy_floor: bool) {
         Vec3::Z,
     );
     g.mesh("ceiling_and_back", &q.p, &q.n, &q.i, white);
-    if !bumpy_floor {
+    if floor != Floor::Bumpy {
+        // A glossy floor has its own material, made after the shell's four (the other
+        // scenes' files stay as they were).
+        let floor_material = match floor {
+            Floor::GlossyPlastic(roughness) => g.material(json!({
+                "name": "white_plastic_floor",
+                "pbrMetallicRoughness": {"baseColorFactor": [WHITE[0], WHITE[1], WHITE[2], 1.0],
+                    "metallicFactor": 0.0, "roughnessFactor": roughness}
+            })),
+            _ => white,
+        };
         let mut f = Quads::default();
         f.add(
             [
@@ -318,7 +360,7 @@ fn cornell_shell(g: &mut GlbBuilder, bumpy_floor: bool) {
             ],
             Vec3::Y,
         );
-        g.mesh("floor", &f.p, &f.n, &f.i, white);
+        g.mesh("floor", &f.p, &f.n, &f.i, floor_material);
     } else {
         let (p, n, i) = bumpy_floor_mesh(c(x1, 0.0, z1), c(x0, 0.0, z0), 100);
         g.mesh("bumpy_floor", &p, &n, &i, white);
