@@ -114,7 +114,14 @@ fn scene_without_lights_renders_under_the_uniform_environment() {
         .args(["render", path.to_str().unwrap(), "--out"])
         .arg(&exr)
         .args(small)
-        .args(["--environment", "sky", "--sun", "30,40", "--env-rotation", "-90"])
+        .args([
+            "--environment",
+            "sky",
+            "--sun",
+            "30,40",
+            "--env-rotation",
+            "-90",
+        ])
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);

@@ -239,7 +239,11 @@ fn rotation_turns_the_image() {
         // The texel's centre: u = (20.5)/32, v = 5.5/16.
         let (u, v) = (20.5f32 / 32.0, 5.5f32 / 16.0);
         let (theta, phi) = (v * PI, (u - 0.5) * 2.0 * PI);
-        Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos())
+        Vec3::new(
+            theta.sin() * phi.sin(),
+            theta.cos(),
+            -theta.sin() * phi.cos(),
+        )
     };
     for rotation in [0.0f32, 25.0, -20.0] {
         let mut scene = base.clone();
@@ -277,7 +281,10 @@ fn rotation_turns_the_image() {
         );
         // Within the texel's angular size (11.25°) of its centre.
         let angle = seen.dot(turned).clamp(-1.0, 1.0).acos().to_degrees();
-        assert!(angle < 8.0, "rotation {rotation}: brightest pixel {angle}° off");
+        assert!(
+            angle < 8.0,
+            "rotation {rotation}: brightest pixel {angle}° off"
+        );
     }
     let _ = std::fs::remove_dir_all(dir);
 }
@@ -291,7 +298,10 @@ fn a_file_without_lights_is_lit_by_the_uniform_environment() {
     assert_eq!(scene.environment.kind, EnvironmentKind::Uniform);
     assert_eq!(scene.environment.strength, 1.0);
     let notice = scene.lighting_notice.clone().expect("a notice");
-    assert!(notice.contains("no light") && !notice.contains('\n'), "{notice}");
+    assert!(
+        notice.contains("no light") && !notice.contains('\n'),
+        "{notice}"
+    );
     assert_eq!(scene.background(Vec3::Y), Vec3::ONE);
     let err = scene
         .set_environment(&EnvironmentSettings {
@@ -325,4 +335,3 @@ fn a_file_without_lights_is_lit_by_the_uniform_environment() {
     assert!((got - Vec3::new(0.5, 1.0, 2.0)).length() < 1e-2, "{got}");
     let _ = std::fs::remove_dir_all(dir);
 }
-

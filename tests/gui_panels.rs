@@ -582,17 +582,26 @@ fn environment_panel_emits_set_environment() {
     let mut env = EnvironmentSettings::default();
     choose(&mut h, "Environment", "Sky");
     env.kind = EnvironmentKind::Sky;
-    assert_commands(&mut h.state_mut().out, &[Command::SetEnvironment(env.clone())]);
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetEnvironment(env.clone())],
+    );
     h.get_by_role_and_label(Role::Slider, "Strength")
         .set_value_accesskit(3.0);
     h.run_steps(2);
     env.strength = 3.0;
-    assert_commands(&mut h.state_mut().out, &[Command::SetEnvironment(env.clone())]);
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetEnvironment(env.clone())],
+    );
     h.get_by_role_and_label(Role::Slider, "Rotation")
         .set_value_accesskit(-45.0);
     h.run_steps(2);
     env.rotation_deg = -45.0;
-    assert_commands(&mut h.state_mut().out, &[Command::SetEnvironment(env.clone())]);
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetEnvironment(env.clone())],
+    );
     h.get_by_role_and_label(Role::Slider, "Strength")
         .set_value_accesskit(1e9);
     h.run_steps(2);

@@ -465,6 +465,9 @@ fn the_environment_changes_under_the_worker() {
         Event::Error(m) => Some(m),
         _ => None,
     });
-    assert!(err.contains("map.exr") && err.contains("stays") && !err.contains('\n'), "{err}");
+    assert!(
+        err.contains("map.exr") && err.contains("stays") && !err.contains('\n'),
+        "{err}"
+    );
     wait(&session, 60, |f| f.seq > after.seq + 2);
 }

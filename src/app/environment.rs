@@ -54,7 +54,9 @@ impl EnvironmentPanel {
                     .selected_text(current)
                     .show_ui(ui, |ui| {
                         ui.selectable_value(&mut env.kind, EnvironmentKind::Auto, "Automatic")
-                            .on_hover_text("none when the file has lights, uniform when it has none");
+                            .on_hover_text(
+                                "none when the file has lights, uniform when it has none",
+                            );
                         ui.selectable_value(&mut env.kind, EnvironmentKind::None, "None");
                         ui.selectable_value(&mut env.kind, EnvironmentKind::Uniform, "Uniform");
                         ui.selectable_value(&mut env.kind, EnvironmentKind::Sky, "Sky")

@@ -8,7 +8,6 @@ use crate::app::cache_filter::CacheFilterPanel;
 use crate::app::camera::CameraPanel;
 use crate::app::display::{DisplayPanel, set_view_mode};
 use crate::app::environment::{EnvironmentPanel, EnvironmentRequest};
-use crate::scene::environment::describe;
 use crate::app::rendering::{RenderingPanel, toggle_pause};
 use crate::app::snapshot::{SnapshotFiles, SnapshotMeta, write_snapshot_in_background};
 use crate::app::snapshots::{SnapshotPanel, SnapshotRequest};
@@ -17,6 +16,7 @@ use crate::app::viewport::Viewport;
 use crate::app::widgets::Commands;
 use crate::film::display::{DisplayImage, ViewMode, display};
 use crate::scene::Scene;
+use crate::scene::environment::describe;
 use crate::session::{Command, Event, Frame, Session};
 use crossbeam_channel::{Receiver, unbounded};
 use egui::{Key, Modifiers, RichText};
@@ -408,11 +408,6 @@ impl App {
         self.rendering
             .ui(ui, &mut self.settings, &mut self.paused, out);
         ui.separator();
-        if let Some(EnvironmentRequest::ChooseMap) = self.environment.ui(ui, &mut self.settings, out)
-        {
-            self.pick(Pick::EnvironmentMap);
-        }
-        ui.separator();
         if let Some(camera) = self.camera.ui(ui, out) {
             self.viewport.reset_orbit(&camera);
         }
@@ -423,6 +418,12 @@ impl App {
             Some(SnapshotRequest::ChooseFolder) => self.pick(Pick::Folder),
             Some(SnapshotRequest::Save) => self.snapshot(),
             None => {}
+        }
+        ui.separator();
+        if let Some(EnvironmentRequest::ChooseMap) =
+            self.environment.ui(ui, &mut self.settings, out)
+        {
+            self.pick(Pick::EnvironmentMap);
         }
     }
 }

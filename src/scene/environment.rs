@@ -268,7 +268,10 @@ impl EnvMap {
         if width == 0 || height == 0 || texels.len() != width * height {
             return None;
         }
-        if texels.iter().any(|t| !t.is_finite() || t.min_element() < 0.0) {
+        if texels
+            .iter()
+            .any(|t| !t.is_finite() || t.min_element() < 0.0)
+        {
             return None;
         }
         let mut row_weights = Vec::with_capacity(height);
@@ -283,10 +286,7 @@ impl EnvMap {
             // A texel's solid angle: (2π/w)(cos θ0 − cos θ1).
             let omega = 2.0 * PI / width as f32 * (t0.cos() - t1.cos());
             let row = &texels[y * width..(y + 1) * width];
-            let weights: Vec<f64> = row
-                .iter()
-                .map(|t| luminance(*t) as f64 * sin_mid)
-                .collect();
+            let weights: Vec<f64> = row.iter().map(|t| luminance(*t) as f64 * sin_mid).collect();
             integral += row.iter().sum::<Vec3>() * omega;
             row_weights.push(weights.iter().sum::<f64>());
             columns.push(Distribution1D::new(&weights));
@@ -336,7 +336,11 @@ impl EnvMap {
             .into_iter()
             .map(|t| {
                 let t = t * strength;
-                if t.is_finite() { t.max(Vec3::ZERO) } else { Vec3::ZERO }
+                if t.is_finite() {
+                    t.max(Vec3::ZERO)
+                } else {
+                    Vec3::ZERO
+                }
             })
             .collect();
         Self::new(w as usize, h as usize, px, rotation_deg)
@@ -348,7 +352,11 @@ impl EnvMap {
     fn uv(d: Vec3) -> (f32, f32, f32) {
         let y = d.y.clamp(-1.0, 1.0);
         let u = 0.5 + d.x.atan2(-d.z) / (2.0 * PI);
-        (u.rem_euclid(1.0), y.acos() / PI, (1.0 - y * y).max(0.0).sqrt())
+        (
+            u.rem_euclid(1.0),
+            y.acos() / PI,
+            (1.0 - y * y).max(0.0).sqrt(),
+        )
     }
 
     #[inline]
@@ -440,7 +448,8 @@ impl EnvLight {
 pub fn cie_clear_sky(theta: f32, gamma: f32, sun_theta: f32) -> f32 {
     let (a, b, c, d, e) = (-1.0f32, -0.32f32, 10.0f32, -3.0f32, 0.45f32);
     let gradation = |t: f32| 1.0 + a * (b / t.cos().max(1e-4)).exp();
-    let indicatrix = |g: f32| 1.0 + c * ((d * g).exp() - (d * PI / 2.0).exp()) + e * g.cos().powi(2);
+    let indicatrix =
+        |g: f32| 1.0 + c * ((d * g).exp() - (d * PI / 2.0).exp()) + e * g.cos().powi(2);
     indicatrix(gamma) * gradation(theta) / (indicatrix(sun_theta) * gradation(0.0))
 }
 
@@ -655,20 +664,31 @@ mod tests {
             let Some((d, l, pdf)) = env.sample(rng.next_2d()) else {
                 continue;
             };
-            assert!((env.pdf(d) - pdf).abs() <= 2e-3 * pdf, "{} vs {pdf}", env.pdf(d));
+            assert!(
+                (env.pdf(d) - pdf).abs() <= 2e-3 * pdf,
+                "{} vs {pdf}",
+                env.pdf(d)
+            );
             assert_eq!(env.radiance(d), l);
             est += l / pdf;
         }
         est /= n as f32;
         let exact = env.integral();
-        assert!(((est - exact) / exact).abs().max_element() < 0.01, "{est} vs {exact}");
+        assert!(
+            ((est - exact) / exact).abs().max_element() < 0.01,
+            "{est} vs {exact}"
+        );
         // ∫ pdf dω = 1 by uniform sphere sampling.
         let mut total = 0.0f64;
         for _ in 0..n {
             let d = crate::sampling::uniform_sphere(rng.next_2d());
             total += env.pdf(d) as f64 * 4.0 * std::f64::consts::PI;
         }
-        assert!((total / n as f64 - 1.0).abs() < 0.02, "{}", total / n as f64);
+        assert!(
+            (total / n as f64 - 1.0).abs() < 0.02,
+            "{}",
+            total / n as f64
+        );
     }
 
     #[test]
@@ -703,10 +723,7 @@ mod tests {
         let near = upper.radiance(direction_from_angles(35.0, 5.0));
         let far = upper.radiance(direction_from_angles(35.0, 180.0));
         assert!(luminance(near) > 2.0 * luminance(far));
-        assert_eq!(
-            Sun::parse("30,90").unwrap().strength,
-            Sun::DEFAULT_STRENGTH
-        );
+        assert_eq!(Sun::parse("30,90").unwrap().strength, Sun::DEFAULT_STRENGTH);
         assert!(Sun::parse("100,0").is_err());
         assert!(Sun::parse("30").is_err());
         assert_eq!(EnvironmentKind::parse("sky"), EnvironmentKind::Sky);

@@ -16,8 +16,8 @@ mod trace;
 
 pub use builtin::{BuiltinScene, DEFAULT_SCENE_GLB, GlbBuilder, uv_sphere};
 pub use camera::Camera;
-pub use environment::{Environment, EnvironmentKind, EnvironmentSettings, Sun};
 use camera::framing_camera;
+pub use environment::{Environment, EnvironmentKind, EnvironmentSettings, Sun};
 pub(crate) use geometry::tri;
 pub use geometry::{Hit, SHADOW_EPSILON, TriShading, gamma, offset_ray_origin, surface_offset};
 pub use light::{EmittedPhoton, Light, LightSample, Lights};
@@ -198,12 +198,10 @@ impl Scene {
 
     /// The file's own lights (emissive triangles with power, punctual lights) light it.
     pub fn has_own_lights(&self) -> bool {
-        self.lights.lights.iter().any(|l| {
-            !matches!(
-                l,
-                Light::Environment { .. } | Light::Sun(_)
-            )
-        })
+        self.lights
+            .lights
+            .iter()
+            .any(|l| !matches!(l, Light::Environment { .. } | Light::Sun(_)))
     }
 
     /// Light the scene with the environment `settings` ask for, rebuilding its lights. `Auto`

@@ -17,6 +17,11 @@ use std::path::Path;
 /// allocation that would abort the program.
 const MAX_UNBACKED_ELEMENTS: usize = 1 << 25;
 
+/// Most accessor elements one load reads in all, 2²⁸ (a 60-million-triangle scene reads about
+/// a quarter of that): a small file cannot make the loader work for hours by having many
+/// nodes instance one large mesh, or many primitives read one large accessor.
+const MAX_ELEMENTS_READ: usize = 1 << 28;
+
 /// Why data could not be read.
 #[derive(Debug)]
 pub(super) enum DataError {
@@ -49,8 +54,12 @@ impl DataError {
     }
 }
 
-/// The file's buffers, each loaded or the reason it could not be.
-pub(super) struct Buffers(Vec<Result<Vec<u8>, DataError>>);
+/// The file's buffers, each loaded or the reason it could not be, and how many more accessor
+/// elements this load may read.
+pub(super) struct Buffers {
+    data: Vec<Result<Vec<u8>, DataError>>,
+    budget: std::cell::Cell<usize>,
+}
 
 impl Buffers {
     /// Load every buffer of `root`: from a data URI, a file next to the glTF (`base`), or the
@@ -84,11 +93,25 @@ impl Buffers {
                 Ok(data)
             })
             .collect();
-        Self(buffers)
+        Self {
+            data: buffers,
+            budget: std::cell::Cell::new(MAX_ELEMENTS_READ),
+        }
+    }
+
+    /// Takes `count` elements from the load's budget, or says the file asks for too many.
+    fn spend(&self, count: usize) -> Result<(), DataError> {
+        let left = self.budget.get().checked_sub(count).ok_or_else(|| {
+            format!(
+                "the file asks the loader to read more than {MAX_ELEMENTS_READ} accessor elements in all (each instance of a mesh counts)"
+            )
+        })?;
+        self.budget.set(left);
+        Ok(())
     }
 
     fn get(&self, index: usize, what: &str) -> Result<&[u8], DataError> {
-        match self.0.get(index) {
+        match self.data.get(index) {
             Some(Ok(data)) => Ok(data),
             Some(Err(DataError::Invalid(e))) => Err(format!("{what} cannot be read: {e}").into()),
             Some(Err(DataError::Unavailable(e))) => Err(DataError::Unavailable(format!(
@@ -96,7 +119,7 @@ impl Buffers {
             ))),
             None => Err(DataError::Invalid(format!(
                 "{what} refers to buffer {index}, but the file has {}",
-                self.0.len()
+                self.data.len()
             ))),
         }
     }
@@ -154,7 +177,7 @@ pub(super) fn view_bytes<'a>(
 /// An accessor's component type and element width, checked.
 fn layout(acc: &json::Accessor, index: usize) -> Result<(ComponentType, usize), String> {
     let Checked::Valid(json::accessor::GenericComponentType(ct)) = acc.component_type else {
-        return Err(format!("accessor {index} has an unknown component type").into());
+        return Err(format!("accessor {index} has an unknown component type"));
     };
     let width = match acc.type_ {
         Checked::Valid(Type::Scalar) => 1,
@@ -164,10 +187,9 @@ fn layout(acc: &json::Accessor, index: usize) -> Result<(ComponentType, usize), 
         Checked::Valid(t) => {
             return Err(format!(
                 "accessor {index} is a {t:?} matrix, where a scalar or vector is needed"
-            )
-            .into());
+            ));
         }
-        Checked::Invalid => return Err(format!("accessor {index} has an unknown type").into()),
+        Checked::Invalid => return Err(format!("accessor {index} has an unknown type")),
     };
     Ok((ct, width))
 }
@@ -263,7 +285,6 @@ fn read<T: Copy + Default>(
 ) -> Result<Vec<T>, DataError> {
     let count = usize::try_from(acc.count.0).unwrap_or(usize::MAX);
     let elem = width * size;
-    let too_many = || format!("accessor {index} has {count} elements, which its data cannot hold");
     let mut out: Vec<T>;
     if let Some(v) = acc.buffer_view {
         let (bytes, stride) = view_bytes(root, buffers, v.value(), &format!("accessor {index}"))?;
@@ -281,6 +302,7 @@ fn read<T: Copy + Default>(
                 v.value()
             ).into());
         }
+        buffers.spend(count)?;
         out = Vec::with_capacity(count * width);
         for e in 0..count {
             let at = offset + e * stride;
@@ -288,8 +310,12 @@ fn read<T: Copy + Default>(
         }
     } else {
         if count > MAX_UNBACKED_ELEMENTS {
-            return Err(too_many().into());
+            return Err(format!(
+                "accessor {index} has {count} elements and no buffer view: more than the loader's {MAX_UNBACKED_ELEMENTS}"
+            )
+            .into());
         }
+        buffers.spend(count)?;
         out = vec![T::default(); count * width];
     }
     if let Some(sparse) = &acc.sparse {
@@ -350,6 +376,15 @@ mod tests {
             float_reader(I16, false)(&(-300i16).to_le_bytes(), 0),
             -300.0
         );
+    }
+
+    #[test]
+    fn one_load_reads_at_most_its_budget_of_elements() {
+        let buffers = Buffers::load(&json::Root::default(), None, None);
+        assert!(buffers.spend(MAX_ELEMENTS_READ - 1).is_ok());
+        assert!(buffers.spend(1).is_ok());
+        let e = buffers.spend(1).unwrap_err();
+        assert!(e.message().contains("more than"), "{}", e.message());
     }
 
     #[test]

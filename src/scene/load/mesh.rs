@@ -11,6 +11,10 @@ use gltf::json::{
     validation::Checked,
 };
 
+/// Most triangles a scene may have: 2²⁵ (about 4 GB with their shading data and BVH), so that
+/// instancing cannot grow the scene until an allocation aborts the program.
+const MAX_TRIANGLES: usize = 1 << 25;
+
 #[derive(Default)]
 pub(super) struct LoadStats {
     pub(super) degenerate: usize,
@@ -208,6 +212,12 @@ fn add_primitive(
                 .filter(|u| u.is_finite())
                 .unwrap_or(Vec2::ZERO)
         };
+        if parts.triangles.len() >= MAX_TRIANGLES {
+            return Err(format!(
+                "the scene has more than {MAX_TRIANGLES} triangles (each instance of a mesh counts), more than raysplat can hold"
+            )
+            .into());
+        }
         parts.triangles.push(tri(pa, pb, pc));
         parts.shading.push(TriShading {
             normals: [pick(a), pick(b), pick(c)],

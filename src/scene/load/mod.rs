@@ -26,7 +26,8 @@ use std::path::Path;
 /// Extensions that change what the geometry is: a file that requires one cannot be shown.
 const UNSUPPORTED_GEOMETRY: [&str; 2] = ["KHR_draco_mesh_compression", "EXT_meshopt_compression"];
 
-/// Extensions the loader reads (others are ignored; a required one is a warning).
+/// Extensions the loader reads or may ignore without misreading the geometry (any other that a
+/// file requires is a warning).
 const SUPPORTED: [&str; 9] = [
     "KHR_mesh_quantization",
     "KHR_texture_transform",
