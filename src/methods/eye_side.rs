@@ -32,15 +32,20 @@ pub struct EyeSide {
     pub acc_indirect: Accumulators,
     /// Accumulators for direct photons (empty unless `--direct photons`).
     pub acc_direct: Accumulators,
+    /// The eye pass's settings (for drawing traced lobes anew, [`crate::pipeline::eye::trace_lobes`]).
+    pub eye_settings: EyeSettings,
 }
 
 impl EyeSide {
     /// Eye pass, splat tree and explicit direct light for one view (`settings`' width,
-    /// height and spp), timed into `timings` (T_E and T_D).
+    /// height and spp), timed into `timings` (T_E and T_D). Glossy lobes too sharp for the
+    /// radiance map are traced in the eye pass when `follow_lobes`, otherwise only marked (the
+    /// caller draws their directions per batch, [`crate::methods::lobes::TracedLobes`]).
     pub fn new(
         scene: &Scene,
         camera: &Camera,
         settings: &RenderSettings,
+        follow_lobes: bool,
         timings: &mut Timings,
     ) -> Result<Self, String> {
         if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
@@ -55,6 +60,7 @@ impl EyeSide {
             seed: settings.seed,
             merge_targets: settings.merge_targets,
             lobe_limit: settings.radiance_map.lobe_limit(),
+            follow_lobes,
         };
         let EyePass {
             samples: eye,
@@ -97,6 +103,7 @@ impl EyeSide {
             invalid_direct,
             acc_indirect,
             acc_direct,
+            eye_settings,
         })
     }
 

@@ -254,6 +254,7 @@ impl Pass {
                 // Gather rays sample every eye sample's whole BSDF, its lobe included (§8.4):
                 // that traces the lobe already.
                 lobe_limit: f32::INFINITY,
+                follow_lobes: true,
             },
         );
         timings.t_eye += t.elapsed().as_secs_f64();

@@ -18,6 +18,7 @@
 
 pub mod eye_side;
 pub mod fg;
+pub mod lobes;
 pub mod memory;
 pub mod photon_store;
 pub mod pm;

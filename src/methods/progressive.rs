@@ -8,6 +8,7 @@
 
 use crate::film::Film;
 use crate::methods::eye_side::EyeSide;
+use crate::methods::lobes::TracedLobes;
 use crate::methods::photon_store::PhotonStore;
 use crate::methods::{Method, MethodStats, Step, Timings};
 use crate::pipeline::cache::{Cache, PixelGeometry, sample_values};
@@ -48,21 +49,28 @@ pub struct Progressive {
     pub generation: u64,
     /// Splatting counters.
     pub counters: SplatCounters,
+    /// Draw traced lobes anew per batch (rs) rather than once in the eye pass.
+    redraw_lobes: bool,
+    /// The light through traced lobes drawn per batch (with `redraw_lobes`).
+    lobes: TracedLobes,
     /// Time per phase.
     pub timings: Timings,
 }
 
 impl Progressive {
     /// Eye pass, splat tree, direct light and pilot for `scene` as seen by `camera`;
-    /// `splatted_classes` are splatted onto every target as batches arrive.
+    /// `splatted_classes` are splatted onto every target as batches arrive; traced glossy
+    /// lobes get new directions per batch when `redraw_lobes`, else one in the eye pass.
     pub fn new(
         scene: Arc<Scene>,
         settings: RenderSettings,
         camera: Camera,
         splatted_classes: [bool; 3],
+        redraw_lobes: bool,
     ) -> Result<Self, String> {
         let mut timings = Timings::default();
-        let side = EyeSide::new(&scene, &camera, &settings, &mut timings)?;
+        let side = EyeSide::new(&scene, &camera, &settings, !redraw_lobes, &mut timings)?;
+        let lobes = TracedLobes::new((settings.width * settings.height) as usize);
         let t = Instant::now();
         let store = PhotonStore::new(&scene, settings.seed);
         timings.t_light = t.elapsed().as_secs_f64();
@@ -78,6 +86,8 @@ impl Progressive {
             folded: 0,
             generation: 0,
             counters: SplatCounters::default(),
+            redraw_lobes,
+            lobes,
             timings,
         })
     }
@@ -148,6 +158,18 @@ impl Progressive {
             self.settings.direct == DirectMode::Photons,
             self.settings.radiance_map,
         );
+        if self.redraw_lobes {
+            self.lobes.add_batch(
+                &self.scene,
+                &self.camera,
+                &self.settings,
+                &self.side,
+                &batch.rays,
+                &bw,
+                self.splatted_classes,
+                &mut self.timings,
+            );
+        }
         self.splatted += 1;
         self.generation += 1;
     }
@@ -157,6 +179,7 @@ impl Progressive {
     pub fn begin_resplat(&mut self, params: BandwidthParams) {
         self.settings.bandwidth = params;
         self.side.clear();
+        self.lobes.clear();
         self.splatted = 0;
         self.folded = 0;
         self.generation += 1;
@@ -178,7 +201,14 @@ impl Progressive {
         settings.height = height;
         settings.spp = spp;
         crate::methods::check(&settings)?;
-        self.side = EyeSide::new(&self.scene, &camera, &settings, &mut self.timings)?;
+        self.side = EyeSide::new(
+            &self.scene,
+            &camera,
+            &settings,
+            !self.redraw_lobes,
+            &mut self.timings,
+        )?;
+        self.lobes = TracedLobes::new((width * height) as usize);
         self.settings = settings;
         self.camera = camera;
         self.begin_resplat(self.settings.bandwidth);
@@ -283,9 +313,10 @@ impl Progressive {
             }
         }
         film.invalid_contributions +=
-            map.invalid + side.invalid_direct + self.store.invalid_photon_rays;
+            map.invalid + side.invalid_direct + self.store.invalid_photon_rays + self.lobes.invalid;
         for (i, (d, e)) in direct.iter().zip(&side.emitted).enumerate() {
-            let (mut d, mut ind) = (*d + *e, map.radiance[i]);
+            let (lobe_d, lobe_ind) = self.lobes.mean(i);
+            let (mut d, mut ind) = (*d + *e + lobe_d, map.radiance[i] + lobe_ind);
             // The last guard: nothing non-finite reaches the film.
             if !(d + ind).is_finite() {
                 film.invalid_contributions += 1;
@@ -364,6 +395,9 @@ pub trait Resolver: Send {
     /// Classes (direct, indirect, caustic) splatted onto every splat target as batches
     /// arrive (direct photons go to their own accumulators when `--direct photons`).
     const SPLATTED: [bool; 3];
+    /// Traced glossy lobes get new directions per photon batch, so that they converge with
+    /// the batches ([`TracedLobes`]); otherwise one direction per eye sample in the eye pass.
+    const REDRAWS_LOBES: bool = false;
 
     /// The film from the core's state (may build a cache or a density estimate, timed into
     /// the core's T_S).
@@ -400,7 +434,7 @@ impl<R: Resolver + Default> PhotonMethod<R> {
             ..settings
         };
         Ok(Self {
-            core: Progressive::new(scene, settings, camera, R::SPLATTED)?,
+            core: Progressive::new(scene, settings, camera, R::SPLATTED, R::REDRAWS_LOBES)?,
             resolver: R::default(),
         })
     }

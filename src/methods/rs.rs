@@ -23,6 +23,7 @@ pub struct RsFilm {
 impl Resolver for RsFilm {
     const KIND: MethodKind = MethodKind::Rs;
     const SPLATTED: [bool; 3] = [false, true, true];
+    const REDRAWS_LOBES: bool = true;
 
     fn film(&mut self, core: &mut Progressive) -> Film {
         let t = Instant::now();

@@ -42,6 +42,10 @@ pub struct EyeSettings {
     ///
     /// [`lobe_limit`]: crate::pipeline::directional::DirectionalMode::lobe_limit
     pub lobe_limit: f32,
+    /// Continue traced lobes in this pass (one direction per eye sample, drawn once per view);
+    /// when false they are only marked, and [`trace_lobes`] draws their directions, anew per
+    /// call (rs draws them per photon batch so that the previewer's reflections converge).
+    pub follow_lobes: bool,
 }
 
 /// Eye samples, structure of arrays, in pixel order. Photon rays splat onto their splat
@@ -267,7 +271,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     let aspect = s.width as f32 / s.height as f32;
     // Angle subtended by one pixel (vertically), for the footprint of merged targets.
     let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / s.height as f32;
-    let rows: Vec<(Vec<RawSample>, Vec<Vec3>, SplatTargets)> = (0..s.height)
+    let rows: Vec<Row> = (0..s.height)
         .into_par_iter()
         .map(|y| {
             let mut out = Vec::with_capacity((s.width * s.spp) as usize);
@@ -288,16 +292,9 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                         aspect,
                     );
                     let w = Vec3::splat(1.0 / s.spp as f32);
-                    emitted[x as usize] += trace_chain(
-                        scene,
-                        camera.position,
-                        dir,
-                        w,
-                        pixel,
-                        s,
-                        &mut lobe_rng,
-                        &mut out,
-                    );
+                    let start = (camera.position, dir, w, 0, 0.0, u32::MAX, false);
+                    emitted[x as usize] +=
+                        trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut out);
                 }
                 assign_targets(
                     &mut out[first..],
@@ -309,6 +306,14 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
             (out, emitted, targets)
         })
         .collect();
+    collect_rows(rows, s.width * s.height)
+}
+
+/// One row's eye samples (targets row-local), emission per pixel and splat targets.
+type Row = (Vec<RawSample>, Vec<Vec3>, SplatTargets);
+
+/// Concatenate the rows of an eye pass over `pixels` pixels into its samples and targets.
+fn collect_rows(rows: Vec<Row>, pixels: u32) -> EyePass {
     let total: usize = rows.iter().map(|r| r.0.len()).sum();
     let mut samples = EyeSamples::default();
     for v in [
@@ -328,7 +333,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     samples.lobe_traced.reserve_exact(total);
     samples.pixel.reserve_exact(total);
     samples.target.reserve_exact(total);
-    let mut emitted = Vec::with_capacity((s.width * s.height) as usize);
+    let mut emitted = Vec::with_capacity(pixels as usize);
     let mut targets = SplatTargets::default();
     for (row, em, row_targets) in rows {
         let offset = targets.len() as u32;
@@ -382,19 +387,15 @@ fn assign_targets(px: &mut [RawSample], targets: &mut SplatTargets, merge: bool,
 
 /// Follow one camera ray through specular chains and traced glossy lobes; push eye samples,
 /// return emitted radiance.
-#[allow(clippy::too_many_arguments)]
 fn trace_chain(
     scene: &Scene,
-    origin: Vec3,
-    dir: Vec3,
-    weight: Vec3,
+    start: Branch,
     pixel: u32,
     s: &EyeSettings,
     rng: &mut Rng,
     out: &mut Vec<RawSample>,
 ) -> Vec3 {
     let max_depth = s.max_specular_depth;
-    // (origin, direction, weight, depth, length so far, triangle left, leaves a traced lobe)
     let mut stack = [(
         Vec3::ZERO,
         Vec3::ZERO,
@@ -404,7 +405,7 @@ fn trace_chain(
         u32::MAX,
         false,
     ); BRANCH_STACK];
-    stack[0] = (origin, dir, weight, 0, 0.0, u32::MAX, false);
+    stack[0] = start;
     let mut top = 1;
     let mut emitted = Vec3::ZERO;
     while top > 0 {
@@ -457,6 +458,7 @@ fn trace_chain(
                 target: 0,
             });
             if depth < max_depth
+                && s.follow_lobes
                 && let Some((d, lobe_w)) = sample_traced_lobe(bsdf, wo, n, ng, s.lobe_limit, rng)
                 && (w * lobe_w).max_element() >= MIN_BRANCH_WEIGHT
                 && top < BRANCH_STACK
@@ -528,6 +530,72 @@ fn trace_chain(
         }
     }
     emitted
+}
+
+/// A branch of an eye path: origin, direction, weight, depth (specular and traced glossy
+/// bounces so far), length so far, the triangle it leaves, and whether it leaves a traced lobe.
+type Branch = (Vec3, Vec3, Vec3, u32, f32, u32, bool);
+
+/// New directions for the traced glossy lobes of `eye` (its samples with `lobe_traced`), one
+/// per sample, from the random stream `draw` (another stream, other directions): the eye
+/// samples they reach (further traced lobes followed, all within `max_specular_depth`), their
+/// splat targets and the emission they see, in pixel order as [`eye_pass`] gives them. Each
+/// keeps its pixel and carries the traced sample's weight times the lobe's.
+pub fn trace_lobes(
+    scene: &Scene,
+    camera: &Camera,
+    eye: &EyeSamples,
+    s: &EyeSettings,
+    draw: u64,
+) -> EyePass {
+    let s = EyeSettings {
+        follow_lobes: true,
+        ..*s
+    };
+    let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / s.height as f32;
+    let rows: Vec<Row> = (0..s.height)
+        .into_par_iter()
+        .map(|y| {
+            let mut out = Vec::new();
+            let mut emitted = vec![Vec3::ZERO; s.width as usize];
+            let mut targets = SplatTargets::default();
+            let hi = eye.pixel.partition_point(|&p| p < (y + 1) * s.width);
+            let mut i = eye.pixel.partition_point(|&p| p < y * s.width);
+            while i < hi {
+                let pixel = eye.pixel[i];
+                let end = i + eye.pixel[i..hi].partition_point(|&p| p == pixel);
+                let first = out.len();
+                for k in (i..end).filter(|&k| eye.lobe_traced[k]) {
+                    let mut rng = Rng::new(s.seed ^ draw.wrapping_mul(0x9e37_79b9), k as u64);
+                    let (p, n, ng) = (eye.position[k], eye.normal[k], eye.geo_normal[k]);
+                    let bsdf = eye.bsdf(k, scene);
+                    let Some((d, lobe_w)) =
+                        sample_traced_lobe(bsdf, eye.wo[k], n, ng, s.lobe_limit, &mut rng)
+                    else {
+                        continue;
+                    };
+                    let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[k], d);
+                    let w = eye.weight[k] * lobe_w;
+                    if w.max_element() < MIN_BRANCH_WEIGHT {
+                        continue;
+                    }
+                    // The length from the camera stands in for the path's (merging reach).
+                    let start = (origin, d, w, 1, p.distance(camera.position), u32::MAX, true);
+                    emitted[(pixel - y * s.width) as usize] +=
+                        trace_chain(scene, start, pixel, &s, &mut rng, &mut out);
+                }
+                assign_targets(
+                    &mut out[first..],
+                    &mut targets,
+                    s.merge_targets,
+                    pixel_angle,
+                );
+                i = end;
+            }
+            (out, emitted, targets)
+        })
+        .collect();
+    collect_rows(rows, s.width * s.height)
 }
 
 /// True when `bsdf` is glossy with a lobe sharper than `limit` (traced by the eye path).

@@ -1,0 +1,141 @@
+//! Traced glossy lobes drawn anew for every photon batch (issue 13; rs): the eye samples whose
+//! lobe is too sharp for the radiance map get one new direction per batch, the eye samples it
+//! reaches get that batch's photon rays splatted onto them (with the batch's bandwidth, as the
+//! main eye side) and their own direct light, and the film holds the mean over batches. So the
+//! previewer's reflections converge with the batches like the rest of the image, and a
+//! headless render of one batch is the same estimate as directions drawn in the eye pass.
+
+use crate::methods::Timings;
+use crate::methods::eye_side::EyeSide;
+use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
+use crate::pipeline::eye::trace_lobes;
+use crate::pipeline::photon::{Bandwidth, PhotonRay};
+use crate::pipeline::radiance_map::{Accumulators, RadianceMap};
+use crate::pipeline::splat::{prepare, splat};
+use crate::pipeline::splat_tree::SplatTree;
+use crate::scene::{Camera, Scene};
+use crate::settings::{DirectMode, RenderSettings};
+use glam::Vec3;
+use std::time::Instant;
+
+/// The light the traced lobes reflect, summed over the batches drawn so far.
+#[derive(Clone, Debug, Default)]
+pub struct TracedLobes {
+    /// Per pixel: emission and direct light seen through the traced lobes, summed.
+    direct: Vec<Vec3>,
+    /// Per pixel: splatted light seen through the traced lobes, summed.
+    indirect: Vec<Vec3>,
+    /// Batches in the sums.
+    batches: u32,
+    /// Directions drawn so far (never reset: every draw is a new random stream).
+    draws: u64,
+    /// Contributions dropped as NaN or infinite.
+    pub invalid: u64,
+}
+
+impl TracedLobes {
+    /// Empty sums for `pixels` pixels.
+    pub fn new(pixels: usize) -> Self {
+        Self {
+            direct: vec![Vec3::ZERO; pixels],
+            indirect: vec![Vec3::ZERO; pixels],
+            ..Self::default()
+        }
+    }
+
+    /// Forget the sums (before a re-splat); the next draws are still new directions.
+    pub fn clear(&mut self) {
+        self.direct.fill(Vec3::ZERO);
+        self.indirect.fill(Vec3::ZERO);
+        self.batches = 0;
+        self.invalid = 0;
+    }
+
+    /// Batches in the sums.
+    pub fn batches(&self) -> u32 {
+        self.batches
+    }
+
+    /// Draw new directions for the traced lobes of `side` and gather one batch of photon rays
+    /// (`classes` splatted, direct photons on their own when `direct_photons`) where they land.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_batch(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        settings: &RenderSettings,
+        side: &EyeSide,
+        rays: &[PhotonRay],
+        bw: &[Bandwidth; 3],
+        classes: [bool; 3],
+        timings: &mut Timings,
+    ) {
+        self.batches += 1;
+        if !side.eye.lobe_traced.iter().any(|&t| t) {
+            return;
+        }
+        let draw = self.draws;
+        self.draws += 1;
+        let t = Instant::now();
+        let pass = trace_lobes(scene, camera, &side.eye, &side.eye_settings, draw);
+        let samples = &pass.samples;
+        for (d, e) in self.direct.iter_mut().zip(&pass.emitted) {
+            *d += *e;
+        }
+        if samples.is_empty() {
+            timings.t_eye += t.elapsed().as_secs_f64();
+            return;
+        }
+        let tree = SplatTree::build(&pass.targets.position, &pass.targets.normal);
+        timings.t_eye += t.elapsed().as_secs_f64();
+
+        let t = Instant::now();
+        let seed = settings.seed ^ (draw + 1).wrapping_mul(0x5851_f42d_4c95_7f2d);
+        let (nee, invalid) = if settings.direct == DirectMode::Nee {
+            direct_light(scene, samples, settings.nee_samples, seed)
+        } else {
+            traced_lobe_direct_light(scene, samples, settings.nee_samples, seed)
+        };
+        self.invalid += invalid;
+        for (i, l) in nee.iter().enumerate() {
+            self.direct[samples.pixel[i] as usize] += samples.weight[i] * *l;
+        }
+        timings.t_direct += t.elapsed().as_secs_f64();
+
+        let t = Instant::now();
+        let mode = settings.radiance_map;
+        let (w, h) = (settings.width, settings.height);
+        let mut gather = |classes: [bool; 3], into_direct: bool| {
+            let mut acc = Accumulators::for_tree(&tree, &pass.targets.glossy, mode);
+            splat(&tree, &prepare(rays, bw, classes, mode), &mut acc);
+            let mut map = RadianceMap::new(w, h);
+            map.resolve_from(scene, samples, &tree.target_slot, &acc, 1);
+            self.invalid += map.invalid;
+            let sums = if into_direct {
+                &mut self.direct
+            } else {
+                &mut self.indirect
+            };
+            for (s, l) in sums.iter_mut().zip(&map.radiance) {
+                *s += *l;
+            }
+        };
+        if classes != [false; 3] {
+            gather(classes, false);
+        }
+        if settings.direct == DirectMode::Photons {
+            gather([true, false, false], true);
+        }
+        timings.t_splat += t.elapsed().as_secs_f64();
+    }
+
+    /// The mean over batches of pixel `i`'s direct and splatted light through traced lobes.
+    #[inline]
+    pub fn mean(&self, i: usize) -> (Vec3, Vec3) {
+        if self.batches == 0 {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        let b = self.batches as f32;
+        (self.direct[i] / b, self.indirect[i] / b)
+    }
+}
