@@ -238,8 +238,9 @@ fn cornell_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), String> {
     Ok(())
 }
 
-/// §8.1 on the glossy Cornell box (500×500×4, M = 200,000, direct photons so that every
-/// glossy reflection goes through the radiance map): splat and resolve time and directional
+/// §8.1 on the glossy Cornell box (500×500×4, M = 200,000, direct photons so that the lights'
+/// glossy reflections go through the radiance map too, where a mode resolves the lobe; sharper
+/// lobes are traced, docs/deviations.md §37–§38): splat and resolve time and directional
 /// memory of the diffuse, SH and histogram modes, and relMSE to a path-traced reference.
 fn glossy_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), String> {
     let scene = Arc::new(Scene::builtin(BuiltinScene::CornellGlossy));

@@ -119,6 +119,7 @@ impl Progressive {
             let t = Instant::now();
             self.splat_stored(b);
             self.timings.t_splat += t.elapsed().as_secs_f64();
+            self.draw_lobes(b);
             Step::Resplatted
         } else {
             self.run_batch();
@@ -140,6 +141,9 @@ impl Progressive {
 
         let t = Instant::now();
         self.splat_stored(b);
+        self.timings.t_splat += t.elapsed().as_secs_f64();
+        self.draw_lobes(b);
+        let t = Instant::now();
         let dropped = self.store.fold();
         self.folded += dropped;
         self.splatted -= dropped;
@@ -158,20 +162,28 @@ impl Progressive {
             self.settings.direct == DirectMode::Photons,
             self.settings.radiance_map,
         );
-        if self.redraw_lobes {
-            self.lobes.add_batch(
-                &self.scene,
-                &self.camera,
-                &self.settings,
-                &self.side,
-                &batch.rays,
-                &bw,
-                self.splatted_classes,
-                &mut self.timings,
-            );
-        }
         self.splatted += 1;
         self.generation += 1;
+    }
+
+    /// With `redraw_lobes`, new directions for the traced glossy lobes, and stored batch `b`
+    /// gathered where they land (timed into T_E, T_D and T_S by the lobes themselves).
+    fn draw_lobes(&mut self, b: usize) {
+        if !self.redraw_lobes {
+            return;
+        }
+        let batch = &self.store.batches()[b];
+        let bw = self.bandwidths(batch.m);
+        self.lobes.add_batch(
+            &self.scene,
+            &self.camera,
+            &self.settings,
+            &self.side,
+            &batch.rays,
+            &bw,
+            self.splatted_classes,
+            &mut self.timings,
+        );
     }
 
     /// Start re-splatting every stored batch with new bandwidth parameters (no re-tracing).

@@ -6,7 +6,7 @@
 //! Emission seen directly or through a chain goes straight to the film (`emitted`), and so
 //! does the environment seen where a ray escapes.
 
-use crate::bsdf::{Bsdf, fresnel_dielectric, reflect, refract};
+use crate::bsdf::{Bsdf, fresnel_dielectric, reflect, refract, specular_probability};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 use glam::{Vec2, Vec3};
@@ -536,11 +536,11 @@ fn trace_chain(
 /// bounces so far), length so far, the triangle it leaves, and whether it leaves a traced lobe.
 type Branch = (Vec3, Vec3, Vec3, u32, f32, u32, bool);
 
-/// New directions for the traced glossy lobes of `eye` (its samples with `lobe_traced`), one
-/// per sample, from the random stream `draw` (another stream, other directions): the eye
-/// samples they reach (further traced lobes followed, all within `max_specular_depth`), their
-/// splat targets and the emission they see, in pixel order as [`eye_pass`] gives them. Each
-/// keeps its pixel and carries the traced sample's weight times the lobe's.
+/// New directions for the traced glossy lobes of `eye` (its samples with `lobe_traced`): one
+/// per pixel, from one of its traced samples picked at random (weighted by their number),
+/// from the random stream `draw` (another stream, other directions): the eye samples they
+/// reach (further traced lobes followed, all within `max_specular_depth`), their splat
+/// targets and the emission they see, in pixel order as [`eye_pass`] gives them.
 pub fn trace_lobes(
     scene: &Scene,
     camera: &Camera,
@@ -565,24 +565,31 @@ pub fn trace_lobes(
                 let pixel = eye.pixel[i];
                 let end = i + eye.pixel[i..hi].partition_point(|&p| p == pixel);
                 let first = out.len();
-                for k in (i..end).filter(|&k| eye.lobe_traced[k]) {
-                    let mut rng = Rng::new(s.seed ^ draw.wrapping_mul(0x9e37_79b9), k as u64);
+                // One traced lobe per pixel and draw, picked uniformly among the pixel's traced
+                // samples and weighted by their number (unbiased): a path per pixel per batch,
+                // as a path tracer's pass, rather than one per eye sample.
+                let traced = (i..end).filter(|&k| eye.lobe_traced[k]).count();
+                if traced > 0 {
+                    let mut rng = Rng::new(s.seed ^ draw.wrapping_mul(0x9e37_79b9), pixel as u64);
+                    let pick = ((rng.next_f32() * traced as f32) as usize).min(traced - 1);
+                    let k = (i..end)
+                        .filter(|&k| eye.lobe_traced[k])
+                        .nth(pick)
+                        .unwrap_or(i);
                     let (p, n, ng) = (eye.position[k], eye.normal[k], eye.geo_normal[k]);
                     let bsdf = eye.bsdf(k, scene);
-                    let Some((d, lobe_w)) =
+                    if let Some((d, lobe_w)) =
                         sample_traced_lobe(bsdf, eye.wo[k], n, ng, s.lobe_limit, &mut rng)
-                    else {
-                        continue;
-                    };
-                    let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[k], d);
-                    let w = eye.weight[k] * lobe_w;
-                    if w.max_element() < MIN_BRANCH_WEIGHT {
-                        continue;
+                    {
+                        let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[k], d);
+                        let w = eye.weight[k] * lobe_w * traced as f32;
+                        // The length from the camera stands in for the path's (merging reach).
+                        let start = (origin, d, w, 1, p.distance(camera.position), u32::MAX, true);
+                        if w.max_element() >= MIN_BRANCH_WEIGHT {
+                            emitted[(pixel - y * s.width) as usize] +=
+                                trace_chain(scene, start, pixel, &s, &mut rng, &mut out);
+                        }
                     }
-                    // The length from the camera stands in for the path's (merging reach).
-                    let start = (origin, d, w, 1, p.distance(camera.position), u32::MAX, true);
-                    emitted[(pixel - y * s.width) as usize] +=
-                        trace_chain(scene, start, pixel, &s, &mut rng, &mut out);
                 }
                 assign_targets(
                     &mut out[first..],
@@ -606,9 +613,12 @@ fn traces_lobe(bsdf: Bsdf, limit: f32) -> bool {
 
 /// One direction of a glossy lobe too sharp for the radiance map, sampled from the normalised
 /// Phong lobe about the mirror direction of `wo` (`n` the shading normal facing the viewer,
-/// `ng` the geometric one): the direction and its weight ks·g·cos θ/pdf = ks·(e+2)/(e+1)·cos θ,
-/// an unbiased one-sample estimate of the lobe's reflection. `None` when the lobe is not
-/// traced or the direction leaves below the surface (where f = 0).
+/// `ng` the geometric one): the direction and its weight ks·g·cos θ/(pdf·p) = ks·(e+2)/(e+1)·
+/// cos θ/p, an unbiased one-sample estimate of the lobe's reflection. The lobe is traced with
+/// the probability p the BSDF's own sampling gives it (its share of the reflectance by
+/// luminance: 1 for a metal, 0.11 for a white plastic), a Russian roulette that spends rays
+/// where the lobe carries light. `None` when the lobe is not traced, the roulette ends it, or
+/// the direction leaves below the surface (where f = 0).
 #[inline]
 fn sample_traced_lobe(
     bsdf: Bsdf,
@@ -621,9 +631,13 @@ fn sample_traced_lobe(
     if !traces_lobe(bsdf, limit) {
         return None;
     }
-    let Bsdf::Glossy { ks, exponent, .. } = bsdf else {
+    let Bsdf::Glossy { kd, ks, exponent } = bsdf else {
         return None;
     };
+    let p = specular_probability(kd, ks);
+    if rng.next_f32() >= p {
+        return None;
+    }
     let u = rng.next_2d();
     let cos_a = u.x.powf(1.0 / (exponent + 1.0));
     let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
@@ -634,5 +648,5 @@ fn sample_traced_lobe(
     if cos <= 0.0 || d.dot(ng) <= 0.0 {
         return None;
     }
-    Some((d, ks * ((exponent + 2.0) / (exponent + 1.0) * cos)))
+    Some((d, ks * ((exponent + 2.0) / (exponent + 1.0) * cos / p)))
 }
