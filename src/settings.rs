@@ -159,6 +159,17 @@ impl Default for RenderSettings {
 }
 
 impl RenderSettings {
+    /// These settings for another view: `width` × `height` pixels at `spp` eye samples per
+    /// pixel.
+    pub fn with_view(&self, width: u32, height: u32, spp: u32) -> Self {
+        Self {
+            width,
+            height,
+            spp,
+            ..self.clone()
+        }
+    }
+
     /// Every numeric setting moved into its range of [`limits`] (NaN goes to the lower
     /// bound); fractions that are negative, NaN or all zero fall back to the defaults, others
     /// are normalised to sum to 1.

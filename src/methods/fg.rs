@@ -148,12 +148,7 @@ impl Method for FinalGathering {
         height: u32,
         spp: u32,
     ) -> Result<(), String> {
-        let settings = RenderSettings {
-            width,
-            height,
-            spp,
-            ..self.settings.clone()
-        };
+        let settings = self.settings.with_view(width, height, spp);
         crate::methods::check(&settings)?;
         self.settings = settings;
         self.camera = camera;

@@ -208,10 +208,7 @@ impl Progressive {
         height: u32,
         spp: u32,
     ) -> Result<(), String> {
-        let mut settings = self.settings.clone();
-        settings.width = width;
-        settings.height = height;
-        settings.spp = spp;
+        let settings = self.settings.with_view(width, height, spp);
         crate::methods::check(&settings)?;
         self.side = EyeSide::new(
             &self.scene,

@@ -212,12 +212,7 @@ impl Method for PathTracer {
         height: u32,
         spp: u32,
     ) -> Result<(), String> {
-        let render = RenderSettings {
-            width,
-            height,
-            spp,
-            ..self.render.clone()
-        };
+        let render = self.render.with_view(width, height, spp);
         crate::methods::check(&render)?;
         self.render = render;
         self.settings.width = width;
