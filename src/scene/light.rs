@@ -222,13 +222,6 @@ impl Lights {
         }
     }
 
-    /// Radiance arriving along a ray that leaves the scene in direction `d` (the
-    /// environment's and the sun's; black without them).
-    #[inline]
-    pub fn escaped(&self, d: Vec3) -> Vec3 {
-        self.environment.radiance(d)
-    }
-
     /// Solid-angle pdf with which [`Lights::sample_direct`] picks direction `d` towards the
     /// environment or the sun (selection included): the light-sampling side of MIS for a
     /// BSDF-sampled ray that escapes.

@@ -257,7 +257,7 @@ impl Scene {
     /// environment's; black without one).
     #[inline]
     pub fn background(&self, d: Vec3) -> Vec3 {
-        self.lights.escaped(d)
+        self.lights.environment.radiance(d)
     }
 
     /// Length of the bounding box's diagonal (scene units).

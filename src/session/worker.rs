@@ -62,15 +62,7 @@ impl Worker {
         notify: Option<Notify>,
     ) -> Self {
         let camera = scene.cameras[0].clone();
-        let mut lighting_error = None;
-        let scene = match lit(&scene, &config.environment) {
-            Ok(Some(s)) => Arc::new(s),
-            Ok(None) => scene,
-            Err(e) => {
-                lighting_error = Some(e);
-                scene
-            }
-        };
+        let (scene, lighting_error) = lit(scene, &config.environment);
         let mut w = Self {
             scene,
             scene_path,
@@ -248,13 +240,8 @@ impl Worker {
         if let Some(path) = p.load {
             match Scene::load(&path) {
                 Ok(scene) => {
-                    let scene = Arc::new(scene);
                     // Lit as asked; a map that cannot be read leaves the scene's own lighting.
-                    let (scene, lighting_error) = match lit(&scene, &self.config.environment) {
-                        Ok(Some(s)) => (Arc::new(s), None),
-                        Ok(None) => (scene, None),
-                        Err(e) => (scene, Some(e)),
-                    };
+                    let (scene, lighting_error) = lit(Arc::new(scene), &self.config.environment);
                     self.scene = scene;
                     self.scene_path = Some(path);
                     self.camera = self.scene.cameras[0].clone();
@@ -272,19 +259,17 @@ impl Worker {
             }
         }
         if p.environment {
-            match lit(&self.scene, &self.config.environment) {
-                Ok(relit) => {
-                    if let Some(s) = relit {
-                        self.scene = Arc::new(s);
-                    }
-                    self.emit(Event::EnvironmentChanged {
-                        environment: self.scene.environment.clone(),
-                        notice: self.scene.lighting_notice.clone(),
-                    });
-                    self.restart();
-                    return;
-                }
-                Err(e) => self.emit(Event::Error(e)),
+            let (scene, error) = lit(self.scene.clone(), &self.config.environment);
+            if let Some(e) = error {
+                self.emit(Event::Error(e));
+            } else {
+                self.scene = scene;
+                self.emit(Event::EnvironmentChanged {
+                    environment: self.scene.environment.clone(),
+                    notice: self.scene.lighting_notice.clone(),
+                });
+                self.restart();
+                return;
             }
         }
         // Settings whose build just failed are not tried again until something changes.
@@ -473,15 +458,21 @@ impl Worker {
     }
 }
 
-/// `scene` lit by `env`: `None` when it already is (the `Auto` default on a freshly loaded
-/// scene), a relit copy otherwise, or the one-line reason it cannot be (the scene unchanged).
-fn lit(scene: &Scene, env: &EnvironmentSettings) -> Result<Option<Scene>, String> {
+/// `scene` lit by `env` (itself when it already is: the `Auto` default on a freshly loaded
+/// scene), or `scene` unchanged with the one-line reason it cannot be.
+fn lit(scene: Arc<Scene>, env: &EnvironmentSettings) -> (Arc<Scene>, Option<String>) {
     if *env == EnvironmentSettings::default() && scene.environment_is_auto() {
-        return Ok(None);
+        return (scene, None);
     }
-    let mut relit = scene.clone();
-    relit
-        .set_environment(env)
-        .map_err(|e| format!("environment {}: {e} — the lighting stays", env.kind.name()))?;
-    Ok(Some(relit))
+    let mut relit = (*scene).clone();
+    match relit.set_environment(env) {
+        Ok(()) => (Arc::new(relit), None),
+        Err(e) => (
+            scene,
+            Some(format!(
+                "environment {}: {e} — the lighting stays",
+                env.kind.name()
+            )),
+        ),
+    }
 }
