@@ -170,22 +170,22 @@ fn tempdir(name: &str) -> std::path::PathBuf {
     d
 }
 
+/// A diffuse plane (albedo RHO, half size `half`) and a camera at `eye` looking at `target`.
+fn plane_scene(half: f32, eye: Vec3, target: Vec3, yfov_deg: f32) -> Scene {
+    let mut g = GlbBuilder::default();
+    let m = diffuse(&mut g, RHO);
+    common::plane(&mut g, half, m);
+    g.camera("view", eye, target, yfov_deg.to_radians());
+    Scene::from_glb_bytes(&g.to_glb(), "plane").unwrap()
+}
+
 /// A plane under a map with one bright texel: splatted photons, NEE and the path tracer give
 /// the analytic irradiance E = L·∫cos θ dω (radiance ρE/π) within 2% on the plane.
 #[test]
 fn one_bright_texel_photons_nee_and_pt_agree() {
     let dir = tempdir("texel");
     let (map, irradiance) = one_texel_map(&dir);
-    let mut g = GlbBuilder::default();
-    let m = diffuse(&mut g, RHO);
-    common::plane(&mut g, 4.0, m);
-    g.camera(
-        "top",
-        Vec3::new(0.0, 4.0, 0.001),
-        Vec3::ZERO,
-        20f32.to_radians(),
-    );
-    let mut scene = Scene::from_glb_bytes(&g.to_glb(), "plane").unwrap();
+    let mut scene = plane_scene(4.0, Vec3::new(0.0, 4.0, 0.001), Vec3::ZERO, 20.0);
     scene
         .set_environment(&EnvironmentSettings {
             kind: EnvironmentKind::File(map),
@@ -224,27 +224,12 @@ fn one_bright_texel_photons_nee_and_pt_agree() {
 fn rotation_turns_the_image() {
     let dir = tempdir("rotation");
     let (map, _) = one_texel_map(&dir);
-    let mut g = GlbBuilder::default();
-    let m = diffuse(&mut g, RHO);
-    common::plane(&mut g, 1.0, m);
-    // Looking up at the texel (θ ≈ 62°, u ≈ 0.64: azimuth ≈ 51° from −Z towards +X).
-    g.camera(
-        "sky",
-        Vec3::new(0.0, 0.1, 0.0),
-        Vec3::new(0.0, 0.1, 0.0) + raysplat::scene::environment::direction_from_angles(28.0, 30.0),
-        80f32.to_radians(),
-    );
-    let base = Scene::from_glb_bytes(&g.to_glb(), "plane").unwrap();
-    let texel_dir = {
-        // The texel's centre: u = (20.5)/32, v = 5.5/16.
-        let (u, v) = (20.5f32 / 32.0, 5.5f32 / 16.0);
-        let (theta, phi) = (v * PI, (u - 0.5) * 2.0 * PI);
-        Vec3::new(
-            theta.sin() * phi.sin(),
-            theta.cos(),
-            -theta.sin() * phi.cos(),
-        )
-    };
+    // Looking up towards the texel (θ ≈ 62°, u ≈ 0.64: azimuth ≈ 51° from −Z towards +X).
+    let eye = Vec3::new(0.0, 0.1, 0.0);
+    let towards = raysplat::scene::environment::direction_from_angles(28.0, 30.0);
+    let base = plane_scene(1.0, eye, eye + towards, 80.0);
+    // The texel's centre: u = 20.5/32, v = 5.5/16.
+    let texel_dir = raysplat::scene::environment::direction_of_uv(20.5 / 32.0, 5.5 / 16.0);
     for rotation in [0.0f32, 25.0, -20.0] {
         let mut scene = base.clone();
         scene

@@ -147,6 +147,16 @@ impl Sun {
     }
 }
 
+/// Unit direction of the map coordinates (u, v) ∈ [0, 1]² in the map's own frame (before
+/// rotation): θ = πv from +Y, φ = 2π(u − 1/2) from −Z towards +X (the module's convention;
+/// `EnvMap::uv` is its inverse).
+#[inline]
+pub fn direction_of_uv(u: f32, v: f32) -> Vec3 {
+    let (theta, phi) = (v * PI, (u - 0.5) * 2.0 * PI);
+    let sin = theta.sin();
+    Vec3::new(sin * phi.sin(), theta.cos(), -sin * phi.cos())
+}
+
 /// Unit direction at `elevation` degrees above the horizon and `azimuth` degrees from −Z
 /// towards +X.
 pub fn direction_from_angles(elevation_deg: f32, azimuth_deg: f32) -> Vec3 {
@@ -391,13 +401,7 @@ impl EnvMap {
         let (x, _, du) = col.sample_continuous(u.x);
         let uu = (x as f32 + du) / self.width as f32;
         let vv = (y as f32 + dv) / self.height as f32;
-        let (theta, phi) = (vv * PI, (uu - 0.5) * 2.0 * PI);
-        let sin = theta.sin();
-        if sin <= 0.0 {
-            return None;
-        }
-        let local = Vec3::new(sin * phi.sin(), theta.cos(), -sin * phi.cos());
-        let d = rotate_y(local, self.rotation, false);
+        let d = rotate_y(direction_of_uv(uu, vv), self.rotation, false);
         // Radiance and pdf of the texel the direction maps back to, so that a sample on a
         // texel's edge (rounding) gets the very values `radiance` and `pdf` give it.
         let (pdf, l) = (self.pdf(d), self.radiance(d));
@@ -479,14 +483,8 @@ pub fn sky_map(sun: Vec3, strength: f32, rotation_deg: f32) -> Option<EnvMap> {
     let (w, h) = SKY_SIZE;
     let mut texels = Vec::with_capacity(w * h);
     for y in 0..h {
-        let theta = PI * (y as f32 + 0.5) / h as f32;
         for x in 0..w {
-            let phi = 2.0 * PI * ((x as f32 + 0.5) / w as f32 - 0.5);
-            let d = Vec3::new(
-                theta.sin() * phi.sin(),
-                theta.cos(),
-                -theta.sin() * phi.cos(),
-            );
+            let d = direction_of_uv((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
             texels.push(sky_radiance(d, sun));
         }
     }
@@ -640,6 +638,11 @@ mod tests {
         assert!((EnvMap::uv(Vec3::NEG_Z).0 - 0.5).abs() < 1e-6);
         assert!((EnvMap::uv(Vec3::X).0 - 0.75).abs() < 1e-6);
         assert!(EnvMap::uv(Vec3::Y).1 < 1e-6);
+        // direction_of_uv is uv's inverse.
+        for (u, v) in [(0.1f32, 0.3f32), (0.64, 0.34), (0.9, 0.8)] {
+            let (u2, v2, _) = EnvMap::uv(direction_of_uv(u, v));
+            assert!((u2 - u).abs() < 1e-5 && (v2 - v).abs() < 1e-5, "({u}, {v})");
+        }
         assert!((direction_from_angles(0.0, 90.0) - Vec3::X).length() < 1e-6);
         assert!((direction_from_angles(90.0, 0.0) - Vec3::Y).length() < 1e-6);
         // +90° about +Y takes −Z to −X.
