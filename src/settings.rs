@@ -104,6 +104,9 @@ pub struct RenderSettings {
     pub camera: Option<String>,
     /// Eye samples of a pixel on the same surface share one splat target (docs/deviations.md).
     pub merge_targets: bool,
+    /// Splat only where the target sees the photon ray (blocker planes and shadow rays,
+    /// docs/deviations.md §40); off gives the paper's splatting without visibility.
+    pub splat_visibility: bool,
     /// The rendering method.
     pub method: MethodKind,
     /// K of the global photon map (`--method pm`).
@@ -145,6 +148,7 @@ impl Default for RenderSettings {
             max_emitted_factor: 4,
             camera: None,
             merge_targets: true,
+            splat_visibility: true,
             method: MethodKind::Rs,
             pm_k: 400,
             pm_caustic_k: 250,

@@ -104,7 +104,7 @@ fn check(seed: u64, n_targets: usize, n_rays: usize, radius: f32, grow: f32) {
             .collect(),
         rays: rays.clone(),
     };
-    splat(&tree, &batch, &mut acc);
+    splat(&tree, &batch, &mut acc, None);
     for (t, (&pos, &n)) in p.iter().zip(&nrm).enumerate() {
         let slot = tree.target_slot[t] as usize;
         let (mut count, mut weight) = (0u32, 0.0f64);

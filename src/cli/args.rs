@@ -214,6 +214,10 @@ pub struct MethodArgs {
     /// a pixel that lie on the same surface.
     #[arg(long)]
     pub no_merge: bool,
+    /// Splat without the visibility test (the paper's splatting: light can leak through thin
+    /// walls within a splat radius; docs/deviations.md §40).
+    #[arg(long)]
+    pub no_splat_visibility: bool,
     /// Directional storage at glossy surfaces (§8.1): diffuse (irradiance only), sh
     /// (16 spherical-harmonic coefficients per channel) or histogram (20 strata).
     #[arg(long, default_value = RenderSettings::default().radiance_map.name(), value_parser = choice::<DirectionalMode>())]
@@ -276,6 +280,7 @@ impl SettingsArgs {
             nee_samples: self.direct.nee_samples,
             camera: self.run.camera.clone(),
             merge_targets: !method.no_merge,
+            splat_visibility: !method.no_splat_visibility,
             method: kind,
             pm_k: method.pm_k,
             pm_caustic_k: method.pm_caustic_k,

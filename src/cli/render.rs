@@ -143,7 +143,7 @@ fn print_table(scene: &str, kind: MethodKind, t: Timings, s: &MethodStats) {
         );
     }
     println!(
-        "{}: photons traced {}, photon rays {}, eye samples {}, passes {}, accepted/tested pairs {}/{} ({:.2})",
+        "{}: photons traced {}, photon rays {}, eye samples {}, passes {}, accepted/tested pairs {}/{} ({:.2}), shadow-tested/blocked {}/{}",
         kind.name(),
         s.photons_traced,
         s.photon_rays,
@@ -151,7 +151,9 @@ fn print_table(scene: &str, kind: MethodKind, t: Timings, s: &MethodStats) {
         s.passes,
         s.accepted_pairs,
         s.tested_pairs,
-        s.accepted_pairs as f64 / s.tested_pairs.max(1) as f64
+        s.accepted_pairs as f64 / s.tested_pairs.max(1) as f64,
+        s.shadow_tests,
+        s.occluded_pairs
     );
 }
 
@@ -209,6 +211,8 @@ fn stats_json(
         "passes": s.passes,
         "tested_pairs": s.tested_pairs,
         "accepted_pairs": s.accepted_pairs,
+        "shadow_tests": s.shadow_tests,
+        "occluded_pairs": s.occluded_pairs,
         "peak_rss_mb": peak_rss_mb(),
         "radiance_map": settings.radiance_map,
         "cache_records": s.cache_records,

@@ -67,7 +67,10 @@ impl EyeSide {
             targets,
             emitted,
         } = eye_pass(scene, camera, &eye_settings);
-        let tree = SplatTree::build(&targets.position, &targets.normal);
+        let mut tree = SplatTree::build(&targets.position, &targets.normal);
+        if settings.splat_visibility {
+            tree.find_blockers(scene);
+        }
         timings.t_eye += t.elapsed().as_secs_f64();
 
         let t = Instant::now();

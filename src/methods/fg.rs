@@ -357,7 +357,7 @@ impl Pass {
                     acc,
                 );
             } else if let Some(rays) = caustic_rays {
-                splat(tree, rays, acc);
+                splat(tree, rays, acc, None);
             }
         });
         for (p, c) in self.image.iter_mut().zip(&caustic) {
@@ -382,7 +382,7 @@ impl Pass {
                     acc,
                 );
             } else if let Some(rays) = all_rays {
-                splat(tree, rays, acc);
+                splat(tree, rays, acc, None);
             }
         });
         for (p, c) in self.image.iter_mut().zip(&indirect) {

@@ -86,7 +86,10 @@ impl TracedLobes {
             timings.t_eye += t.elapsed().as_secs_f64();
             return;
         }
-        let tree = SplatTree::build(&pass.targets.position, &pass.targets.normal);
+        let mut tree = SplatTree::build(&pass.targets.position, &pass.targets.normal);
+        if settings.splat_visibility {
+            tree.find_blockers(scene);
+        }
         timings.t_eye += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
@@ -107,7 +110,12 @@ impl TracedLobes {
         let (w, h) = (settings.width, settings.height);
         let mut gather = |classes: [bool; 3], into_direct: bool| {
             let mut acc = Accumulators::for_tree(&tree, &pass.targets.glossy, mode);
-            splat(&tree, &prepare(rays, bw, classes, mode), &mut acc);
+            splat(
+                &tree,
+                &prepare(rays, bw, classes, mode),
+                &mut acc,
+                Some(scene),
+            );
             let mut map = RadianceMap::new(w, h);
             map.resolve_from(scene, samples, &tree.target_slot, &acc, 1);
             self.invalid += map.invalid;

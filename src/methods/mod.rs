@@ -118,6 +118,11 @@ pub struct MethodStats {
     pub tested_pairs: u64,
     /// Eye samples that received energy.
     pub accepted_pairs: u64,
+    /// Splatted pairs behind one of the target's blocker planes, tested with a shadow ray
+    /// (docs/deviations.md §40).
+    pub shadow_tests: u64,
+    /// Of those, the pairs found blocked: light that would have leaked through a surface.
+    pub occluded_pairs: u64,
     /// ⟨D⟩ of the pilot (§6), the unit of eq. 7's lengths.
     pub pilot_mean_length: Option<f32>,
     /// Rays per class (direct, indirect, caustic) at the bandwidth bounds h_min and h_max.
@@ -225,6 +230,7 @@ pub fn needs_rebuild(old: &RenderSettings, new: &RenderSettings) -> bool {
         || old.max_specular_depth != new.max_specular_depth
         || old.nee_samples != new.nee_samples
         || old.merge_targets != new.merge_targets
+        || old.splat_visibility != new.splat_visibility
         || old.max_emitted_factor != new.max_emitted_factor
         || old.pm_k != new.pm_k
         || old.pm_caustic_k != new.pm_caustic_k

@@ -155,6 +155,7 @@ impl Progressive {
         let batch = &self.store.batches()[b];
         let bw = self.bandwidths(batch.m);
         self.counters += splat_rays(
+            &self.scene,
             &mut self.side,
             &batch.rays,
             &bw,
@@ -367,6 +368,8 @@ impl Progressive {
             splat_tree_nodes: self.side.tree.nodes.len(),
             tested_pairs: self.counters.tested,
             accepted_pairs: self.counters.accepted,
+            shadow_tests: self.counters.shadow_tests,
+            occluded_pairs: self.counters.occluded,
             pilot_mean_length: Some(self.store.pilot().mean_length),
             bandwidth_clamps: Some(clamps),
             ..MethodStats::default()
@@ -377,6 +380,7 @@ impl Progressive {
 /// Splat `rays` of the `classes` (direct, indirect, caustic) onto the eye side's targets
 /// (direct photons, when `direct_photons`, into their own accumulators).
 fn splat_rays(
+    scene: &Scene,
     side: &mut EyeSide,
     rays: &[PhotonRay],
     bw: &[Bandwidth; 3],
@@ -389,10 +393,10 @@ fn splat_rays(
         return counters;
     }
     let indirect = prepare(rays, bw, classes, mode);
-    counters += splat(&side.tree, &indirect, &mut side.acc_indirect);
+    counters += splat(&side.tree, &indirect, &mut side.acc_indirect, Some(scene));
     if direct_photons {
         let direct = prepare(rays, bw, [true, false, false], mode);
-        counters += splat(&side.tree, &direct, &mut side.acc_direct);
+        counters += splat(&side.tree, &direct, &mut side.acc_direct, Some(scene));
     }
     counters
 }

@@ -83,10 +83,13 @@ fn cache_by_splatting(core: &mut Progressive) -> Cache {
             let pos: Vec<Vec3> = targets.iter().map(|&t| side.targets.position[t]).collect();
             let nrm: Vec<Vec3> = targets.iter().map(|&t| side.targets.normal[t]).collect();
             let glossy: Vec<bool> = targets.iter().map(|&t| side.targets.glossy[t]).collect();
-            let tree = SplatTree::build(&pos, &nrm);
+            let mut tree = SplatTree::build(&pos, &nrm);
+            if core.settings.splat_visibility {
+                tree.find_blockers(&core.scene);
+            }
             let mut acc = Accumulators::for_tree(&tree, &glossy, mode);
             for batch in &batches {
-                counters += splat(&tree, batch, &mut acc);
+                counters += splat(&tree, batch, &mut acc, Some(&core.scene));
             }
             (0..samples.len())
                 .map(|k| record_value(&acc, tree.target_slot[k] as usize, inv_b))

@@ -41,6 +41,16 @@ impl Scene {
         self.occluded_except(origin, dir, tmax, u32::MAX)
     }
 
+    /// Whether the open segment `origin + t·dir`, t ∈ (0, tmax), meets triangle `tri` (by the
+    /// test the BVH traversal uses); false for an index out of range.
+    #[inline]
+    pub fn segment_meets(&self, origin: Vec3, dir: Vec3, tmax: f32, tri: u32) -> bool {
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
+        self.triangles
+            .get(tri as usize)
+            .is_some_and(|t| t.intersect(&ray) < tmax)
+    }
+
     /// Whether the ray from `origin` along `dir` meets any of the triangles `tris` (by the same
     /// test the BVH traversal uses).
     pub fn meets_any(&self, origin: Vec3, dir: Vec3, tris: &[u32]) -> bool {

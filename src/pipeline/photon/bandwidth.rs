@@ -71,7 +71,7 @@ impl Bandwidth {
     /// where it leaves the scene, so the bounding box only clips it.
     #[inline]
     pub fn cone(&self, ray: &PhotonRay) -> (f32, f32) {
-        let hi = if ray.bounce == 0 && ray.pdf_start <= 0.0 {
+        let hi = if !ray.from_afar() && ray.bounce == 0 {
             0.0 // h(x_0) = 0 (eq. 8); a ray from afar has pdf_start > 0: a cylinder
         } else {
             self.h(ray.pdf_start)

@@ -101,6 +101,13 @@ pub struct PhotonRay {
 }
 
 impl PhotonRay {
+    /// The first segment of a photon from the environment or the sun (docs/deviations.md,
+    /// "Light from afar"): it starts on the bounding sphere's disc, not on a light.
+    #[inline]
+    pub fn from_afar(&self) -> bool {
+        self.bounce == 0 && self.pdf_start > 0.0
+    }
+
     /// The ray hits nothing (it was clipped where it leaves the scene's bounds).
     #[inline]
     pub fn escapes(&self) -> bool {

@@ -194,11 +194,17 @@ pub struct SplatCounters {
     pub tested: u64,
     /// Eye samples that received energy.
     pub accepted: u64,
+    /// Shadow rays traced for pairs behind a blocker plane (docs/deviations.md §40).
+    pub shadow_tests: u64,
+    /// Of those, the pairs found blocked (and splatted nothing).
+    pub occluded: u64,
 }
 
 impl std::ops::AddAssign for SplatCounters {
     fn add_assign(&mut self, o: Self) {
         self.tested += o.tested;
         self.accepted += o.accepted;
+        self.shadow_tests += o.shadow_tests;
+        self.occluded += o.occluded;
     }
 }

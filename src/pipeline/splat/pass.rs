@@ -4,16 +4,27 @@
 use super::{RayDirection, SplatBatch, SplatCounters, SplatRay, test_sample};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::radiance_map::{AccView, AccumChunk, Accumulators, Channel, NO_RECORD};
-use crate::pipeline::splat_tree::{LANES, PointChunk, SplatTree, Subtree, sphere_in_cone};
+use crate::pipeline::splat_tree::{
+    BLOCKERS, BlockerChunk, LANES, PointChunk, SplatTree, Subtree, sphere_in_cone,
+};
+use crate::scene::{SHADOW_EPSILON, Scene, offset_ray_origin, surface_offset};
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Splat `batch` into `acc` (slot order). Parallel over the tree's subtrees, each owning a
+/// Splat `batch` into `acc` (slot order). With `scene`, and a tree that knows its targets'
+/// blocker planes ([`SplatTree::find_blockers`]), a pair whose nearest ray point lies behind one
+/// of them is splatted only if a shadow ray finds that point visible. Parallel over the tree's subtrees, each owning a
 /// disjoint range of slots; a tree with too few subtrees to keep the threads busy (a radiance
 /// cache pass splats onto a few hundred records) is splatted in parallel over fixed chunks of
 /// rays instead, each into its own accumulators, summed in chunk order. Either way the result
 /// does not depend on the number of threads.
-pub fn splat(tree: &SplatTree, batch: &SplatBatch, acc: &mut Accumulators) -> SplatCounters {
+pub fn splat(
+    tree: &SplatTree,
+    batch: &SplatBatch,
+    acc: &mut Accumulators,
+    scene: Option<&Scene>,
+) -> SplatCounters {
+    let scene = scene.filter(|_| tree.has_blockers());
     assert_eq!(acc.len(), tree.slots());
     // Without directions (diffuse mode, or rays prepared without them) nothing directional is
     // deposited.
@@ -39,7 +50,7 @@ pub fn splat(tree: &SplatTree, batch: &SplatBatch, acc: &mut Accumulators) -> Sp
                 } else {
                     &dirs[k * chunk_len..k * chunk_len + part.len()]
                 };
-                let c = splat_into(tree, part, d, &mut local, mode, false);
+                let c = splat_into(tree, part, d, &mut local, mode, scene, false);
                 (local, c)
             })
             .collect();
@@ -50,7 +61,7 @@ pub fn splat(tree: &SplatTree, batch: &SplatBatch, acc: &mut Accumulators) -> Sp
         }
         return counters;
     }
-    splat_into(tree, rays, dirs, acc, mode, true)
+    splat_into(tree, rays, dirs, acc, mode, scene, true)
 }
 
 fn splat_into(
@@ -59,6 +70,7 @@ fn splat_into(
     dirs: &[RayDirection],
     acc: &mut Accumulators,
     mode: DirectionalMode,
+    scene: Option<&Scene>,
     parallel: bool,
 ) -> SplatCounters {
     let views = acc.split(
@@ -75,13 +87,13 @@ fn splat_into(
         tree.subtrees
             .par_iter()
             .zip(views)
-            .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode))
+            .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode, scene))
             .reduce(SplatCounters::default, sum)
     } else {
         tree.subtrees
             .iter()
             .zip(views)
-            .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode))
+            .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode, scene))
             .fold(SplatCounters::default(), sum)
     }
 }
@@ -93,15 +105,16 @@ fn splat_subtree(
     dirs: &[RayDirection],
     acc: AccView,
     mode: DirectionalMode,
+    scene: Option<&Scene>,
 ) -> SplatCounters {
     #[cfg(target_arch = "x86_64")]
     {
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { splat_subtree_avx2(tree, st, rays, dirs, acc, mode) };
+            return unsafe { splat_subtree_avx2(tree, st, rays, dirs, acc, mode, scene) };
         }
     }
-    splat_subtree_impl(tree, st, rays, dirs, acc, mode)
+    splat_subtree_impl(tree, st, rays, dirs, acc, mode, scene)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -113,8 +126,9 @@ fn splat_subtree_avx2(
     dirs: &[RayDirection],
     acc: AccView,
     mode: DirectionalMode,
+    scene: Option<&Scene>,
 ) -> SplatCounters {
-    splat_subtree_impl(tree, st, rays, dirs, acc, mode)
+    splat_subtree_impl(tree, st, rays, dirs, acc, mode, scene)
 }
 
 #[inline(always)]
@@ -125,6 +139,7 @@ fn splat_subtree_impl(
     dirs: &[RayDirection],
     acc: AccView,
     mode: DirectionalMode,
+    scene: Option<&Scene>,
 ) -> SplatCounters {
     let mut c = SplatCounters::default();
     let base = st.first as usize / LANES;
@@ -144,9 +159,12 @@ fn splat_subtree_impl(
                 let chunk = &tree.chunks[k];
                 if sphere_in_cone(&ray.cone, chunk.center, chunk.radius) {
                     c.tested += (end - slot).min(LANES) as u64;
-                    let (w, accepted) =
-                        splat_lanes(ray, &tree.points.chunks[k], &mut acc.chunks[k - base]);
+                    let vis = scene.map(|s| (&tree.blockers[k], s));
+                    let (w, accepted, shadow) =
+                        splat_lanes(ray, &tree.points.chunks[k], vis, &mut acc.chunks[k - base]);
                     c.accepted += accepted as u64;
+                    c.shadow_tests += shadow.0 as u64;
+                    c.occluded += shadow.1 as u64;
                     if accepted > 0
                         && mode != DirectionalMode::Diffuse
                         && acc.chunk_has_record[k - base]
@@ -194,12 +212,18 @@ fn deposit_directional(
 }
 
 /// Test and accumulate one chunk of 8 slots; returns the lanes' splat weights K·cos θ
-/// (zero where infeasible) and the number of feasible samples.
+/// (zero where infeasible), the number of feasible samples, and the shadow rays traced and
+/// found blocked when `vis` gives the chunk's blocker planes.
 #[inline(always)]
-fn splat_lanes(ray: &SplatRay, pts: &PointChunk, acc: &mut AccumChunk) -> ([f32; LANES], u32) {
+fn splat_lanes(
+    ray: &SplatRay,
+    pts: &PointChunk,
+    vis: Option<(&BlockerChunk, &Scene)>,
+    acc: &mut AccumChunk,
+) -> ([f32; LANES], u32, (u32, u32)) {
     let mut w = [0.0f32; LANES];
-    let mut wr = [0.0f32; LANES];
-    let mut wd = [0.0f32; LANES];
+    let mut radius = [0.0f32; LANES];
+    let mut inv_dist = [0.0f32; LANES];
     let mut hit = [0.0f32; LANES];
     for l in 0..LANES {
         let r = test_sample(
@@ -208,10 +232,14 @@ fn splat_lanes(ray: &SplatRay, pts: &PointChunk, acc: &mut AccumChunk) -> ([f32;
             Vec3::new(pts.nx[l], pts.ny[l], pts.nz[l]),
         );
         w[l] = r.weight;
-        wr[l] = r.weight * r.radius;
-        wd[l] = r.weight * r.inv_dist;
+        radius[l] = r.radius;
+        inv_dist[l] = r.inv_dist;
         hit[l] = if r.feasible { 1.0 } else { 0.0 };
     }
+    let shadow = match vis {
+        Some((blockers, scene)) => occlude(ray, pts, blockers, scene, &radius, &mut w, &mut hit),
+        None => (0, 0),
+    };
     let p = ray.power;
     let ch = &mut acc.ch;
     for l in 0..LANES {
@@ -219,9 +247,93 @@ fn splat_lanes(ray: &SplatRay, pts: &PointChunk, acc: &mut AccumChunk) -> ([f32;
         ch[Channel::G as usize][l] += w[l] * p.y;
         ch[Channel::B as usize][l] += w[l] * p.z;
         ch[Channel::Weight as usize][l] += w[l];
-        ch[Channel::WeightedH as usize][l] += wr[l];
-        ch[Channel::WeightedInvDist as usize][l] += wd[l];
+        ch[Channel::WeightedH as usize][l] += w[l] * radius[l];
+        ch[Channel::WeightedInvDist as usize][l] += w[l] * inv_dist[l];
         ch[Channel::Count as usize][l] += hit[l];
     }
-    (w, hit.iter().sum::<f32>() as u32)
+    (w, hit.iter().sum::<f32>() as u32, shadow)
+}
+
+/// How far behind its own tangent plane, in splat radii, a photon ray's nearest point must
+/// lie for a target to be out of its reach.
+const OWN_PLANE_TOLERANCE: f32 = 0.2;
+
+/// Shadow rays run parallel to the segment from the target to the photon ray's nearest point,
+/// this fraction of its length above the target's surface.
+const SHADOW_LIFT: f32 = 0.01;
+
+/// Partial visibility (docs/deviations.md §40): the point of the ray segment nearest to each
+/// splatted lane's target is tested against the target's blocker planes; where it lies behind
+/// one (by more than 0.1% of the splat radius), a shadow ray from the target to it decides, and
+/// a blocked pair splats nothing. Returns the shadow rays traced and those found blocked.
+#[inline(always)]
+fn occlude(
+    ray: &SplatRay,
+    pts: &PointChunk,
+    b: &BlockerChunk,
+    scene: &Scene,
+    radius: &[f32; LANES],
+    w: &mut [f32; LANES],
+    hit: &mut [f32; LANES],
+) -> (u32, u32) {
+    let c = &ray.cone;
+    let (o, d) = (c.origin, c.dir);
+    // Which plane each lane lies behind, or BLOCKERS for none.
+    let mut behind = [BLOCKERS; LANES];
+    let mut dropped = 0;
+    for l in 0..LANES {
+        let (vx, vy, vz) = (pts.px[l] - o.x, pts.py[l] - o.y, pts.pz[l] - o.z);
+        let t = (vx * d.x + vy * d.y + vz * d.z).clamp(0.0, c.length);
+        let (qx, qy, qz) = (o.x + d.x * t, o.y + d.y * t, o.z + d.z * t);
+        // Well behind the target's own surface (the inner face of a wall, a photon ray
+        // outside it): nothing in front of a surface sees behind its tangent plane, so the
+        // pair is dropped without a ray. The margin spares the target's own curved surface:
+        // its points within the splat radius r lie at most r²/2R behind the tangent plane (R
+        // the radius of curvature), so a sphere keeps every pair while R > 2.5 r.
+        let own = (qx - pts.px[l]) * pts.nx[l]
+            + (qy - pts.py[l]) * pts.ny[l]
+            + (qz - pts.pz[l]) * pts.nz[l];
+        if (w[l] > 0.0) & (own < -OWN_PLANE_TOLERANCE * radius[l]) {
+            dropped += 1;
+            w[l] = 0.0;
+            hit[l] = 0.0;
+        }
+        let tol = -1e-3 * radius[l];
+        for (j, pl) in b.plane.iter().enumerate().rev() {
+            let s = pl[0][l] * qx + pl[1][l] * qy + pl[2][l] * qz - pl[3][l];
+            if (w[l] > 0.0) & (s < tol) {
+                behind[l] = j;
+            }
+        }
+    }
+    if behind.iter().all(|&j| j == BLOCKERS) {
+        return (0, dropped);
+    }
+    let (mut traced, mut blocked) = (0, dropped);
+    for l in (0..LANES).filter(|&l| behind[l] < BLOCKERS) {
+        let p = Vec3::new(pts.px[l], pts.py[l], pts.pz[l]);
+        let n = Vec3::new(pts.nx[l], pts.ny[l], pts.nz[l]);
+        let t = (p - Vec3::from(o)).dot(d.into()).clamp(0.0, c.length);
+        let v = Vec3::from(o + d * t) - p;
+        let dist = v.length();
+        if dist.is_nan() || dist <= 0.0 {
+            continue;
+        }
+        // Both ends lifted off the target's surface by 1% of their distance: a wall standing
+        // on the target's floor meets that floor exactly at its edge, where a ray along the
+        // floor could slip under it.
+        let lift = n * (SHADOW_LIFT * dist);
+        let dir = v / dist;
+        let origin = offset_ray_origin(p + lift, n, surface_offset(p.abs().max_element()), dir);
+        traced += 1;
+        let tmax = dist * (1.0 - SHADOW_EPSILON);
+        // The blocker's own triangle first: it stands between them in most blocked pairs.
+        let tri = b.triangle[behind[l]][l];
+        if scene.segment_meets(origin, dir, tmax, tri) || scene.occluded(origin, dir, tmax) {
+            blocked += 1;
+            w[l] = 0.0;
+            hit[l] = 0.0;
+        }
+    }
+    (traced, blocked)
 }

@@ -84,6 +84,7 @@ impl SplatTree {
             leaves: b.leaves,
             chunks,
             points,
+            blockers: Vec::new(),
             slot_target,
             target_slot,
             subtrees,

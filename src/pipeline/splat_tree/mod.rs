@@ -18,10 +18,14 @@
 //! The build (`build`), the node encoding (`node`) and the traversal (`traverse`) are
 //! submodules; every public item is re-exported here.
 
+mod blockers;
 mod build;
 mod node;
 mod traverse;
 
+pub use blockers::{
+    AZIMUTHS, BLOCKERS, Blocker, BlockerChunk, PROBE_ELEVATIONS_DEG, PROBES, probe,
+};
 pub use node::Node;
 pub use traverse::{clip, sphere_in_cone};
 
@@ -182,6 +186,9 @@ pub struct SplatTree {
     pub chunks: Vec<Chunk>,
     /// Positions and normals of the slots.
     pub points: Points,
+    /// Blocker planes of the slots, one chunk per [`LANES`] slots, or empty when the tree was
+    /// built without a scene to probe ([`SplatTree::find_blockers`]).
+    pub blockers: Vec<BlockerChunk>,
     /// Splat target held by each slot (`u32::MAX` for padding).
     pub slot_target: Vec<u32>,
     /// Slot of each splat target.
@@ -211,6 +218,7 @@ impl SplatTree {
             + self.leaves.len() * std::mem::size_of::<Leaf>()
             + self.chunks.len() * std::mem::size_of::<Chunk>()
             + self.points.chunks.len() * std::mem::size_of::<PointChunk>()
+            + self.blockers.len() * std::mem::size_of::<BlockerChunk>()
             + self.slots() * 4
             + self.target_slot.len() * 4
     }
