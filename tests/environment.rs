@@ -82,6 +82,17 @@ fn small(method: MethodKind) -> RenderSettings {
     }
 }
 
+/// The mean radiance of `small(kind)`'s image of `scene` with `direct` light and 64 paths per
+/// pixel for pt.
+fn render_mean(scene: &Arc<Scene>, kind: MethodKind, direct: DirectMode, budget: Budget) -> Vec3 {
+    let s = RenderSettings {
+        direct,
+        pt_spp: 64,
+        ..small(kind)
+    };
+    mean(&render_method(scene, kind, &s, budget).unwrap().film)
+}
+
 fn mean(film: &raysplat::film::Film) -> Vec3 {
     film.rgb.iter().sum::<Vec3>() / film.rgb.len() as f32
 }
@@ -114,13 +125,7 @@ fn open_furnace_gives_rho_times_l() {
         (MethodKind::Rs, DirectMode::Photons, Budget::Passes(4), 0.03),
     ];
     for (kind, direct, budget, tolerance) in cases {
-        let s = RenderSettings {
-            direct,
-            pt_spp: 64,
-            ..small(kind)
-        };
-        let film = render_method(&scene, kind, &s, budget).unwrap().film;
-        let m = mean(&film);
+        let m = render_mean(&scene, kind, direct, budget);
         for c in 0..3 {
             assert!(
                 (m[c] - want).abs() <= tolerance * want,
@@ -201,13 +206,7 @@ fn one_bright_texel_photons_nee_and_pt_agree() {
         (MethodKind::Pt, DirectMode::Nee, Budget::Fixed),
     ];
     for (kind, direct, budget) in cases {
-        let s = RenderSettings {
-            direct,
-            pt_spp: 64,
-            ..small(kind)
-        };
-        let film = render_method(&scene, kind, &s, budget).unwrap().film;
-        let m = mean(&film);
+        let m = render_mean(&scene, kind, direct, budget);
         for c in 0..3 {
             assert!(
                 (m[c] - want).abs() <= 0.02 * want,

@@ -11,7 +11,6 @@
 mod common;
 
 use common::glb::{base64, join, small_scene, split};
-use raysplat::methods;
 use raysplat::methods::{Budget, render_method};
 use raysplat::sampling::Rng;
 use raysplat::scene::{BuiltinScene, Scene};
@@ -183,26 +182,14 @@ fn check(bytes: &[u8]) -> Result<bool, String> {
         return Ok(true);
     }
     let scene = Arc::new(scene);
-    let settings = RenderSettings {
-        width: 8,
-        height: 8,
-        spp: 1,
-        photons: 500,
-        pm_k: 10,
-        ..RenderSettings::default()
-    };
     catch_unwind(AssertUnwindSafe(|| -> Result<(), String> {
-        let mut r = methods::build(scene.clone(), settings.clone())?;
-        r.step();
-        if r.film().invalid_pixels() > 0 {
-            return Err("NaN or infinite pixels (rs)".into());
-        }
+        common::renders_cleanly(scene.clone())?;
         let pt = render_method(
             &scene,
             MethodKind::Pt,
             &RenderSettings {
                 pt_spp: 1,
-                ..settings.clone()
+                ..common::tiny_settings()
             },
             Budget::Fixed,
         )?;

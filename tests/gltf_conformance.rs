@@ -4,9 +4,9 @@
 //! [`ACCEPTED_REFUSALS_OF_VALID`]); every invalid file loads or gives one clean line; none
 //! panics, hangs or aborts. (Skipped with a note where the folder is absent.)
 
-use raysplat::methods;
+mod common;
+
 use raysplat::scene::Scene;
-use raysplat::settings::RenderSettings;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -41,24 +41,6 @@ fn validator_errors(path: &Path) -> u64 {
     json["issues"]["numErrors"]
         .as_u64()
         .unwrap_or_else(|| panic!("{}: no issues.numErrors", report.display()))
-}
-
-/// A tiny photon-splatting render of `scene`: it must run and give no NaN or infinite pixel.
-fn renders_cleanly(scene: Scene) -> Result<(), String> {
-    let settings = RenderSettings {
-        width: 8,
-        height: 8,
-        spp: 1,
-        photons: 500,
-        pm_k: 10,
-        ..RenderSettings::default()
-    };
-    let mut r = methods::build(Arc::new(scene), settings)?;
-    r.step();
-    match r.film().invalid_pixels() {
-        0 => Ok(()),
-        n => Err(format!("{n} NaN or infinite pixels")),
-    }
 }
 
 #[test]
@@ -96,7 +78,7 @@ fn every_validator_file_loads_or_gives_one_clean_line() {
             Ok(scene) => {
                 assert!(scene.triangle_count() > 0, "{name}");
                 if valid {
-                    if let Err(e) = renders_cleanly(scene) {
+                    if let Err(e) = common::renders_cleanly(Arc::new(scene)) {
                         panic!("{name} loads but does not render cleanly: {e}");
                     }
                     valid_loaded += 1;

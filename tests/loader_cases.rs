@@ -9,9 +9,7 @@ mod common;
 
 use common::glb::{base64, join};
 use glam::{Vec2, Vec3};
-use raysplat::methods;
 use raysplat::scene::{Hit, Scene};
-use raysplat::settings::RenderSettings;
 use serde_json::{Value, json};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
@@ -85,17 +83,9 @@ fn load(bytes: &[u8]) -> Result<Scene, String> {
 /// Loads, and renders a tiny image with photon splatting without NaN or infinite pixels.
 fn loads_and_renders(bytes: &[u8]) -> Arc<Scene> {
     let scene = Arc::new(load(bytes).unwrap_or_else(|e| panic!("refused: {e}")));
-    let settings = RenderSettings {
-        width: 8,
-        height: 8,
-        spp: 1,
-        photons: 500,
-        pm_k: 10,
-        ..RenderSettings::default()
-    };
-    let mut r = methods::build(scene.clone(), settings).expect("renders");
-    r.step();
-    assert_eq!(r.film().invalid_pixels(), 0, "NaN or infinite pixels");
+    if let Err(e) = common::renders_cleanly(scene.clone()) {
+        panic!("{e}");
+    }
     scene
 }
 

@@ -78,3 +78,27 @@ pub fn path_traced(scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> F
         .expect("the path tracer renders")
         .film
 }
+
+/// The tiny photon-splatting render the loader tests give every scene that loads: 8 × 8, one
+/// eye sample per pixel, 500 photon rays.
+pub fn tiny_settings() -> RenderSettings {
+    RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 1,
+        photons: 500,
+        pm_k: 10,
+        ..RenderSettings::default()
+    }
+}
+
+/// One pass of [`tiny_settings`]' render of `scene`: Err when it fails or gives a NaN or
+/// infinite pixel.
+pub fn renders_cleanly(scene: Arc<Scene>) -> Result<(), String> {
+    let mut r = raysplat::methods::build(scene, tiny_settings())?;
+    r.step();
+    match r.film().invalid_pixels() {
+        0 => Ok(()),
+        n => Err(format!("{n} NaN or infinite pixels (rs)")),
+    }
+}
