@@ -214,10 +214,11 @@ pub struct MethodArgs {
     /// a pixel that lie on the same surface.
     #[arg(long)]
     pub no_merge: bool,
-    /// Splat without the visibility test (the paper's splatting: light can leak through thin
-    /// walls within a splat radius; docs/deviations.md §40).
+    /// Test visibility inside the splat footprint: blocker planes found by probe rays and
+    /// shadow rays where a photon ray passes behind one (less light leaks through walls, at
+    /// about 1.7× the splat time; docs/deviations.md §40).
     #[arg(long)]
-    pub no_splat_visibility: bool,
+    pub splat_visibility: bool,
     /// Directional storage at glossy surfaces (§8.1): diffuse (irradiance only), sh
     /// (16 spherical-harmonic coefficients per channel) or histogram (20 strata).
     #[arg(long, default_value = RenderSettings::default().radiance_map.name(), value_parser = choice::<DirectionalMode>())]
@@ -280,7 +281,7 @@ impl SettingsArgs {
             nee_samples: self.direct.nee_samples,
             camera: self.run.camera.clone(),
             merge_targets: !method.no_merge,
-            splat_visibility: !method.no_splat_visibility,
+            splat_visibility: method.splat_visibility,
             method: kind,
             pm_k: method.pm_k,
             pm_caustic_k: method.pm_caustic_k,

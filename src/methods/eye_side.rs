@@ -69,7 +69,7 @@ impl EyeSide {
         } = eye_pass(scene, camera, &eye_settings);
         let mut tree = SplatTree::build(&targets.position, &targets.normal);
         if settings.splat_visibility {
-            tree.find_blockers(scene);
+            tree.find_blockers(scene, &targets.geo_normal);
         }
         timings.t_eye += t.elapsed().as_secs_f64();
 

@@ -88,7 +88,7 @@ impl TracedLobes {
         }
         let mut tree = SplatTree::build(&pass.targets.position, &pass.targets.normal);
         if settings.splat_visibility {
-            tree.find_blockers(scene);
+            tree.find_blockers(scene, &pass.targets.geo_normal);
         }
         timings.t_eye += t.elapsed().as_secs_f64();
 

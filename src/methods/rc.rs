@@ -85,7 +85,11 @@ fn cache_by_splatting(core: &mut Progressive) -> Cache {
             let glossy: Vec<bool> = targets.iter().map(|&t| side.targets.glossy[t]).collect();
             let mut tree = SplatTree::build(&pos, &nrm);
             if core.settings.splat_visibility {
-                tree.find_blockers(&core.scene);
+                let geo_normals: Vec<Vec3> = targets
+                    .iter()
+                    .map(|&t| side.targets.geo_normal[t])
+                    .collect();
+                tree.find_blockers(&core.scene, &geo_normals);
             }
             let mut acc = Accumulators::for_tree(&tree, &glossy, mode);
             for batch in &batches {

@@ -91,6 +91,9 @@ pub struct SplatTargets {
     pub position: Vec<Vec3>,
     /// Shading normal facing the viewer (its first eye sample's).
     pub normal: Vec<Vec3>,
+    /// Geometric normal facing the viewer (its first eye sample's): the plane the visibility
+    /// test's probes and shadow rays leave from (docs/deviations.md §40).
+    pub geo_normal: Vec<Vec3>,
     /// The target lies on a glossy surface and needs directional storage (§8.1).
     pub glossy: Vec<bool>,
 }
@@ -343,6 +346,7 @@ fn collect_rows(rows: Vec<Row>, pixels: u32) -> EyePass {
         emitted.extend(em);
         targets.position.extend(row_targets.position);
         targets.normal.extend(row_targets.normal);
+        targets.geo_normal.extend(row_targets.geo_normal);
         targets.glossy.extend(row_targets.glossy);
     }
     EyePass {
@@ -376,6 +380,7 @@ fn assign_targets(px: &mut [RawSample], targets: &mut SplatTargets, merge: bool,
             None => {
                 targets.position.push(s.position);
                 targets.normal.push(s.normal);
+                targets.geo_normal.push(s.geo_normal);
                 targets
                     .glossy
                     .push(s.specular != Vec3::ZERO && !s.lobe_traced);

@@ -12,9 +12,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 /// Splat `batch` into `acc` (slot order). With `scene`, and a tree that knows its targets'
-/// blocker planes ([`SplatTree::find_blockers`]), a pair whose nearest ray point lies behind one
-/// of them is splatted only if a shadow ray finds that point visible. Parallel over the tree's subtrees, each owning a
-/// disjoint range of slots; a tree with too few subtrees to keep the threads busy (a radiance
+/// blocker planes ([`SplatTree::find_blockers`]), a pair whose nearest ray point lies behind
+/// one of them is splatted only if a shadow ray finds that point visible. Parallel over the
+/// tree's subtrees, each owning a disjoint range of slots; a tree with too few subtrees to keep the threads busy (a radiance
 /// cache pass splats onto a few hundred records) is splatted in parallel over fixed chunks of
 /// rays instead, each into its own accumulators, summed in chunk order. Either way the result
 /// does not depend on the number of threads.
@@ -34,6 +34,13 @@ pub fn splat(
         DirectionalMode::Diffuse
     };
     let (rays, dirs) = (&batch.rays[..], &batch.directions[..]);
+    let job = |rays, dirs| Job {
+        tree,
+        rays,
+        dirs,
+        mode,
+        scene,
+    };
     // At most 8 parts, each with its own zeroed accumulators: the part size follows the ray
     // count only, never the thread count, so the sums do not depend on the threads.
     const MIN_CHUNK: usize = 4096;
@@ -43,14 +50,13 @@ pub fn splat(
             .par_chunks(chunk)
             .enumerate()
             .map(|(k, part)| {
-                let chunk_len = chunk;
                 let mut local = acc.zeroed();
                 let d = if mode == DirectionalMode::Diffuse {
                     &dirs[..0]
                 } else {
-                    &dirs[k * chunk_len..k * chunk_len + part.len()]
+                    &dirs[k * chunk..k * chunk + part.len()]
                 };
-                let c = splat_into(tree, part, d, &mut local, mode, scene, false);
+                let c = splat_into(&job(part, d), &mut local, false);
                 (local, c)
             })
             .collect();
@@ -61,18 +67,21 @@ pub fn splat(
         }
         return counters;
     }
-    splat_into(tree, rays, dirs, acc, mode, scene, true)
+    splat_into(&job(rays, dirs), acc, true)
 }
 
-fn splat_into(
-    tree: &SplatTree,
-    rays: &[SplatRay],
-    dirs: &[RayDirection],
-    acc: &mut Accumulators,
+/// What every subtree of one splat pass shares: the tree, the rays (with their directions when
+/// the radiance map keeps them), the directional mode and the scene for the visibility test.
+struct Job<'a> {
+    tree: &'a SplatTree,
+    rays: &'a [SplatRay],
+    dirs: &'a [RayDirection],
     mode: DirectionalMode,
-    scene: Option<&Scene>,
-    parallel: bool,
-) -> SplatCounters {
+    scene: Option<&'a Scene>,
+}
+
+fn splat_into(job: &Job, acc: &mut Accumulators, parallel: bool) -> SplatCounters {
+    let tree = job.tree;
     let views = acc.split(
         tree.subtrees
             .iter()
@@ -87,60 +96,43 @@ fn splat_into(
         tree.subtrees
             .par_iter()
             .zip(views)
-            .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode, scene))
+            .map(|(st, view)| splat_subtree(job, st, view))
             .reduce(SplatCounters::default, sum)
     } else {
         tree.subtrees
             .iter()
             .zip(views)
-            .map(|(st, view)| splat_subtree(tree, st, rays, dirs, view, mode, scene))
+            .map(|(st, view)| splat_subtree(job, st, view))
             .fold(SplatCounters::default(), sum)
     }
 }
 
-fn splat_subtree(
-    tree: &SplatTree,
-    st: &Subtree,
-    rays: &[SplatRay],
-    dirs: &[RayDirection],
-    acc: AccView,
-    mode: DirectionalMode,
-    scene: Option<&Scene>,
-) -> SplatCounters {
+fn splat_subtree(job: &Job, st: &Subtree, acc: AccView) -> SplatCounters {
     #[cfg(target_arch = "x86_64")]
     {
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { splat_subtree_avx2(tree, st, rays, dirs, acc, mode, scene) };
+            return unsafe { splat_subtree_avx2(job, st, acc) };
         }
     }
-    splat_subtree_impl(tree, st, rays, dirs, acc, mode, scene)
+    splat_subtree_impl(job, st, acc)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn splat_subtree_avx2(
-    tree: &SplatTree,
-    st: &Subtree,
-    rays: &[SplatRay],
-    dirs: &[RayDirection],
-    acc: AccView,
-    mode: DirectionalMode,
-    scene: Option<&Scene>,
-) -> SplatCounters {
-    splat_subtree_impl(tree, st, rays, dirs, acc, mode, scene)
+fn splat_subtree_avx2(job: &Job, st: &Subtree, acc: AccView) -> SplatCounters {
+    splat_subtree_impl(job, st, acc)
 }
 
 #[inline(always)]
-fn splat_subtree_impl(
-    tree: &SplatTree,
-    st: &Subtree,
-    rays: &[SplatRay],
-    dirs: &[RayDirection],
-    acc: AccView,
-    mode: DirectionalMode,
-    scene: Option<&Scene>,
-) -> SplatCounters {
+fn splat_subtree_impl(job: &Job, st: &Subtree, acc: AccView) -> SplatCounters {
+    let Job {
+        tree,
+        rays,
+        dirs,
+        mode,
+        scene,
+    } = *job;
     let mut c = SplatCounters::default();
     let base = st.first as usize / LANES;
     // Reused for every ray of this subtree: no allocation per photon.
@@ -237,8 +229,10 @@ fn splat_lanes(
         hit[l] = if r.feasible { 1.0 } else { 0.0 };
     }
     let shadow = match vis {
-        Some((blockers, scene)) => occlude(ray, pts, blockers, scene, &radius, &mut w, &mut hit),
-        None => (0, 0),
+        Some((blockers, scene)) if hit.iter().any(|&h| h > 0.0) => {
+            occlude(ray, pts, blockers, scene, &radius, &mut w, &mut hit)
+        }
+        _ => (0, 0),
     };
     let p = ray.power;
     let ch = &mut acc.ch;
@@ -253,10 +247,6 @@ fn splat_lanes(
     }
     (w, hit.iter().sum::<f32>() as u32, shadow)
 }
-
-/// How far behind its own tangent plane, in splat radii, a photon ray's nearest point must
-/// lie for a target to be out of its reach.
-const OWN_PLANE_TOLERANCE: f32 = 0.2;
 
 /// Shadow rays run parallel to the segment from the target to the photon ray's nearest point,
 /// this fraction of its length above the target's surface.
@@ -280,24 +270,13 @@ fn occlude(
     let (o, d) = (c.origin, c.dir);
     // Which plane each lane lies behind, or BLOCKERS for none.
     let mut behind = [BLOCKERS; LANES];
-    let mut dropped = 0;
+    // The ray's point nearest to each lane's target.
+    let mut q = [Vec3::ZERO; LANES];
     for l in 0..LANES {
         let (vx, vy, vz) = (pts.px[l] - o.x, pts.py[l] - o.y, pts.pz[l] - o.z);
         let t = (vx * d.x + vy * d.y + vz * d.z).clamp(0.0, c.length);
         let (qx, qy, qz) = (o.x + d.x * t, o.y + d.y * t, o.z + d.z * t);
-        // Well behind the target's own surface (the inner face of a wall, a photon ray
-        // outside it): nothing in front of a surface sees behind its tangent plane, so the
-        // pair is dropped without a ray. The margin spares the target's own curved surface:
-        // its points within the splat radius r lie at most r²/2R behind the tangent plane (R
-        // the radius of curvature), so a sphere keeps every pair while R > 2.5 r.
-        let own = (qx - pts.px[l]) * pts.nx[l]
-            + (qy - pts.py[l]) * pts.ny[l]
-            + (qz - pts.pz[l]) * pts.nz[l];
-        if (w[l] > 0.0) & (own < -OWN_PLANE_TOLERANCE * radius[l]) {
-            dropped += 1;
-            w[l] = 0.0;
-            hit[l] = 0.0;
-        }
+        q[l] = Vec3::new(qx, qy, qz);
         let tol = -1e-3 * radius[l];
         for (j, pl) in b.plane.iter().enumerate().rev() {
             let s = pl[0][l] * qx + pl[1][l] * qy + pl[2][l] * qz - pl[3][l];
@@ -307,14 +286,13 @@ fn occlude(
         }
     }
     if behind.iter().all(|&j| j == BLOCKERS) {
-        return (0, dropped);
+        return (0, 0);
     }
-    let (mut traced, mut blocked) = (0, dropped);
+    let (mut traced, mut blocked) = (0, 0);
     for l in (0..LANES).filter(|&l| behind[l] < BLOCKERS) {
         let p = Vec3::new(pts.px[l], pts.py[l], pts.pz[l]);
-        let n = Vec3::new(pts.nx[l], pts.ny[l], pts.nz[l]);
-        let t = (p - Vec3::from(o)).dot(d.into()).clamp(0.0, c.length);
-        let v = Vec3::from(o + d * t) - p;
+        let n = Vec3::new(b.own[0][l], b.own[1][l], b.own[2][l]);
+        let v = q[l] - p;
         let dist = v.length();
         if dist.is_nan() || dist <= 0.0 {
             continue;
@@ -327,7 +305,8 @@ fn occlude(
         let origin = offset_ray_origin(p + lift, n, surface_offset(p.abs().max_element()), dir);
         traced += 1;
         let tmax = dist * (1.0 - SHADOW_EPSILON);
-        // The blocker's own triangle first: it stands between them in most blocked pairs.
+        // The blocker's own triangle first: it settles a quarter of the blocked pairs on the
+        // apartment without the BVH.
         let tri = b.triangle[behind[l]][l];
         if scene.segment_meets(origin, dir, tmax, tri) || scene.occluded(origin, dir, tmax) {
             blocked += 1;

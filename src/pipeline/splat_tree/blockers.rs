@@ -12,7 +12,7 @@
 //! light. A wall the probes miss (a probe leaving through a window) is not tested, which is the
 //! remaining leak.
 
-use super::{LANES, SplatTree};
+use super::{LANES, PADDING, SplatTree};
 use crate::sampling::onb;
 use crate::scene::{Scene, surface_offset};
 use glam::Vec3;
@@ -44,6 +44,9 @@ pub struct BlockerChunk {
     /// The triangle a probe met on plane `j` (meaningless where the plane is zero): a shadow
     /// ray is first tested against it alone, which settles many blocked pairs without the BVH.
     pub triangle: [[u32; LANES]; BLOCKERS],
+    /// The lanes' geometric normals (x, y, z), facing the viewer: shadow rays leave the target
+    /// on that side (a shading normal can lean away from the surface).
+    pub own: [[f32; LANES]; 3],
 }
 
 /// A plane {x : m·x = d} with m facing the target, and the triangle on it a probe met.
@@ -128,17 +131,23 @@ pub fn probe(scene: &Scene, p: Vec3, n: Vec3) -> [Blocker; BLOCKERS] {
 impl SplatTree {
     /// Probe every target's surroundings for blocker planes (module docs), so that splatting
     /// with `scene` tests visibility where a photon ray passes behind one of them.
-    pub fn find_blockers(&mut self, scene: &Scene) {
-        let pts = &self.points.chunks;
+    /// `geo_normals` are the targets' geometric normals, in target order: the probes and the
+    /// shadow rays leave from that plane (a shading normal can lean away from the surface).
+    pub fn find_blockers(&mut self, scene: &Scene, geo_normals: &[Vec3]) {
+        assert_eq!(geo_normals.len(), self.samples);
+        let (pts, slot_target) = (&self.points.chunks, &self.slot_target);
         self.blockers = pts
             .par_iter()
-            .map(|c| {
+            .enumerate()
+            .map(|(k, c)| {
                 let mut out = BlockerChunk::default();
                 for l in 0..LANES {
-                    let n = Vec3::new(c.nx[l], c.ny[l], c.nz[l]);
-                    if n == Vec3::ZERO {
-                        continue; // padding
+                    let target = slot_target[k * LANES + l];
+                    if target == PADDING {
+                        continue;
                     }
+                    let n = geo_normals[target as usize];
+                    (out.own[0][l], out.own[1][l], out.own[2][l]) = (n.x, n.y, n.z);
                     let p = Vec3::new(c.px[l], c.py[l], c.pz[l]);
                     for (j, b) in probe(scene, p, n).into_iter().enumerate() {
                         out.plane[j][0][l] = b.m.x;
