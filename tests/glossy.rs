@@ -117,7 +117,8 @@ fn rs_error(
 }
 
 /// Issue 13: from mirror to matte, metal and plastic, no directional mode is worse than shading
-/// the plate matte (diffuse mode) against the path tracer. Lobes sharper than a mode's
+/// the plate matte (diffuse mode) against the path tracer, and SH, within its resolution
+/// limit, is not much worse than tracing the lobe. Lobes sharper than a mode's
 /// resolution limit are traced by the eye path, the others go through its records. Direct
 /// photons, so that the light's reflection is the glossy part under test.
 #[test]
@@ -133,7 +134,7 @@ fn no_mode_is_worse_than_matte_at_any_roughness() {
         ..RenderSettings::default()
     };
     for (metallic, name) in [(1.0, "metal"), (0.0, "plastic")] {
-        for roughness in [0.05f32, 0.15, 0.3, 0.5, 0.65, 0.8, 0.9] {
+        for roughness in [0.05f32, 0.15, 0.3, 0.5, 0.65, 0.7, 0.75, 0.8, 0.9] {
             let scene = Arc::new(plate(metallic, roughness));
             let reference = common::path_traced(&scene, &base, 1024).rgb;
             let matte = rs_error(&scene, &base, DirectionalMode::Diffuse, &reference);
@@ -148,6 +149,14 @@ fn no_mode_is_worse_than_matte_at_any_roughness() {
                     "{name} roughness {roughness}: {mode} relMSE {err} > matte {matte}"
                 );
             }
+            // Within its limit SH keeps at least 80% of a highlight (deviations §37), so its
+            // error stays near that of tracing the lobe, which histogram mode does for every
+            // lobe here (its limit is e = 1). At the old half-peak limit SH's highlight at
+            // roughness 0.65 was 40% low: relMSE 0.168 against 0.010 traced.
+            assert!(
+                sh <= 2.0 * hist + 2e-3,
+                "{name} roughness {roughness}: SH relMSE {sh} against {hist} traced"
+            );
         }
     }
 }
