@@ -21,6 +21,11 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 fn harness(snapshot_dir: PathBuf) -> Harness<'static, App> {
+    harness_on(None, snapshot_dir)
+}
+
+/// [`harness`] opening `scene` (a .glb) instead of the embedded default.
+fn harness_on(scene: Option<PathBuf>, snapshot_dir: PathBuf) -> Harness<'static, App> {
     let defaults = UiSettings::default();
     let settings = UiSettings {
         render: RenderSettings {
@@ -39,6 +44,7 @@ fn harness(snapshot_dir: PathBuf) -> Harness<'static, App> {
             App::new(
                 cc,
                 AppOptions {
+                    scene,
                     settings: Some(settings),
                     ..AppOptions::default()
                 },
@@ -364,10 +370,14 @@ fn reference_view_mode_path_traces_the_view() {
 }
 
 /// The glossy radiance-map mode (§8.1) reaches the worker, re-splats the stored rays without
-/// tracing (paused), changes the icosahedron, and the stats report the directional memory.
+/// tracing (paused), changes the glossy spheres, and the stats report the directional memory.
+/// On the glossy box, whose copper sphere (roughness 0.8, e ≈ 2.9) SH records carry.
 #[test]
 fn radiance_map_mode_switches_and_reports_memory() {
-    let mut h = harness(tmp("radiance_map"));
+    let dir = tmp("radiance_map");
+    let scene = dir.join("glossy.glb");
+    std::fs::write(&scene, BuiltinScene::CornellGlossy.to_glb()).unwrap();
+    let mut h = harness_on(Some(scene), dir);
     run_until(&mut h, 60, "the first image", |a| {
         a.frame().is_some_and(|f| f.stats.batches >= 2) && a.shown().is_some()
     });
@@ -376,7 +386,7 @@ fn radiance_map_mode_switches_and_reports_memory() {
     let f = h.state().frame().unwrap().clone();
     assert!(
         f.stats.glossy_targets > 0,
-        "CORNELL BOX I has a glossy icosahedron"
+        "the copper sphere has SH records"
     );
     assert!(f.stats.directional_bytes >= f.stats.glossy_targets * 48 * 4);
     let before = h.state().shown().unwrap().rgba.clone();
@@ -418,7 +428,7 @@ fn radiance_map_mode_switches_and_reports_memory() {
     let changed = before.iter().zip(after).filter(|(a, b)| a != b).count();
     assert!(
         changed > 0,
-        "the matte icosahedron looks the same as the glossy one"
+        "the matte spheres look the same as the glossy ones"
     );
 }
 
@@ -483,32 +493,10 @@ fn epsilon_slider_reruns_the_cache_live() {
 /// and the copper sphere (roughness 0.8, e ≈ 2.9) goes through the map.
 #[test]
 fn the_probe_shows_where_the_glossy_part_came_from() {
-    let scene = tmp("glossy_probe").join("glossy_sharp.glb");
+    let dir = tmp("glossy_probe");
+    let scene = dir.join("glossy_sharp.glb");
     std::fs::write(&scene, BuiltinScene::CornellGlossySharp.to_glb()).unwrap();
-    let defaults = UiSettings::default();
-    let settings = UiSettings {
-        render: RenderSettings {
-            width: 64,
-            height: 64,
-            spp: 1,
-            photons: 4_000,
-            ..defaults.render.clone()
-        },
-        snapshot_dir: tmp("glossy_probe_snapshots"),
-        ..defaults
-    };
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1100.0, 800.0))
-        .build_eframe(move |cc| {
-            App::new(
-                cc,
-                AppOptions {
-                    scene: Some(scene),
-                    settings: Some(settings),
-                    ..AppOptions::default()
-                },
-            )
-        });
+    let mut h = harness_on(Some(scene), dir);
     run_until(&mut h, 60, "the first full-size image", |a| {
         a.frame()
             .is_some_and(|f| f.stats.batches >= 1 && f.film.width == 64)

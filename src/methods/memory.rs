@@ -12,8 +12,9 @@ const PER_PIXEL: u64 = 256;
 /// upper bound for scenes full of glossy surfaces.
 const PER_EYE_SAMPLE: u64 = 101 + 32 + 16 + 2 * 28 + 48 * 4;
 /// Per pixel for glossy lobes traced by the eye path (issue 13): the film's glossy-source AOV
-/// (8 bytes), rs's per-batch lobe sums (24) and the eye sample one lobe path per pixel reaches.
-const TRACED_LOBES_PER_PIXEL: u64 = 8 + 24 + PER_EYE_SAMPLE;
+/// (8 bytes) and rs's per-batch lobe sums (24); the eye samples its lobe paths reach (one per
+/// second eye sample, `eye::trace_lobes`) are counted with the eye samples.
+const TRACED_LOBES_PER_PIXEL: u64 = 8 + 24;
 /// Gather hits a final-gathering band holds at once (`fg::FgSettings::max_band_samples`) and
 /// their bytes each.
 const FG_BAND_BYTES: u64 = (1 << 17) * (101 + 32 + 16 + 28);
@@ -35,13 +36,15 @@ pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
             .saturating_add(eye)
             .saturating_add(photons)
             .saturating_add(FG_BAND_BYTES),
-        // rs draws one lobe path per pixel and batch; rc and pm trace one per eye sample in
-        // the eye pass, each reaching one more eye sample (an upper bound for scenes whose
-        // every surface is too glossy for the map).
+        // rs draws a lobe path for every second eye sample per batch (at least one per pixel
+        // with a traced lobe); rc and pm trace one per eye sample in the eye pass, each
+        // reaching one more eye sample (an upper bound for scenes whose every surface is too
+        // glossy for the map).
         MethodKind::Rs => film
             .saturating_add(eye)
             .saturating_add(photons)
-            .saturating_add(pixels.saturating_mul(TRACED_LOBES_PER_PIXEL)),
+            .saturating_add(pixels.saturating_mul(TRACED_LOBES_PER_PIXEL + PER_EYE_SAMPLE))
+            .saturating_add(eye / 2),
         MethodKind::Rc | MethodKind::Pm => film
             .saturating_add(eye.saturating_mul(2))
             .saturating_add(photons),

@@ -108,7 +108,8 @@ impl BuiltinScene {
         match self {
             BuiltinScene::Outdoor => unreachable!("generated above"),
             BuiltinScene::CornellBox1 => {
-                // Brushed brass: Phong exponent 9.2, a lobe the 16 SH coefficients carry.
+                // Brushed brass: Phong exponent 9.2, sharper than the 16 SH coefficients
+                // carry (docs/deviations.md §37): its reflection is traced.
                 let gloss = g.material(json!({
                     "name": "glossy_icosahedron",
                     "pbrMetallicRoughness": {"baseColorFactor": [0.75, 0.7, 0.45, 1.0],
