@@ -537,3 +537,21 @@ fn the_probe_shows_where_the_glossy_part_came_from() {
         }
     }
 }
+
+/// The visibility test (docs/deviations.md §40) switched on in the window: the worker
+/// restarts with probed splat trees and the stats count shadow rays.
+#[test]
+fn visibility_checkbox_restarts_with_shadow_rays() {
+    let mut h = harness(tmp("visibility"));
+    run_until(&mut h, 60, "the first image", |a| {
+        a.frame().is_some_and(|f| f.stats.batches >= 1)
+    });
+    assert_eq!(h.state().frame().unwrap().stats.shadow_tests, 0);
+    h.get_by_label("Visibility in the splat footprint").click();
+    run_until(&mut h, 60, "a frame with shadow rays", |a| {
+        a.frame().is_some_and(|f| {
+            f.settings.splat_visibility && f.stats.batches >= 1 && f.stats.shadow_tests > 0
+        })
+    });
+    h.get_by_label_contains("shadow rays");
+}

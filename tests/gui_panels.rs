@@ -289,8 +289,12 @@ fn rendering_panel_emits_one_command_per_widget() {
         &mut h.state_mut().out,
         &[Command::SetRadianceMap(DirectionalMode::Histogram)],
     );
+    h.get_by_label("Visibility in the splat footprint").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::SetSplatVisibility(true)]);
     expected.render.direct = DirectMode::Photons;
     expected.render.radiance_map = DirectionalMode::Histogram;
+    expected.render.splat_visibility = true;
     assert_eq!(h.state().settings, expected);
 }
 

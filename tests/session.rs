@@ -209,6 +209,7 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
                 enabled: rng.next_f32() < 0.6,
                 strength: 3.0 * u,
             }),
+            15 if u < 0.3 => Command::SetSplatVisibility(u < 0.15),
             _ => match (u * 4.0) as u32 {
                 0 => Command::LoadScene(good.clone()),
                 1 => Command::LoadScene(bad.clone()),

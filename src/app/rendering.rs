@@ -1,5 +1,5 @@
 //! The rendering panel: photons per batch, samples per pixel, resolution, direct light, the
-//! glossy radiance map, the ray store's budget, pause, restart and the path-traced reference.
+//! glossy radiance map, visibility in the splat footprint, the ray store's budget, pause, restart and the path-traced reference.
 //! Each widget emits its own worker command when it changes.
 
 use crate::app::UiSettings;
@@ -17,7 +17,8 @@ pub struct RenderingPanel;
 
 impl RenderingPanel {
     /// Draw the widgets. Accessible names: "Photons per batch", "Samples per pixel", "Width",
-    /// "Height", "NEE", "photons", "Glossy radiance map", "Ray store budget",
+    /// "Height", "NEE", "photons", "Glossy radiance map", "Visibility in the splat footprint",
+    /// "Ray store budget",
     /// "Pause (Space)" or "Resume (Space)", "Restart", "Path-trace this view". `paused` is
     /// the worker's state as last reported; the pause button flips it.
     pub fn ui(
@@ -103,6 +104,19 @@ impl RenderingPanel {
                     );
             },
             |&m| Command::SetRadianceMap(m),
+        );
+        out.on_change(
+            &mut r.splat_visibility,
+            |on| {
+                ui.checkbox(on, "Visibility in the splat footprint")
+                    .on_hover_text(
+                        "Shadow rays for photon rays that pass behind a nearby wall, so that \
+                         light outside a room does not leak onto the inside of its walls \
+                         (docs/deviations.md §40). Splatting takes about twice as long. \
+                         Switching restarts tracing.",
+                    );
+            },
+            |&on| Command::SetSplatVisibility(on),
         );
         out.on_change(
             &mut settings.ray_budget,

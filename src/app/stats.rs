@@ -67,6 +67,17 @@ impl StatsPanel {
                     "lobes sharper than the directional mode resolves are traced by the eye path",
                 );
             }
+            if s.shadow_tests > 0 {
+                ui.separator();
+                ui.label(format!(
+                    "visibility: {} shadow rays, {:.1}% blocked",
+                    s.shadow_tests,
+                    100.0 * s.occluded_pairs as f64 / s.shadow_tests as f64
+                ))
+                .on_hover_text(
+                    "splatted pairs behind a nearby wall, tested with a shadow ray (§40)",
+                );
+            }
             ui.separator();
             ui.label(format!("{}×{}", f.film.width, f.film.height));
             ui.separator();

@@ -48,6 +48,9 @@ pub enum Command {
     /// Directional storage at glossy samples (§8.1): new accumulators, then a re-splat of
     /// the stored rays (no re-trace).
     SetRadianceMap(DirectionalMode),
+    /// Test visibility inside the splat footprint (docs/deviations.md §40): shadow rays for
+    /// pairs behind a nearby wall. The splat trees are probed anew: restarts tracing.
+    SetSplatVisibility(bool),
     /// Resolve the radiance map through the radiance cache (§8.3) with these parameters: the
     /// cache pass re-runs over the current map, no re-trace and no re-splat.
     SetCache {
@@ -147,6 +150,12 @@ pub struct SessionStats {
     /// Glossy eye samples whose lobe is traced by the eye path (too sharp for the map).
     #[serde(default)]
     pub glossy_traced_samples: usize,
+    /// Splatted pairs tested with a shadow ray, with the visibility test on (§40).
+    #[serde(default)]
+    pub shadow_tests: u64,
+    /// Of those, the pairs found blocked.
+    #[serde(default)]
+    pub occluded_pairs: u64,
     /// Radiance cache records of this frame (0 when the cache is off).
     pub cache_records: usize,
     /// `photons_traced` / `elapsed_s`.

@@ -188,8 +188,10 @@ impl Worker {
                 s.radiance_map = m;
                 p.update = true;
             }
-            // A change of what is traced: `apply` sees that the method needs a rebuild.
+            // Changes of what is traced or how the trees are built: `apply` sees that the
+            // method needs a rebuild.
             Command::SetDirect(d) => s.direct = d,
+            Command::SetSplatVisibility(on) => s.splat_visibility = on,
             Command::SetCamera {
                 camera,
                 interactive,
@@ -411,6 +413,8 @@ impl Worker {
             glossy_targets: m.glossy_targets,
             glossy_map_samples: m.glossy_map_samples,
             glossy_traced_samples: m.glossy_traced_samples,
+            shadow_tests: m.shadow_tests,
+            occluded_pairs: m.occluded_pairs,
             cache_records: m.cache_records.unwrap_or(0),
             photons_per_second: m.photons_traced as f64 / elapsed.max(1e-9),
             last_splat_ms: self.last_splat_ms,
