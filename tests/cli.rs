@@ -342,3 +342,65 @@ fn fractions_take_three_comma_separated_numbers() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("three numbers"));
 }
+
+/// `bench`'s quality-over-time rows (issue 16): without references `--only quality` is one
+/// clean line, a missing reference says how to make it, and with three (here constant)
+/// 500×500 references a one-second run writes one row per scene and view (window and
+/// path-traced view, each with a relMSE at 1 s) and the plot as a PNG.
+#[test]
+fn bench_quality_rows_and_plot() {
+    let dir = tmp("bench_quality");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = bin().args(["bench", "--only", "quality"]).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--quality-references"), "{err}");
+    let out = bin()
+        .args(["bench", "--only", "quality", "--quality-references"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("raysplat render builtin:classic"),
+        "{err}"
+    );
+    for stem in ["classic", "cornell1", "cornell2"] {
+        raysplat::film::write_exr(
+            &dir.join(format!("{stem}.exr")),
+            500,
+            500,
+            &vec![Vec3::splat(0.5); 500 * 500],
+        )
+        .unwrap();
+    }
+    let json = dir.join("bench.json");
+    let out = bin()
+        .args(["bench", "--only", "quality", "--quality-seconds", "1"])
+        .arg("--quality-references")
+        .arg(&dir)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    for stem in ["classic", "cornell1", "cornell2"] {
+        for view in ["window", "pt_view"] {
+            let row = &doc["rows"][format!("quality_{stem}_{view}")];
+            assert_eq!(row["seconds"], json!([1.0]), "{stem} {view}: {row}");
+            assert_eq!(row["rel_mse"].as_array().map(Vec::len), Some(1), "{row}");
+        }
+    }
+    assert!(
+        doc["rows"].get("cornell1_rs").is_none(),
+        "--only ran other rows"
+    );
+    let png = image::open(dir.join("quality.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (900, 560));
+}

@@ -472,3 +472,24 @@ fn the_environment_changes_under_the_worker() {
     );
     wait(&session, 60, |f| f.seq > after.seq + 2);
 }
+
+/// The reference view mode asked for before the first image (as `bench`'s quality rows do)
+/// reaches full resolution: the worker leaves its coarse start although the splatting method
+/// never steps (it stayed at half size before), and the path tracer adds paths there.
+#[test]
+fn the_reference_mode_from_the_start_renders_at_full_size() {
+    let config = small_config();
+    let (w, h) = (config.settings.width, config.settings.height);
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+    session.send(Command::SetReference(true));
+    let f = wait(&session, 60, |f| {
+        f.reference
+            .as_ref()
+            .is_some_and(|r| (r.width, r.height) == (w, h))
+            && f.stats.reference_spp >= 2
+    });
+    assert_eq!(
+        f.stats.batches, 0,
+        "no photon batch is traced in the reference mode"
+    );
+}

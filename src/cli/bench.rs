@@ -1,9 +1,11 @@
 //! `bench`: Table 2's CORNELL BOX I rows (rs and rc, with direct photons and with NEE), §8.1's
-//! glossy rows (one per directional mode) and the previewer's latencies; one line per row on
-//! stdout and, with `--json`, the rows merged into a JSON file (docs/benchmarks.md quotes both).
+//! glossy rows (one per directional mode), the previewer's latencies and, with
+//! `--quality-references`, quality over time (`super::quality`); one line per row on stdout
+//! and, with `--json`, the rows merged into a JSON file (docs/benchmarks.md quotes both).
 
+use super::quality;
 use super::set_threads;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use glam::Vec3;
 use raysplat::choice::Choice;
 use raysplat::methods::{Budget, MethodStats, Timings, peak_rss_mb, render_method};
@@ -36,7 +38,38 @@ pub struct BenchArgs {
     /// the Table 2 rows report relMSE to it.
     #[arg(long)]
     cornell_reference: Option<PathBuf>,
+    /// A folder of path-traced 500×500 references, classic.exr, cornell1.exr and cornell2.exr
+    /// (`raysplat render builtin:classic --method pt --spp 1024 --width 500 --height 500 --out
+    /// DIR/classic.exr`, …): adds the quality-over-time rows (the window's image and its
+    /// path-traced view against wall time) and their plot.
+    #[arg(long)]
+    quality_references: Option<PathBuf>,
+    /// Wall time of each quality curve in seconds (checkpoints 1, 2, 5, 10, 30 up to it).
+    #[arg(long, default_value_t = 30.0)]
+    quality_seconds: f64,
+    /// Where the quality plot goes (PNG; default DIR/quality.png of --quality-references).
+    #[arg(long)]
+    quality_plot: Option<PathBuf>,
+    /// Run only these groups of rows (default: every group; quality needs its references).
+    #[arg(long, value_delimiter = ',')]
+    only: Vec<Group>,
 }
+
+/// Groups of rows.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum)]
+enum Group {
+    /// Table 2's CORNELL BOX I rows.
+    Table2,
+    /// §8.1's glossy rows.
+    Glossy,
+    /// The previewer's latencies.
+    Preview,
+    /// Quality over time (needs --quality-references).
+    Quality,
+}
+
+/// The shortest quality curve: its first checkpoint.
+const CHECKPOINT_MIN: f64 = quality::CHECKPOINTS[0];
 
 /// The rows, by name, as they go into the JSON file's `rows`.
 type Rows = serde_json::Map<String, serde_json::Value>;
@@ -106,11 +139,48 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     ] {
         read_reference(reference.as_ref(), scene)?;
     }
+    let runs = |g: Group| args.only.is_empty() || args.only.contains(&g);
+    let quality_refs = match &args.quality_references {
+        Some(dir) if runs(Group::Quality) => Some(quality::read_references(dir)?),
+        None if !args.only.is_empty() && runs(Group::Quality) => {
+            return Err("--only quality needs --quality-references DIR".into());
+        }
+        _ => None,
+    };
+    let plot = args.quality_plot.clone().or_else(|| {
+        args.quality_references
+            .as_ref()
+            .map(|d| d.join("quality.png"))
+    });
+    if quality_refs.is_some()
+        && let Some(plot) = &plot
+    {
+        super::output::check(&[(plot.as_path(), false)], &[])?;
+    }
+    if !(args.quality_seconds >= CHECKPOINT_MIN && args.quality_seconds <= 600.0) {
+        return Err(format!(
+            "--quality-seconds {}: must be within {CHECKPOINT_MIN}..600",
+            args.quality_seconds
+        ));
+    }
     set_threads(args.threads)?;
     let mut rows = Rows::new();
-    cornell_bench(&args, &mut rows)?;
-    glossy_bench(&args, &mut rows)?;
-    preview_bench()?.report(&mut rows);
+    if runs(Group::Table2) {
+        cornell_bench(&args, &mut rows)?;
+    }
+    if runs(Group::Glossy) {
+        glossy_bench(&args, &mut rows)?;
+    }
+    if runs(Group::Preview) {
+        preview_bench()?.report(&mut rows);
+    }
+    if let Some(references) = quality_refs {
+        let curves = quality::run_curves(&references, args.quality_seconds);
+        rows.extend(quality::rows(&curves));
+        if let Some(plot) = &plot {
+            quality::plot(&curves, plot)?;
+        }
+    }
     if let Some(path) = &args.json {
         write_json(path, rows)?;
     }

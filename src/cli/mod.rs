@@ -7,6 +7,7 @@ mod args;
 mod bench;
 mod compare;
 mod output;
+mod quality;
 mod render;
 mod scenes;
 mod tonemap;

@@ -144,7 +144,10 @@ impl Worker {
                 self.publish();
                 last_publish = Some(Instant::now());
                 unseen = false;
-                if self.coarse_start && self.renderer.as_ref().is_some_and(|r| r.passes() > 0) {
+                // After the first coarse image, or at once in the reference mode, which never
+                // steps the renderer (it stayed at half resolution before).
+                let first_done = self.renderer.as_ref().is_some_and(|r| r.passes() > 0);
+                if self.coarse_start && (first_done || self.reference_on) {
                     self.coarse_start = false;
                     if !self.interactive {
                         self.apply(Pending {
