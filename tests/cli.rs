@@ -13,6 +13,15 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_raysplat"))
 }
 
+/// Assert that a run of the binary succeeded, showing its stderr if not.
+fn succeeded(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 fn tmp(name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli");
     std::fs::create_dir_all(&dir).unwrap();
@@ -185,11 +194,7 @@ fn render_writes_images_and_stats() {
         .arg(&stats)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("T_E") && stdout.contains("T_S"), "{stdout}");
     let (w, h, px) = raysplat::film::read_exr(&exr).unwrap();
@@ -250,11 +255,7 @@ fn render_stats(name: &str, extra: &[&str]) -> serde_json::Value {
         .arg(&stats)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap()
 }
 
@@ -297,11 +298,7 @@ fn compare_writes_table_images_and_json() {
         .arg(&dir)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains("relMSE") && stdout.contains("pm"),
@@ -384,11 +381,7 @@ fn bench_quality_rows_and_plot() {
         .arg(&json)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     for stem in ["classic", "cornell1", "cornell2"] {
         for view in ["window", "pt_view"] {
