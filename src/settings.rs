@@ -131,6 +131,14 @@ pub struct RenderSettings {
     /// Image-space filter of the indirect light (§8.2).
     #[serde(default)]
     pub filter: FilterParams,
+    /// rs: draw the eye samples anew as photon batches go on (issue 16), so that
+    /// anti-aliasing, NEE and traced branches converge with the batches too.
+    #[serde(default = "yes")]
+    pub progressive_eye: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl Default for RenderSettings {
@@ -158,6 +166,7 @@ impl Default for RenderSettings {
             radiance_map: DirectionalMode::Sh,
             cache: CacheParams::default(),
             cache_on: false,
+            progressive_eye: true,
             filter: FilterParams::default(),
         }
     }

@@ -388,10 +388,16 @@ fn resplat_uses_stored_rays() {
 /// seed, hence the same eye samples and pilot: with other eye samples the comparison has a
 /// floor of its own (CORNELL BOX I's bumpy floor and glass make two seeds' pixels differ by
 /// relMSE 0.005 whatever the photons), which hid the photons' convergence. Its first
-/// 10⁶-photon batch shares the 8 batches' photons (160k of them).
+/// 10⁶-photon batch shares the 8 batches' photons (160k of them). Both keep the first eye
+/// pass (`progressive_eye` off), for the same reason: this is the photons' convergence alone
+/// (the eye passes have `eye_passes_make_the_whole_image_converge`).
 #[test]
 fn progressive_batches_converge() {
     let scene = Arc::new(Scene::default_scene());
+    let small_settings = || RenderSettings {
+        progressive_eye: false,
+        ..small_settings()
+    };
     let mut reference = RaySplatting::open(
         scene.clone(),
         RenderSettings {
@@ -422,4 +428,50 @@ fn progressive_batches_converge() {
         (m8 / m1 - Vec3::ONE).abs().max_element() < 0.05,
         "{m8} vs {m1}"
     );
+}
+
+/// Issue 16: with progressive eye passes the whole image converges with the batches — pixel
+/// edges, NEE and the splatted light at new sample positions — where eye samples kept from
+/// the first pass stay at one draw of anti-aliasing and NEE forever. Against 512 paths, after
+/// 24 batches the progressive image's relMSE is at most half the fixed one's; one batch is the
+/// same image either way (the first pass draws from the settings' seed).
+#[test]
+fn eye_passes_make_the_whole_image_converge() {
+    let scene = Arc::new(Scene::default_scene());
+    let base = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 1,
+        photons: 4_000,
+        seed: 5,
+        ..RenderSettings::default()
+    };
+    let reference = common::path_traced(&scene, &base, 512).rgb;
+    let run = |progressive_eye: bool, batches: usize| {
+        let mut r = RaySplatting::open(
+            scene.clone(),
+            RenderSettings {
+                progressive_eye,
+                ..base.clone()
+            },
+        )
+        .unwrap();
+        for _ in 0..batches {
+            r.run_batch();
+        }
+        (r.film().rgb, r.core.eye_passes())
+    };
+    let (one_fixed, _) = run(false, 1);
+    let (one_prog, passes) = run(true, 1);
+    assert!(one_fixed == one_prog && passes == 1, "one batch differs");
+    let (fixed, fixed_passes) = run(false, 24);
+    let (prog, prog_passes) = run(true, 24);
+    assert_eq!(fixed_passes, 1);
+    assert!(prog_passes > 4, "{prog_passes} eye passes");
+    let (e_fixed, e_prog) = (
+        raysplat::film::rel_mse(&fixed, &reference),
+        raysplat::film::rel_mse(&prog, &reference),
+    );
+    println!("relMSE after 24 batches: fixed eye samples {e_fixed:.5}, eye passes {e_prog:.5}");
+    assert!(e_prog < 0.5 * e_fixed, "{e_prog} vs {e_fixed}");
 }

@@ -219,6 +219,10 @@ pub struct MethodArgs {
     /// about 1.7× the splat time; docs/deviations.md §40).
     #[arg(long)]
     pub splat_visibility: bool,
+    /// rs: keep the eye samples of the first eye pass for every batch instead of drawing
+    /// them anew as batches go on (issue 16; the behaviour before it).
+    #[arg(long)]
+    pub fixed_eye_samples: bool,
     /// Directional storage at glossy surfaces (§8.1): diffuse (irradiance only), sh
     /// (16 spherical-harmonic coefficients per channel) or histogram (20 strata).
     #[arg(long, default_value = RenderSettings::default().radiance_map.name(), value_parser = choice::<DirectionalMode>())]
@@ -282,6 +286,7 @@ impl SettingsArgs {
             camera: self.run.camera.clone(),
             merge_targets: !method.no_merge,
             splat_visibility: method.splat_visibility,
+            progressive_eye: !method.fixed_eye_samples,
             method: kind,
             pm_k: method.pm_k,
             pm_caustic_k: method.pm_caustic_k,

@@ -50,6 +50,10 @@ pub struct BenchArgs {
     /// Where the quality plot goes (PNG; default DIR/quality.png of --quality-references).
     #[arg(long)]
     quality_plot: Option<PathBuf>,
+    /// Quality rows with the eye samples of the first eye pass kept for every batch (the
+    /// window before issue 16), for comparison.
+    #[arg(long)]
+    fixed_eye_samples: bool,
     /// Run only these groups of rows (default: every group; quality needs its references).
     #[arg(long, value_delimiter = ',')]
     only: Vec<Group>,
@@ -175,7 +179,8 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         preview_bench()?.report(&mut rows);
     }
     if let Some(references) = quality_refs {
-        let curves = quality::run_curves(&references, args.quality_seconds);
+        let curves =
+            quality::run_curves(&references, args.quality_seconds, !args.fixed_eye_samples);
         rows.extend(quality::rows(&curves));
         if let Some(plot) = &plot {
             quality::plot(&curves, plot)?;

@@ -82,12 +82,12 @@ pub fn read_references(dir: &Path) -> Result<Vec<Vec<Vec3>>, String> {
 }
 
 /// Run every curve for `seconds` (checkpoints beyond it are dropped), print one line each.
-pub fn run_curves(references: &[Vec<Vec3>], seconds: f64) -> Vec<Curve> {
+pub fn run_curves(references: &[Vec<Vec3>], seconds: f64, progressive_eye: bool) -> Vec<Curve> {
     let mut curves = Vec::new();
     for ((stem, which), reference) in SCENES.iter().zip(references) {
         let scene = Arc::new(Scene::builtin(*which));
         for shown in [Shown::Splatted, Shown::PathTraced] {
-            let rel_mse = curve(scene.clone(), shown, reference, seconds);
+            let rel_mse = curve(scene.clone(), shown, reference, seconds, progressive_eye);
             let cells: Vec<String> = rel_mse
                 .iter()
                 .map(|e| e.map_or("—".into(), |e| format!("{e:.4}")))
@@ -109,8 +109,15 @@ pub fn run_curves(references: &[Vec<Vec3>], seconds: f64) -> Vec<Curve> {
 }
 
 /// One session from its start: the newest full-size frame's relMSE at each checkpoint.
-fn curve(scene: Arc<Scene>, shown: Shown, reference: &[Vec3], seconds: f64) -> Vec<Option<f64>> {
-    let config = SessionConfig::default();
+fn curve(
+    scene: Arc<Scene>,
+    shown: Shown,
+    reference: &[Vec3],
+    seconds: f64,
+    progressive_eye: bool,
+) -> Vec<Option<f64>> {
+    let mut config = SessionConfig::default();
+    config.settings.progressive_eye = progressive_eye;
     let start = Instant::now();
     let session = Session::spawn(scene, None, config, None);
     if shown == Shown::PathTraced {

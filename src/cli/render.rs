@@ -205,6 +205,7 @@ fn stats_json(
             "caustic": class_clamps(2),
         },
         "eye_samples": s.eye_samples,
+        "eye_passes": s.eye_passes,
         "splat_targets": s.splat_targets,
         "splat_tree_nodes": s.splat_tree_nodes,
         "batches": s.passes,

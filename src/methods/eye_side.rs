@@ -41,23 +41,32 @@ impl EyeSide {
     /// height and spp), timed into `timings` (T_E and T_D). Glossy lobes too sharp for the
     /// radiance map are traced in the eye pass when `follow_lobes`, otherwise only marked (the
     /// caller draws their directions per batch, [`crate::methods::lobes::TracedLobes`]).
+    /// `pass` numbers the eye passes of one view (issue 16): pass 0 draws from the settings'
+    /// seed, every later one from its own streams (new sub-pixel positions, NEE samples and
+    /// branch choices).
     pub fn new(
         scene: &Scene,
         camera: &Camera,
         settings: &RenderSettings,
         follow_lobes: bool,
+        pass: u32,
         timings: &mut Timings,
     ) -> Result<Self, String> {
         if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
             return Err("width, height and samples per pixel must be positive".into());
         }
         let t = Instant::now();
+        let seed = if pass == 0 {
+            settings.seed
+        } else {
+            settings.seed ^ (pass as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+        };
         let eye_settings = EyeSettings {
             width: settings.width,
             height: settings.height,
             spp: settings.spp,
             max_specular_depth: settings.max_specular_depth,
-            seed: settings.seed,
+            seed,
             merge_targets: settings.merge_targets,
             lobe_limit: settings.radiance_map.lobe_limit(),
             follow_lobes,
@@ -79,9 +88,9 @@ impl EyeSide {
         let any_traced = eye.lobe_traced.iter().any(|&t| t);
         if settings.direct == DirectMode::Nee || any_traced {
             let (per_sample, invalid) = if settings.direct == DirectMode::Nee {
-                direct_light(scene, &eye, settings.nee_samples, settings.seed)
+                direct_light(scene, &eye, settings.nee_samples, seed)
             } else {
-                traced_lobe_direct_light(scene, &eye, settings.nee_samples, settings.seed)
+                traced_lobe_direct_light(scene, &eye, settings.nee_samples, seed)
             };
             invalid_direct = invalid;
             for (i, l) in per_sample.iter().enumerate() {

@@ -93,7 +93,8 @@ impl TracedLobes {
         timings.t_eye += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
-        let seed = settings.seed ^ (draw + 1).wrapping_mul(0x5851_f42d_4c95_7f2d);
+        // The eye pass's seed: each eye pass (issue 16) draws its own NEE streams.
+        let seed = side.eye_settings.seed ^ (draw + 1).wrapping_mul(0x5851_f42d_4c95_7f2d);
         let (nee, invalid) = if settings.direct == DirectMode::Nee {
             direct_light(scene, samples, settings.nee_samples, seed)
         } else {

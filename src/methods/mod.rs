@@ -96,6 +96,9 @@ pub struct MethodStats {
     pub passes: u64,
     /// Batches dropped from the ray store (over budget) whose light the image still holds.
     pub folded_batches: usize,
+    /// Eye passes the image averages over (rs with `progressive_eye`; 1 otherwise, 0 for
+    /// methods without eye samples of their own).
+    pub eye_passes: u32,
     /// Batches whose rays are stored (re-splattable).
     pub stored_batches: usize,
     /// Bytes held by eye samples, splat tree and accumulators.

@@ -5,6 +5,13 @@
 //!
 //! Re-splatting is progressive: [`Progressive::step`] splats one stored batch (newest first)
 //! per call, and the film averages over the batches splatted so far.
+//!
+//! Eye passes (issue 16, rs): as batches go on, the eye samples are drawn anew (new sub-pixel
+//! positions, NEE samples, branch choices). A finished pass's film is kept as a sum weighted
+//! by the batches it held; new batches are splatted onto the new pass with the bandwidth of
+//! the total M (as always), and the film is the batch-weighted mean over every pass. So the
+//! whole image converges, not only the splatted light: the stochastic progressive photon
+//! mapping of visible points, with photon rays.
 
 use crate::film::Film;
 use crate::methods::eye_side::EyeSide;
@@ -43,8 +50,12 @@ pub struct Progressive {
     resplat_queue: Vec<usize>,
     /// Batches whose light the accumulators hold.
     splatted: usize,
-    /// Batches dropped from the store (over budget) whose light the accumulators still hold.
+    /// Batches dropped from the store (over budget) whose light this eye pass's accumulators
+    /// still hold.
     folded: usize,
+    /// Batches dropped from the store whose light the image still holds (in this pass's
+    /// accumulators or an earlier pass's film).
+    folded_total: usize,
     /// Counts every change of the accumulated light (a batch traced or re-splatted, a view).
     pub generation: u64,
     /// Splatting counters.
@@ -53,8 +64,81 @@ pub struct Progressive {
     redraw_lobes: bool,
     /// The light through traced lobes drawn per batch (with `redraw_lobes`).
     lobes: TracedLobes,
+    /// Draw new eye passes as batches go on (the resolver allows it and `progressive_eye`).
+    redraw_eye: bool,
+    /// The current eye pass of this view (0 first).
+    eye_pass: u32,
+    /// The films of the finished eye passes of this view.
+    earlier: EarlierPasses,
     /// Time per phase.
     pub timings: Timings,
+}
+
+/// An eye pass lasts until its batches hold this many photons per eye sample: a new pass
+/// costs about as much as the batches it follows (the eye pass, tree and NEE of one sample
+/// against the tracing and splatting of the photons; measured in docs/benchmarks.md), so
+/// about half the time goes to each, whatever the resolution and batch size.
+pub const EYE_PASS_PHOTONS_PER_SAMPLE: f64 = 0.05;
+
+/// The films of finished eye passes, each weighted by the batches it held.
+#[derive(Clone, Debug, Default)]
+struct EarlierPasses {
+    /// Σ batches · film, per pixel.
+    rgb: Vec<Vec3>,
+    direct: Vec<Vec3>,
+    indirect: Vec<Vec3>,
+    /// Σ batches.
+    batches: usize,
+    /// Passes in the sums.
+    passes: u32,
+    /// Their dropped contributions.
+    invalid: u64,
+}
+
+impl EarlierPasses {
+    fn add(&mut self, film: &Film, batches: usize) {
+        let n = film.rgb.len();
+        if self.rgb.len() != n {
+            *self = Self {
+                rgb: vec![Vec3::ZERO; n],
+                direct: vec![Vec3::ZERO; n],
+                indirect: vec![Vec3::ZERO; n],
+                ..Self::default()
+            };
+        }
+        let w = batches as f32;
+        for (sum, px) in [
+            (&mut self.rgb, &film.rgb),
+            (&mut self.direct, &film.direct),
+            (&mut self.indirect, &film.indirect),
+        ] {
+            for (s, p) in sum.iter_mut().zip(px) {
+                *s += w * *p;
+            }
+        }
+        self.batches += batches;
+        self.passes += 1;
+        self.invalid += film.invalid_contributions;
+    }
+
+    /// `film` (of the current pass, holding `batches`) becomes the mean over every pass.
+    fn blend(&self, film: &mut Film, batches: usize) {
+        if self.batches == 0 || self.rgb.len() != film.rgb.len() {
+            return;
+        }
+        let w = batches as f32;
+        let inv = 1.0 / (self.batches + batches) as f32;
+        for (sum, px) in [
+            (&self.rgb, &mut film.rgb),
+            (&self.direct, &mut film.direct),
+            (&self.indirect, &mut film.indirect),
+        ] {
+            for (s, p) in sum.iter().zip(px.iter_mut()) {
+                *p = (*s + w * *p) * inv;
+            }
+        }
+        film.invalid_contributions += self.invalid;
+    }
 }
 
 impl Progressive {
@@ -67,9 +151,10 @@ impl Progressive {
         camera: Camera,
         splatted_classes: [bool; 3],
         redraw_lobes: bool,
+        redraw_eye: bool,
     ) -> Result<Self, String> {
         let mut timings = Timings::default();
-        let side = EyeSide::new(&scene, &camera, &settings, !redraw_lobes, &mut timings)?;
+        let side = EyeSide::new(&scene, &camera, &settings, !redraw_lobes, 0, &mut timings)?;
         let lobes = TracedLobes::new((settings.width * settings.height) as usize);
         let t = Instant::now();
         let store = PhotonStore::new(&scene, settings.seed);
@@ -84,17 +169,70 @@ impl Progressive {
             resplat_queue: Vec::new(),
             splatted: 0,
             folded: 0,
+            folded_total: 0,
             generation: 0,
             counters: SplatCounters::default(),
             redraw_lobes,
             lobes,
+            redraw_eye,
+            eye_pass: 0,
+            earlier: EarlierPasses::default(),
             timings,
         })
     }
 
-    /// Batches whose light the image holds (stored and splatted, plus folded).
+    /// Batches whose light the image holds (stored and splatted, plus folded), over every
+    /// eye pass.
     pub fn batch_count(&self) -> usize {
+        self.earlier.batches + self.pass_batches()
+    }
+
+    /// Batches whose light the current eye pass's accumulators hold.
+    pub fn pass_batches(&self) -> usize {
         self.splatted + self.folded
+    }
+
+    /// Eye passes of this view so far (the current one included).
+    pub fn eye_passes(&self) -> u32 {
+        self.earlier.passes + 1
+    }
+
+    /// True when the current eye pass has held its share of photons
+    /// ([`EYE_PASS_PHOTONS_PER_SAMPLE`]) and a new one should be drawn before the next batch.
+    pub fn wants_new_eye_pass(&self) -> bool {
+        self.redraw_eye
+            && self.settings.progressive_eye
+            && self.resplat_queue.is_empty()
+            && self.pass_batches() as f64 * self.settings.photons as f64
+                >= EYE_PASS_PHOTONS_PER_SAMPLE * self.side.eye.len().max(1) as f64
+    }
+
+    /// Keep `film` (the current pass's, not blended) with the weight of its batches and draw
+    /// a new eye pass; the next batches are splatted onto it. On failure the pass goes on.
+    pub fn next_eye_pass(&mut self, film: &Film) {
+        let pass = self.eye_pass + 1;
+        let Ok(side) = EyeSide::new(
+            &self.scene,
+            &self.camera,
+            &self.settings,
+            !self.redraw_lobes,
+            pass,
+            &mut self.timings,
+        ) else {
+            return;
+        };
+        self.earlier.add(film, self.pass_batches());
+        self.side = side;
+        self.eye_pass = pass;
+        self.lobes = TracedLobes::new((self.settings.width * self.settings.height) as usize);
+        self.splatted = 0;
+        self.folded = 0;
+        self.generation += 1;
+    }
+
+    /// `film` of the current pass becomes the batch-weighted mean over every eye pass.
+    pub fn blend_earlier(&self, film: &mut Film) {
+        self.earlier.blend(film, self.pass_batches());
     }
 
     /// True while stored batches wait to be re-splatted after a parameter or view change.
@@ -144,9 +282,14 @@ impl Progressive {
         self.timings.t_splat += t.elapsed().as_secs_f64();
         self.draw_lobes(b);
         let t = Instant::now();
-        let dropped = self.store.fold();
-        self.folded += dropped;
-        self.splatted -= dropped;
+        self.folded_total += self.store.fold();
+        // The dropped batches are the oldest; those of earlier eye passes were not splatted
+        // onto this one, whose batches are the newest `splatted` of the store.
+        let stored = self.store.batches().len();
+        if self.splatted > stored {
+            self.folded += self.splatted - stored;
+            self.splatted = stored;
+        }
         self.timings.t_splat += t.elapsed().as_secs_f64();
     }
 
@@ -195,6 +338,10 @@ impl Progressive {
         self.lobes.clear();
         self.splatted = 0;
         self.folded = 0;
+        self.folded_total = 0;
+        // Earlier eye passes hold light of the old bandwidth: every stored batch goes onto
+        // the current pass instead.
+        self.earlier = EarlierPasses::default();
         self.generation += 1;
         // Newest first: it has the smallest bandwidth, so the first frame is the sharpest.
         self.resplat_queue = (0..self.store.batches().len()).collect();
@@ -216,8 +363,10 @@ impl Progressive {
             &camera,
             &settings,
             !self.redraw_lobes,
+            0,
             &mut self.timings,
         )?;
+        self.eye_pass = 0;
         self.lobes = TracedLobes::new((width * height) as usize);
         self.settings = settings;
         self.camera = camera;
@@ -231,6 +380,7 @@ impl Progressive {
         self.settings.cache = s.cache;
         self.settings.cache_on = s.cache_on;
         self.settings.filter = s.filter;
+        self.settings.progressive_eye = s.progressive_eye;
         if s.radiance_map != self.settings.radiance_map {
             // New accumulators with the new directional records, then a re-splat.
             self.settings.radiance_map = s.radiance_map;
@@ -356,7 +506,8 @@ impl Progressive {
             photon_rays_per_class: self.store.rays_per_class(),
             photon_ray_bytes: self.store.memory_bytes(),
             passes: self.batch_count() as u64,
-            folded_batches: self.folded,
+            folded_batches: self.folded_total,
+            eye_passes: self.eye_passes(),
             stored_batches: self.store.batches().len(),
             splat_bytes: self.side.memory_bytes(),
             directional_bytes,
@@ -411,6 +562,9 @@ pub trait Resolver: Send {
     /// Traced glossy lobes get new directions per photon batch, so that they converge with
     /// the batches ([`TracedLobes`]); otherwise one direction per eye sample in the eye pass.
     const REDRAWS_LOBES: bool = false;
+    /// Eye passes are drawn anew as batches go on (with `progressive_eye`): the resolver
+    /// reads the current pass's accumulators only, over [`Progressive::pass_batches`].
+    const REDRAWS_EYE: bool = false;
 
     /// The film from the core's state (may build a cache or a density estimate, timed into
     /// the core's T_S).
@@ -447,7 +601,14 @@ impl<R: Resolver + Default> PhotonMethod<R> {
             ..settings
         };
         Ok(Self {
-            core: Progressive::new(scene, settings, camera, R::SPLATTED, R::REDRAWS_LOBES)?,
+            core: Progressive::new(
+                scene,
+                settings,
+                camera,
+                R::SPLATTED,
+                R::REDRAWS_LOBES,
+                R::REDRAWS_EYE,
+            )?,
             resolver: R::default(),
         })
     }
@@ -460,9 +621,23 @@ impl<R: Resolver + Default> PhotonMethod<R> {
 }
 
 impl<R: Resolver> PhotonMethod<R> {
-    /// Trace and splat one batch (after any pending re-splat).
+    /// Trace and splat one batch (after any pending re-splat, and on a new eye pass when the
+    /// current one has had its share).
     pub fn run_batch(&mut self) {
+        while self.core.resplat_pending() {
+            self.core.step();
+        }
+        self.maybe_next_eye_pass();
         self.core.run_batch();
+    }
+
+    /// Draw a new eye pass when the current one has had its share of photons, keeping the
+    /// current pass's film.
+    fn maybe_next_eye_pass(&mut self) {
+        if self.core.wants_new_eye_pass() {
+            let film = self.resolver.film(&mut self.core);
+            self.core.next_eye_pass(&film);
+        }
     }
 
     /// Re-splat every stored batch with new bandwidth parameters, all at once.
@@ -488,12 +663,13 @@ impl<R: Resolver> PhotonMethod<R> {
         &self.core.side.targets
     }
 
-    /// Batch-averaged splatted irradiance E (eq. 5) at every splat target, from the indirect
-    /// and caustic photons (`direct` = false) or from the direct photons (`direct` = true).
+    /// Batch-averaged splatted irradiance E (eq. 5) at every splat target of the current
+    /// eye pass, from the indirect and caustic photons (`direct` = false) or from the direct
+    /// photons (`direct` = true).
     pub fn target_irradiance(&self, direct: bool) -> Vec<Vec3> {
         self.core
             .side
-            .target_irradiance(direct, self.core.batch_count())
+            .target_irradiance(direct, self.core.pass_batches())
     }
 }
 
@@ -511,6 +687,9 @@ impl<R: Resolver> Method for PhotonMethod<R> {
     }
 
     fn step(&mut self) -> Step {
+        if !self.core.resplat_pending() {
+            self.maybe_next_eye_pass();
+        }
         self.core.step()
     }
 
@@ -537,7 +716,9 @@ impl<R: Resolver> Method for PhotonMethod<R> {
     }
 
     fn film(&mut self) -> Film {
-        self.resolver.film(&mut self.core)
+        let mut film = self.resolver.film(&mut self.core);
+        self.core.blend_earlier(&mut film);
+        film
     }
 
     fn passes(&self) -> u64 {

@@ -28,7 +28,7 @@ impl Resolver for RcFilm {
 
     fn film(&mut self, core: &mut Progressive) -> Film {
         let t = Instant::now();
-        let b = core.batch_count() as u32;
+        let b = core.pass_batches() as u32;
         // The cache pass counts as splatting (T_S), not as resolving.
         let tc = Instant::now();
         let cache = cache_by_splatting(core);

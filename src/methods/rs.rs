@@ -24,10 +24,11 @@ impl Resolver for RsFilm {
     const KIND: MethodKind = MethodKind::Rs;
     const SPLATTED: [bool; 3] = [false, true, true];
     const REDRAWS_LOBES: bool = true;
+    const REDRAWS_EYE: bool = true;
 
     fn film(&mut self, core: &mut Progressive) -> Film {
         let t = Instant::now();
-        let b = core.batch_count() as u32;
+        let b = core.pass_batches() as u32;
         self.cache = None;
         // The cache pass counts as splatting (T_S), not as resolving.
         let mut cache_time = 0.0;
