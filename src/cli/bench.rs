@@ -50,8 +50,8 @@ pub struct BenchArgs {
     /// Where the quality plot goes (PNG; default DIR/quality.png of --quality-references).
     #[arg(long)]
     quality_plot: Option<PathBuf>,
-    /// Quality rows with the eye samples of the first eye pass kept for every batch (the
-    /// window before issue 16), for comparison.
+    /// Quality and previewer rows with the eye samples of the first eye pass kept for every
+    /// batch (the window before issue 16), for comparison.
     #[arg(long)]
     fixed_eye_samples: bool,
     /// Run only these groups of rows (default: every group; quality needs its references).
@@ -176,7 +176,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         glossy_bench(&args, &mut rows)?;
     }
     if runs(Group::Preview) {
-        preview_bench()?.report(&mut rows);
+        preview_bench(!args.fixed_eye_samples)?.report(&mut rows);
     }
     if let Some(references) = quality_refs {
         let curves =
@@ -381,7 +381,7 @@ fn glossy_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), String> {
 
 /// The previewer's latencies, driving the worker without a window (500×500×1, 20k photons per
 /// batch, the embedded CORNELL BOX I).
-fn preview_bench() -> Result<PreviewLatencies, String> {
+fn preview_bench(progressive_eye: bool) -> Result<PreviewLatencies, String> {
     use raysplat::session::{Command as C, Frame, Session, SessionConfig};
     let timeout = Duration::from_secs(60);
     let wait = |s: &Session, pred: &dyn Fn(&Frame) -> bool| -> Result<Frame, String> {
@@ -395,7 +395,8 @@ fn preview_bench() -> Result<PreviewLatencies, String> {
         }
         Err("the worker published no frame in time".into())
     };
-    let config = SessionConfig::default();
+    let mut config = SessionConfig::default();
+    config.settings.progressive_eye = progressive_eye;
     let t = Instant::now();
     let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
     wait(&session, &|f| f.stats.batches >= 1)?;
