@@ -555,3 +555,17 @@ fn visibility_checkbox_restarts_with_shadow_rays() {
     });
     h.get_by_label_contains("shadow rays");
 }
+
+/// Issue 16 in the window: the worker draws new eye passes as batches go on, and the stats
+/// line says which pass the image has reached.
+#[test]
+fn the_stats_line_counts_eye_passes() {
+    let mut h = harness(tmp("eye_passes"));
+    run_until(&mut h, 60, "a second eye pass", |a| {
+        a.frame().is_some_and(|f| f.stats.eye_passes >= 2)
+    });
+    pause(&mut h);
+    h.step();
+    let n = h.state().frame().unwrap().stats.eye_passes;
+    h.get_by_label_contains(&format!("eye pass {n}"));
+}

@@ -43,11 +43,17 @@ impl StatsPanel {
             .on_hover_text("indirect photon rays whose bandwidth sits at eq. 8's bounds");
             ui.separator();
             ui.label(format!(
-                "eye samples {} ({} splat targets, {:.1} MB with tree and accumulators)",
+                "eye samples {} ({} splat targets, {:.1} MB with tree and accumulators), \
+                 eye pass {}",
                 s.eye_samples,
                 s.splat_targets,
-                s.splat_bytes as f64 / 1e6
-            ));
+                s.splat_bytes as f64 / 1e6,
+                s.eye_passes
+            ))
+            .on_hover_text(
+                "the eye samples are drawn anew every few batches, and the image averages over \
+                 every eye pass (issue 16)",
+            );
             if s.glossy_targets > 0 {
                 ui.separator();
                 ui.label(format!(

@@ -150,6 +150,9 @@ pub struct SessionStats {
     /// Glossy eye samples whose lobe is traced by the eye path (too sharp for the map).
     #[serde(default)]
     pub glossy_traced_samples: usize,
+    /// Eye passes the image averages over (issue 16; 1 with fixed eye samples).
+    #[serde(default)]
+    pub eye_passes: u32,
     /// Splatted pairs tested with a shadow ray, with the visibility test on (§40).
     #[serde(default)]
     pub shadow_tests: u64,
