@@ -41,6 +41,10 @@ pub struct Film {
 }
 
 impl Film {
+    /// Bytes per pixel of a film: rgb, direct and indirect, four scalar AOVs and the glossy
+    /// source.
+    pub const BYTES_PER_PIXEL: usize = 3 * 12 + 4 * 4 + 8;
+
     /// A black film of `width` × `height` pixels.
     pub fn new(width: u32, height: u32) -> Self {
         let n = (width * height) as usize;

@@ -203,6 +203,28 @@ fn render_writes_images_and_stats() {
     let img = image::open(&png).unwrap();
     assert_eq!((img.width(), img.height()), (48, 40));
     let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    // The memory breakdown (issue 16): every part present, the total their sum.
+    let mem = &j["memory"];
+    let parts = [
+        "eye_samples",
+        "splat_targets",
+        "splat_tree",
+        "accumulators",
+        "photon_rays",
+        "pixel_sums",
+        "film",
+        "scene",
+    ];
+    for part in parts {
+        assert!(mem[part].as_u64().unwrap_or(0) > 0, "{part}: {mem}");
+    }
+    let sum: u64 = mem
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|v| v.as_u64().unwrap())
+        .sum();
+    assert_eq!(j["memory_total_bytes"].as_u64(), Some(sum));
     for key in [
         "t_eye",
         "t_light",

@@ -557,7 +557,7 @@ fn visibility_checkbox_restarts_with_shadow_rays() {
 }
 
 /// Issue 16 in the window: the worker draws new eye passes as batches go on, and the stats
-/// line says which pass the image has reached.
+/// line says which pass the image has reached and how much memory the render holds.
 #[test]
 fn the_stats_line_counts_eye_passes() {
     let mut h = harness(tmp("eye_passes"));
@@ -566,6 +566,11 @@ fn the_stats_line_counts_eye_passes() {
     });
     pause(&mut h);
     h.step();
-    let n = h.state().frame().unwrap().stats.eye_passes;
-    h.get_by_label_contains(&format!("eye pass {n}"));
+    let f = h.state().frame().unwrap().clone();
+    h.get_by_label_contains(&format!("eye pass {}", f.stats.eye_passes));
+    // The memory breakdown (issue 16) reaches the window: every part the view has.
+    let m = f.stats.memory;
+    assert!(m.eye_samples > 0 && m.splat_tree > 0 && m.photon_rays > 0 && m.film > 0);
+    assert!(m.scene > 0 && m.accumulators > 0 && m.pixel_sums > 0);
+    h.get_by_label(&format!("memory {:.0} MB", m.total() as f64 / 1e6));
 }

@@ -54,6 +54,27 @@ impl StatsPanel {
                 "the eye samples are drawn anew every few batches, and the image averages over \
                  every eye pass (issue 16)",
             );
+            let mem = &s.memory;
+            if mem.total() > 0 {
+                ui.separator();
+                let mb = |b: usize| b as f64 / 1e6;
+                ui.label(format!("memory {:.0} MB", mb(mem.total())))
+                    .on_hover_text(format!(
+                        "eye samples {:.1} MB, splat targets {:.1}, splat tree {:.1}, \
+                         accumulators {:.1}, directional records {:.1}, stored photon rays \
+                         {:.1}, per-pixel sums {:.1}, film {:.1}, scene and BVH {:.1} \
+                         (steady state; a batch in flight adds its own)",
+                        mb(mem.eye_samples),
+                        mb(mem.splat_targets),
+                        mb(mem.splat_tree),
+                        mb(mem.accumulators),
+                        mb(mem.directional_records),
+                        mb(mem.photon_rays),
+                        mb(mem.pixel_sums),
+                        mb(mem.film),
+                        mb(mem.scene)
+                    ));
+            }
             if s.glossy_targets > 0 {
                 ui.separator();
                 ui.label(format!(

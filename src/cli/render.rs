@@ -215,6 +215,8 @@ fn stats_json(
         "shadow_tests": s.shadow_tests,
         "occluded_pairs": s.occluded_pairs,
         "peak_rss_mb": peak_rss_mb(),
+        "memory": s.memory,
+        "memory_total_bytes": s.memory.total(),
         "radiance_map": settings.radiance_map,
         "cache_records": s.cache_records,
         "cache_records_per_pass": s.cache_records_per_pass,

@@ -51,6 +51,11 @@ impl TracedLobes {
         self.invalid = 0;
     }
 
+    /// Bytes held by the per-pixel sums.
+    pub fn memory_bytes(&self) -> usize {
+        (self.direct.len() + self.indirect.len()) * std::mem::size_of::<Vec3>()
+    }
+
     /// Batches in the sums.
     pub fn batches(&self) -> u32 {
         self.batches

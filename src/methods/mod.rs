@@ -80,6 +80,45 @@ impl std::ops::AddAssign for Timings {
     }
 }
 
+/// Bytes held by each part of a render (issue 16's memory breakdown). Zero where a method
+/// has no such part.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MemoryBreakdown {
+    /// Eye samples of the current eye pass (and of the traced lobes' last draw).
+    pub eye_samples: usize,
+    /// Splat targets (positions, normals, glossy flags).
+    pub splat_targets: usize,
+    /// The splat kd-tree (nodes, leaves, chunks, slot maps, blocker planes).
+    pub splat_tree: usize,
+    /// Accumulators, without the directional records.
+    pub accumulators: usize,
+    /// Directional records at glossy targets (§8.1).
+    pub directional_records: usize,
+    /// Stored photon rays.
+    pub photon_rays: usize,
+    /// Per-pixel sums: emission and NEE light, traced lobes, finished eye passes.
+    pub pixel_sums: usize,
+    /// One film with its AOVs.
+    pub film: usize,
+    /// The scene: triangles, shading data, textures and the BVH.
+    pub scene: usize,
+}
+
+impl MemoryBreakdown {
+    /// The sum of the parts.
+    pub fn total(&self) -> usize {
+        self.eye_samples
+            + self.splat_targets
+            + self.splat_tree
+            + self.accumulators
+            + self.directional_records
+            + self.photon_rays
+            + self.pixel_sums
+            + self.film
+            + self.scene
+    }
+}
+
 /// Counters and memory of a method, for the stats panel, `--stats` and `bench`. Fields a
 /// method does not have stay zero or `None`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -96,6 +135,8 @@ pub struct MethodStats {
     pub passes: u64,
     /// Batches dropped from the ray store (over budget) whose light the image still holds.
     pub folded_batches: usize,
+    /// Where the render's memory is (bytes), for the stats JSON and the window (issue 16).
+    pub memory: MemoryBreakdown,
     /// Eye passes the image averages over (rs with `progressive_eye`; 1 otherwise, 0 for
     /// methods without eye samples of their own).
     pub eye_passes: u32,

@@ -17,7 +17,7 @@ use crate::film::Film;
 use crate::methods::eye_side::EyeSide;
 use crate::methods::lobes::TracedLobes;
 use crate::methods::photon_store::PhotonStore;
-use crate::methods::{Method, MethodStats, Step, Timings};
+use crate::methods::{MemoryBreakdown, Method, MethodStats, Step, Timings};
 use crate::pipeline::cache::{Cache, PixelGeometry, sample_values};
 use crate::pipeline::eye::{EyeSamples, SplatTargets};
 use crate::pipeline::filter::filter_samples;
@@ -495,6 +495,28 @@ impl Progressive {
         film
     }
 
+    /// Where this render's memory is (issue 16).
+    pub fn memory(&self) -> MemoryBreakdown {
+        let side = &self.side;
+        let (directional, _) = side.directional_memory();
+        let pixels = (self.settings.width * self.settings.height) as usize;
+        let vec3 = std::mem::size_of::<Vec3>();
+        MemoryBreakdown {
+            eye_samples: side.eye.memory_bytes(),
+            splat_targets: side.targets.memory_bytes(),
+            splat_tree: side.tree.memory_bytes(),
+            accumulators: side.acc_indirect.memory_bytes() + side.acc_direct.memory_bytes()
+                - directional,
+            directional_records: directional,
+            photon_rays: self.store.memory_bytes(),
+            pixel_sums: (side.emitted.len() + side.direct.len()) * vec3
+                + self.lobes.memory_bytes()
+                + 3 * self.earlier.rgb.len() * vec3,
+            film: pixels * Film::BYTES_PER_PIXEL,
+            scene: self.scene.memory_bytes(),
+        }
+    }
+
     /// The counters every photon-based method shares.
     pub fn stats(&mut self) -> MethodStats {
         let (directional_bytes, glossy_targets) = self.side.directional_memory();
@@ -508,6 +530,7 @@ impl Progressive {
             passes: self.batch_count() as u64,
             folded_batches: self.folded_total,
             eye_passes: self.eye_passes(),
+            memory: self.memory(),
             stored_batches: self.store.batches().len(),
             splat_bytes: self.side.memory_bytes(),
             directional_bytes,

@@ -99,6 +99,11 @@ pub struct SplatTargets {
 }
 
 impl SplatTargets {
+    /// Bytes held by the target arrays.
+    pub fn memory_bytes(&self) -> usize {
+        self.len() * (3 * 12 + 1)
+    }
+
     /// Number of splat targets.
     pub fn len(&self) -> usize {
         self.position.len()

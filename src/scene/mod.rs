@@ -98,6 +98,21 @@ pub(crate) struct SceneParts {
 }
 
 impl Scene {
+    /// Bytes held by the scene's triangles, shading data, textures and BVH (the
+    /// environment's map and tables are not counted).
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        size_of_val(&self.triangles[..])
+            + size_of_val(&self.shading[..])
+            + self
+                .textures
+                .iter()
+                .map(|t| size_of_val(&t.texels[..]))
+                .sum::<usize>()
+            + size_of_val(&self.bvh.nodes[..])
+            + size_of_val(&self.bvh.primitive_indices[..])
+    }
+
     /// The embedded default scene (CORNELL BOX I).
     pub fn default_scene() -> Self {
         Self::from_glb_bytes(DEFAULT_SCENE_GLB, "CORNELL BOX I (embedded)")

@@ -153,6 +153,9 @@ pub struct SessionStats {
     /// Eye passes the image averages over (issue 16; 1 with fixed eye samples).
     #[serde(default)]
     pub eye_passes: u32,
+    /// Where the render's memory is (issue 16).
+    #[serde(default)]
+    pub memory: crate::methods::MemoryBreakdown,
     /// Splatted pairs tested with a shadow ray, with the visibility test on (§40).
     #[serde(default)]
     pub shadow_tests: u64,

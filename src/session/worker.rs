@@ -417,6 +417,7 @@ impl Worker {
             glossy_map_samples: m.glossy_map_samples,
             glossy_traced_samples: m.glossy_traced_samples,
             eye_passes: m.eye_passes,
+            memory: m.memory,
             shadow_tests: m.shadow_tests,
             occluded_pairs: m.occluded_pairs,
             cache_records: m.cache_records.unwrap_or(0),
