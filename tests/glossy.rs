@@ -289,6 +289,9 @@ fn traced_reflections_converge_with_the_batches() {
         fractions: [1.0, 0.0, 0.0],
         direct: DirectMode::Nee,
         seed: 9,
+        // The first eye pass for every batch: only the lobes' directions change (issue 16's
+        // eye passes would redraw sample positions and NEE too).
+        progressive_eye: false,
         ..RenderSettings::default()
     };
     let film_after = |batches: usize| {

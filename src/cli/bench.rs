@@ -15,7 +15,7 @@ use raysplat::pipeline::photon::BandwidthParams;
 use raysplat::scene::{BuiltinScene, Scene};
 use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -159,7 +159,20 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     if quality_refs.is_some()
         && let Some(plot) = &plot
     {
-        super::output::check(&[(plot.as_path(), false)], &[])?;
+        if !plot
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+        {
+            return Err(format!("{}: the quality plot is a .png", plot.display()));
+        }
+        let dir = args.quality_references.as_deref().unwrap_or(Path::new("."));
+        let refs: Vec<PathBuf> = quality::SCENES
+            .iter()
+            .map(|(stem, _)| dir.join(format!("{stem}.exr")))
+            .collect();
+        let mut inputs: Vec<&Path> = refs.iter().map(PathBuf::as_path).collect();
+        inputs.extend(args.json.as_deref());
+        super::output::check(&[(plot.as_path(), false)], &inputs)?;
     }
     if !(args.quality_seconds >= CHECKPOINT_MIN && args.quality_seconds <= 600.0) {
         return Err(format!(
@@ -178,16 +191,20 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     if runs(Group::Preview) {
         preview_bench(!args.fixed_eye_samples)?.report(&mut rows);
     }
+    let mut curves = Vec::new();
     if let Some(references) = quality_refs {
-        let curves =
-            quality::run_curves(&references, args.quality_seconds, !args.fixed_eye_samples);
+        curves = quality::run_curves(&references, args.quality_seconds, !args.fixed_eye_samples);
         rows.extend(quality::rows(&curves));
-        if let Some(plot) = &plot {
-            quality::plot(&curves, plot)?;
-        }
     }
     if let Some(path) = &args.json {
         write_json(path, rows)?;
+    }
+    // After the rows are safe: a plot that cannot be drawn costs only the plot.
+    if !curves.is_empty()
+        && let Some(plot) = &plot
+        && let Err(e) = quality::plot(&curves, plot)
+    {
+        eprintln!("{e}");
     }
     Ok(())
 }

@@ -10,7 +10,7 @@ const PER_PIXEL: u64 = 256;
 /// Bytes per eye sample: the sample (SoA), its splat target, tree share and accumulators.
 /// Glossy samples' directional records (up to 48 floats) are counted for every sample, an
 /// upper bound for scenes full of glossy surfaces.
-const PER_EYE_SAMPLE: u64 = 101 + 32 + 16 + 2 * 28 + 48 * 4;
+const PER_EYE_SAMPLE: u64 = 102 + 32 + 16 + 2 * 28 + 48 * 4;
 /// Per pixel for glossy lobes traced by the eye path (issue 13): the film's glossy-source AOV
 /// (8 bytes) and rs's per-batch lobe sums (24); the eye samples its lobe paths reach (one per
 /// second eye sample, `eye::trace_lobes`) are counted with the eye samples.

@@ -84,7 +84,7 @@ impl std::ops::AddAssign for Timings {
 /// has no such part.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct MemoryBreakdown {
-    /// Eye samples of the current eye pass (and of the traced lobes' last draw).
+    /// Eye samples of the current eye pass.
     pub eye_samples: usize,
     /// Splat targets (positions, normals, glossy flags).
     pub splat_targets: usize,

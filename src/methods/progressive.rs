@@ -74,10 +74,10 @@ pub struct Progressive {
     pub timings: Timings,
 }
 
-/// An eye pass lasts until its batches hold this many photons per eye sample: a new pass
-/// costs about as much as the batches it follows (the eye pass, tree and NEE of one sample
-/// against the tracing and splatting of the photons; measured in docs/benchmarks.md), so
-/// about half the time goes to each, whatever the resolution and batch size.
+/// An eye pass lasts until its batches hold this many photons per eye sample: shorter passes
+/// converged faster down to one pass per batch in the window (docs/deviations.md §41, where
+/// 0.5, 0.2, 0.1 and 0.05 were measured), and the bound keeps tiny batches from spending all
+/// their time in eye passes.
 pub const EYE_PASS_PHOTONS_PER_SAMPLE: f64 = 0.05;
 
 /// The films of finished eye passes, each weighted by the batches it held.
@@ -96,7 +96,7 @@ struct EarlierPasses {
 }
 
 impl EarlierPasses {
-    fn add(&mut self, film: &Film, batches: usize) {
+    fn add(&mut self, film: &Film, batches: usize, store_invalid: u64) {
         let n = film.rgb.len();
         if self.rgb.len() != n {
             *self = Self {
@@ -118,7 +118,9 @@ impl EarlierPasses {
         }
         self.batches += batches;
         self.passes += 1;
-        self.invalid += film.invalid_contributions;
+        // The store's dropped photon rays are a running total every film carries: counted
+        // once, by the current pass's film.
+        self.invalid += film.invalid_contributions - film.invalid_contributions.min(store_invalid);
     }
 
     /// `film` (of the current pass, holding `batches`) becomes the mean over every pass.
@@ -201,10 +203,18 @@ impl Progressive {
     /// ([`EYE_PASS_PHOTONS_PER_SAMPLE`]) and a new one should be drawn before the next batch.
     pub fn wants_new_eye_pass(&self) -> bool {
         self.redraw_eye
-            && self.settings.progressive_eye
+            && self.eye_passes_allowed()
             && self.resplat_queue.is_empty()
             && self.pass_batches() as f64 * self.settings.photons as f64
                 >= EYE_PASS_PHOTONS_PER_SAMPLE * self.side.eye.len().max(1) as f64
+    }
+
+    /// Eye passes are drawn with `progressive_eye`, but not while the image-space filter
+    /// (§8.2) or the radiance cache (§8.3) reads the radiance map: both work on one pass's
+    /// samples with a radius or records sized by that pass's batches, so averaging filtered
+    /// passes would keep a one-batch blur forever (deviations §41).
+    fn eye_passes_allowed(&self) -> bool {
+        self.settings.progressive_eye && !self.settings.filter.enabled && !self.settings.cache_on
     }
 
     /// Keep `film` (the current pass's, not blended) with the weight of its batches and draw
@@ -221,7 +231,8 @@ impl Progressive {
         ) else {
             return;
         };
-        self.earlier.add(film, self.pass_batches());
+        self.earlier
+            .add(film, self.pass_batches(), self.store.invalid_photon_rays);
         self.side = side;
         self.eye_pass = pass;
         self.lobes = TracedLobes::new((self.settings.width * self.settings.height) as usize);
@@ -381,6 +392,11 @@ impl Progressive {
         self.settings.cache_on = s.cache_on;
         self.settings.filter = s.filter;
         self.settings.progressive_eye = s.progressive_eye;
+        // Earlier passes' films were made without the cache and filter now asked for: their
+        // batches go onto the current pass (a re-splat), so that the change reaches all of it.
+        if !self.eye_passes_allowed() && self.earlier.batches > 0 {
+            self.begin_resplat(s.bandwidth);
+        }
         if s.radiance_map != self.settings.radiance_map {
             // New accumulators with the new directional records, then a re-splat.
             self.settings.radiance_map = s.radiance_map;

@@ -550,9 +550,13 @@ type Branch = (Vec3, Vec3, Vec3, u32, f32, u32, bool);
 /// eye samples. Measured one batch, rs, SH, against the path tracer (docs/deviations.md
 /// §38): one path per pixel left CORNELL BOX I's brass noisier than shading it matte (relMSE
 /// 0.0075 against 0.0066); one per traced sample 0.0058 at 1.24× that time, but
-/// `builtin:glossy-sharp` took 1.52× diffuse's time; every second sample 0.0063 at 1.16×,
-/// and 1.35× on glossy-sharp, as much accuracy per second as every sample.
+/// `builtin:glossy-sharp` took 1.52× diffuse's time; half the samples 0.0062 at 1.16×, and
+/// 1.36× on glossy-sharp, about as much accuracy per second as every sample.
 const LOBE_SHARE: usize = 2;
+
+/// Stream ranges of [`trace_lobes`]: the random first sample per pixel, and each lobe path.
+const LOBE_PICK_STREAMS: u64 = 0x4000_0000_0000_0000;
+const LOBE_PATH_STREAMS: u64 = 0x5000_0000_0000_0000;
 
 /// New directions for the traced glossy lobes of `eye` (its samples with `lobe_traced`): for
 /// ⌈t / [`LOBE_SHARE`]⌉ of each pixel's t traced samples, a circular run from a random one,
@@ -589,14 +593,17 @@ pub fn trace_lobes(
                 // weighted by its inverse (unbiased).
                 let traced = (i..end).filter(|&k| eye.lobe_traced[k]).count();
                 let m = traced.div_ceil(LOBE_SHARE);
-                let mut pick = Rng::new(s.seed ^ draw.wrapping_mul(0x9e37_79b9), pixel as u64);
+                // Streams of their own (high bits), apart from the light pass's photon
+                // streams and from each other.
+                let lobe_seed = s.seed ^ draw.wrapping_mul(0x9e37_79b9);
+                let mut pick = Rng::new(lobe_seed, LOBE_PICK_STREAMS | pixel as u64);
                 let from = ((pick.next_f32() * traced as f32) as usize).min(traced.max(1) - 1);
                 let scale = traced as f32 / m.max(1) as f32;
                 for (j, k) in (i..end).filter(|&k| eye.lobe_traced[k]).enumerate() {
                     if (j + traced - from) % traced >= m {
                         continue;
                     }
-                    let mut rng = Rng::new(s.seed ^ draw.wrapping_mul(0x9e37_79b9), k as u64);
+                    let mut rng = Rng::new(lobe_seed, LOBE_PATH_STREAMS | k as u64);
                     let (p, n, ng) = (eye.position[k], eye.normal[k], eye.geo_normal[k]);
                     let bsdf = eye.bsdf(k, scene);
                     if let Some((d, lobe_w)) =
