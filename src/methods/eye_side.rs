@@ -119,6 +119,18 @@ impl EyeSide {
         })
     }
 
+    /// Free the per-sample and per-pixel arrays (the eye samples, splat targets,
+    /// accumulators and pixel sums), before a new eye pass replaces this side: the peak then
+    /// holds one side, not two. Only the tree and the settings remain until it is dropped.
+    pub fn release(&mut self) {
+        self.eye = EyeSamples::default();
+        self.targets = SplatTargets::default();
+        self.acc_indirect = Accumulators::default();
+        self.acc_direct = Accumulators::default();
+        self.emitted = Vec::new();
+        self.direct = Vec::new();
+    }
+
     /// Empty both accumulators (before a re-splat).
     pub fn clear(&mut self) {
         self.acc_indirect.clear();

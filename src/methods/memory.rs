@@ -15,6 +15,8 @@ const PER_EYE_SAMPLE: u64 = 102 + 32 + 16 + 2 * 28 + 48 * 4;
 /// (8 bytes) and rs's per-batch lobe sums (24); the eye samples its lobe paths reach (one per
 /// second eye sample, `eye::trace_lobes`) are counted with the eye samples.
 const TRACED_LOBES_PER_PIXEL: u64 = 8 + 24;
+/// Per pixel for rs's finished eye passes (issue 16): rgb, direct and indirect sums.
+const EARLIER_PASSES_PER_PIXEL: u64 = 3 * 12;
 /// Gather hits a final-gathering band holds at once (`fg::FgSettings::max_band_samples`) and
 /// their bytes each.
 const FG_BAND_BYTES: u64 = (1 << 17) * (101 + 32 + 16 + 28);
@@ -40,11 +42,14 @@ pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
         // with a traced lobe); rc and pm trace one per eye sample in the eye pass, each
         // reaching one more eye sample (an upper bound for scenes whose every surface is too
         // glossy for the map).
-        MethodKind::Rs => film
-            .saturating_add(eye)
-            .saturating_add(photons)
-            .saturating_add(pixels.saturating_mul(TRACED_LOBES_PER_PIXEL + PER_EYE_SAMPLE))
-            .saturating_add(eye / 2),
+        MethodKind::Rs => {
+            film.saturating_add(eye)
+                .saturating_add(photons)
+                .saturating_add(pixels.saturating_mul(
+                    TRACED_LOBES_PER_PIXEL + EARLIER_PASSES_PER_PIXEL + PER_EYE_SAMPLE,
+                ))
+                .saturating_add(eye / 2)
+        }
         MethodKind::Rc | MethodKind::Pm => film
             .saturating_add(eye.saturating_mul(2))
             .saturating_add(photons),

@@ -218,22 +218,32 @@ impl Progressive {
     }
 
     /// Keep `film` (the current pass's, not blended) with the weight of its batches and draw
-    /// a new eye pass; the next batches are splatted onto it. On failure the pass goes on.
+    /// a new eye pass; the next batches are splatted onto it.
     pub fn next_eye_pass(&mut self, film: &Film) {
         let pass = self.eye_pass + 1;
-        let Ok(side) = EyeSide::new(
+        self.earlier
+            .add(film, self.pass_batches(), self.store.invalid_photon_rays);
+        // Free the finished side's arrays first (its film is kept), so that the peak holds
+        // one eye side, not two (a `--time-budget` render of CORNELL BOX I at 500×500×4:
+        // docs/benchmarks.md, "Memory").
+        self.side.release();
+        match EyeSide::new(
             &self.scene,
             &self.camera,
             &self.settings,
             !self.redraw_lobes,
             pass,
             &mut self.timings,
-        ) else {
-            return;
-        };
-        self.earlier
-            .add(film, self.pass_batches(), self.store.invalid_photon_rays);
-        self.side = side;
+        ) {
+            Ok(side) => self.side = side,
+            Err(_) => {
+                // Unreachable for a view that was built once; should it happen, the view
+                // starts again from the stored rays rather than splatting onto nothing.
+                let (w, h, spp) = (self.settings.width, self.settings.height, self.settings.spp);
+                let _ = self.set_view(self.camera.clone(), w, h, spp);
+                return;
+            }
+        }
         self.eye_pass = pass;
         self.lobes = TracedLobes::new((self.settings.width * self.settings.height) as usize);
         self.splatted = 0;
