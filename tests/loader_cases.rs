@@ -183,34 +183,25 @@ fn a_sparse_accessor_substitutes_values_on_its_buffer_view() {
         &mut bin,
         &[[0xffu8; 4].as_slice(), &f32s(&[0.0, 0.0, 2.0])].concat(),
     );
-    let bytes = glb(
-        &bin,
-        json!([{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-            "sparse": {"count": 1,
-                "indices": {"bufferView": 1, "byteOffset": 2, "componentType": 5123},
-                "values": {"bufferView": 2, "byteOffset": 4}}}]),
-        json!([{"buffer": 0, "byteOffset": base, "byteLength": 36},
-               {"buffer": 0, "byteOffset": idx, "byteLength": 4},
-               {"buffer": 0, "byteOffset": val, "byteLength": 16}]),
-        json!({"attributes": {"POSITION": 0}, "material": 0}),
-        |_| {},
-    );
-    let scene = loads_and_renders(&bytes);
+    // The same sparse accessor over `count` base elements.
+    let sparse = |count: u32| {
+        glb(
+            &bin,
+            json!([{"bufferView": 0, "componentType": 5126, "count": count, "type": "VEC3",
+                "sparse": {"count": 1,
+                    "indices": {"bufferView": 1, "byteOffset": 2, "componentType": 5123},
+                    "values": {"bufferView": 2, "byteOffset": 4}}}]),
+            json!([{"buffer": 0, "byteOffset": base, "byteLength": 36},
+                   {"buffer": 0, "byteOffset": idx, "byteLength": 4},
+                   {"buffer": 0, "byteOffset": val, "byteLength": 16}]),
+            json!({"attributes": {"POSITION": 0}, "material": 0}),
+            |_| {},
+        )
+    };
+    let scene = loads_and_renders(&sparse(3));
     assert_eq!(vertices(&scene, 0)[2], Vec3::new(0.0, 0.0, 2.0));
     // A sparse index past the accessor's count is malformed.
-    let bad = glb(
-        &bin,
-        json!([{"bufferView": 0, "componentType": 5126, "count": 2, "type": "VEC3",
-            "sparse": {"count": 1,
-                "indices": {"bufferView": 1, "byteOffset": 2, "componentType": 5123},
-                "values": {"bufferView": 2, "byteOffset": 4}}}]),
-        json!([{"buffer": 0, "byteOffset": base, "byteLength": 36},
-               {"buffer": 0, "byteOffset": idx, "byteLength": 4},
-               {"buffer": 0, "byteOffset": val, "byteLength": 16}]),
-        json!({"attributes": {"POSITION": 0}, "material": 0}),
-        |_| {},
-    );
-    refused(&bad, "sparse index 2 is out of range");
+    refused(&sparse(2), "sparse index 2 is out of range");
 }
 
 #[test]

@@ -145,7 +145,15 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     }
     let runs = |g: Group| args.only.is_empty() || args.only.contains(&g);
     let quality_refs = match &args.quality_references {
-        Some(dir) if runs(Group::Quality) => Some(quality::read_references(dir)?),
+        Some(dir) if runs(Group::Quality) => Some(
+            quality::SCENES
+                .iter()
+                .map(|(stem, _)| {
+                    let path = quality::reference_path(dir, stem)?;
+                    Ok(read_reference(Some(&path), stem)?.unwrap_or_default())
+                })
+                .collect::<Result<Vec<_>, String>>()?,
+        ),
         None if !args.only.is_empty() && runs(Group::Quality) => {
             return Err("--only quality needs --quality-references DIR".into());
         }

@@ -10,7 +10,7 @@ use plotters::prelude::*;
 use raysplat::scene::{BuiltinScene, Scene};
 use raysplat::session::{Command, Frame, Session, SessionConfig};
 use serde_json::json;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -52,36 +52,22 @@ pub struct Curve {
     pub rel_mse: Vec<Option<f64>>,
 }
 
-/// The references, read and checked before any row runs: `DIR/<scene>.exr` at the window's
-/// default size. The error says how to make a missing one.
-pub fn read_references(dir: &Path) -> Result<Vec<Vec<Vec3>>, String> {
+/// The reference of scene `stem` in `dir`, `DIR/<stem>.exr`; the error says how to make a
+/// missing one (`bench` reads it and checks its size with the other rows' references).
+pub fn reference_path(dir: &Path, stem: &str) -> Result<PathBuf, String> {
+    let path = dir.join(format!("{stem}.exr"));
+    if path.is_file() {
+        return Ok(path);
+    }
     let size = SessionConfig::default().settings;
-    SCENES
-        .iter()
-        .map(|(stem, _)| {
-            let path = dir.join(format!("{stem}.exr"));
-            if !path.is_file() {
-                return Err(format!(
-                    "{}: missing; make it with `raysplat render builtin:{stem} --method pt \
-                     --spp 1024 --width {} --height {} --out {}`",
-                    path.display(),
-                    size.width,
-                    size.height,
-                    path.display()
-                ));
-            }
-            let (w, h, px) = raysplat::film::read_exr(&path)?;
-            if (w, h) != (size.width, size.height) {
-                return Err(format!(
-                    "{}: the reference must be {}×{}, not {w}×{h}",
-                    path.display(),
-                    size.width,
-                    size.height
-                ));
-            }
-            Ok(px)
-        })
-        .collect()
+    Err(format!(
+        "{}: missing; make it with `raysplat render builtin:{stem} --method pt --spp 1024 \
+         --width {} --height {} --out {}`",
+        path.display(),
+        size.width,
+        size.height,
+        path.display()
+    ))
 }
 
 /// Run every curve for `seconds` (checkpoints beyond it are dropped), print one line each.
