@@ -26,16 +26,7 @@ fn plate(metallic: f32, roughness: f32) -> Scene {
         "baseColorFactor": [0.9, 0.8, 0.7, 1.0], "metallicFactor": metallic,
         "roughnessFactor": roughness}}));
     common::plane(&mut g, 1.0, metal);
-    let light = g.material(json!({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
-        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 20.0}}}));
-    let (c, h) = (Vec3::new(-0.5, 1.0, 0.0), 0.15);
-    let p = [
-        c + Vec3::new(-h, 0.0, -h),
-        c + Vec3::new(h, 0.0, -h),
-        c + Vec3::new(h, 0.0, h),
-        c + Vec3::new(-h, 0.0, h),
-    ];
-    g.mesh("light", &p, &[-Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
+    common::ceiling_light(&mut g, Vec3::new(-0.5, 1.0, 0.0), 0.15, 20.0);
     g.camera(
         "side",
         Vec3::new(1.2, 0.9, 0.0),
@@ -192,16 +183,7 @@ fn smooth_metal_sphere() -> Scene {
         "baseColorFactor": [0.9, 0.9, 0.9, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.3}}));
     let (p, n, i) = uv_sphere(Vec3::new(0.0, 0.5, 0.0), 0.5, 64, 32);
     g.mesh("sphere", &p, &n, &i, metal);
-    let light = g.material(json!({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
-        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 10.0}}}));
-    let h = 0.3;
-    let p = [
-        Vec3::new(-h, 2.0, -h),
-        Vec3::new(h, 2.0, -h),
-        Vec3::new(h, 2.0, h),
-        Vec3::new(-h, 2.0, h),
-    ];
-    g.mesh("light", &p, &[-Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
+    common::ceiling_light(&mut g, Vec3::Y * 2.0, 0.3, 10.0);
     g.camera(
         "front",
         Vec3::new(0.0, 0.6, 2.2),

@@ -51,16 +51,7 @@ pub fn small_scene() -> Vec<u8> {
     let mut g = GlbBuilder::default();
     let m = super::white(&mut g);
     super::plane(&mut g, 1.0, m);
-    let light = g.material(json!({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
-        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 10.0}}}));
-    let h = 0.2;
-    let p = [
-        Vec3::new(-h, 1.0, -h),
-        Vec3::new(h, 1.0, -h),
-        Vec3::new(h, 1.0, h),
-        Vec3::new(-h, 1.0, h),
-    ];
-    g.mesh("light", &p, &[-Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
+    super::ceiling_light(&mut g, Vec3::Y, 0.2, 10.0);
     g.camera("top", Vec3::new(0.0, 2.0, 0.01), Vec3::ZERO, 0.8);
     g.to_glb()
 }

@@ -46,23 +46,28 @@ pub fn point_light_over_plane(intensity: f32, height: f32, view: f32) -> Scene {
     Scene::from_glb_bytes(&g.to_glb(), "point light over plane").expect("test scene loads")
 }
 
+/// A white square area light facing down (mesh "light"): centre `center`, half side `half`,
+/// radiance `radiance`.
+pub fn ceiling_light(g: &mut GlbBuilder, center: Vec3, half: f32, radiance: f32) {
+    let light = g.material(json!({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": radiance}}}));
+    let p = [
+        center + Vec3::new(-half, 0.0, -half),
+        center + Vec3::new(half, 0.0, -half),
+        center + Vec3::new(half, 0.0, half),
+        center + Vec3::new(-half, 0.0, half),
+    ];
+    // Counter-clockwise seen from below (front face down).
+    g.mesh("light", &p, &[-Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
+}
+
 /// A downward-facing square area light (side `side`, radiance `radiance`) at height `height`
 /// over the plane.
 pub fn area_light_over_plane(side: f32, radiance: f32, height: f32) -> Scene {
     let mut g = GlbBuilder::default();
     let m = white(&mut g);
     plane(&mut g, 4.0, m);
-    let light = g.material(json!({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
-        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": radiance}}}));
-    let h = 0.5 * side;
-    let p = [
-        Vec3::new(-h, height, -h),
-        Vec3::new(h, height, -h),
-        Vec3::new(h, height, h),
-        Vec3::new(-h, height, h),
-    ];
-    // Counter-clockwise seen from below (front face down).
-    g.mesh("light", &p, &[-Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
+    ceiling_light(&mut g, Vec3::Y * height, 0.5 * side, radiance);
     g.camera("top", Vec3::new(0.0, 2.0 * height, 0.01), Vec3::ZERO, 0.6);
     Scene::from_glb_bytes(&g.to_glb(), "area light over plane").expect("test scene loads")
 }
