@@ -102,8 +102,10 @@ fn mean_inside(scene: &Arc<Scene>, visibility: bool) -> f32 {
 
 /// Outside, the ground has radiance ρ·L = 0.5; inside the shed everything is black. Without
 /// the visibility test the floor and walls within a splat radius of the wall bases pick up the
-/// light of the ground just outside (measured 0.054, 11% of the outside radiance); with it,
-/// 0.017: the test holds it below 0.35× the leak. What is left reaches the walls' inner faces
+/// light of the ground just outside (measured 0.052, 10% of the outside radiance); with it,
+/// 0.019: the test holds it below 0.4× the leak. (0.054 and 0.017 while escaping rays were
+/// cut at the scene's bounds, which at the roof's height is where rays rising past the
+/// walls were cut: docs/deviations.md §42.) What is left reaches the walls' inner faces
 /// from rays just outside them, and the floor from rays landing on the walls' outer faces
 /// (the hemisphere beyond a hit, Fig. 4); docs/deviations.md §40 has why neither is tested.
 #[test]
@@ -118,7 +120,7 @@ fn a_closed_shed_on_a_sunlit_ground_stays_dark() {
         "without visibility the shed should leak: {leaky}"
     );
     assert!(
-        tight < 0.35 * leaky,
+        tight < 0.4 * leaky,
         "with visibility the shed should leak far less: {tight} (without: {leaky})"
     );
 }

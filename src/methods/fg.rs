@@ -300,6 +300,7 @@ impl Pass {
                 &bw,
                 [false, false, true],
                 DirectionalMode::Diffuse,
+                scene,
             )
         });
         let per_row = (eye.len() / h.max(1) as usize).max(1) * fg.rays as usize;
@@ -310,6 +311,7 @@ impl Pass {
                 &bw,
                 [true, true, true],
                 DirectionalMode::Diffuse,
+                scene,
             )
         });
         timings.t_splat += t.elapsed().as_secs_f64();

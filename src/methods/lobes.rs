@@ -118,7 +118,7 @@ impl TracedLobes {
             let mut acc = Accumulators::for_tree(&tree, &pass.targets.glossy, mode);
             splat(
                 &tree,
-                &prepare(rays, bw, classes, mode),
+                &prepare(rays, bw, classes, mode, scene),
                 &mut acc,
                 Some(scene),
             );

@@ -592,10 +592,10 @@ fn splat_rays(
     if classes == [false; 3] {
         return counters;
     }
-    let indirect = prepare(rays, bw, classes, mode);
+    let indirect = prepare(rays, bw, classes, mode, scene);
     counters += splat(&side.tree, &indirect, &mut side.acc_indirect, Some(scene));
     if direct_photons {
-        let direct = prepare(rays, bw, [true, false, false], mode);
+        let direct = prepare(rays, bw, [true, false, false], mode, scene);
         counters += splat(&side.tree, &direct, &mut side.acc_direct, Some(scene));
     }
     counters

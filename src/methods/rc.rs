@@ -62,7 +62,15 @@ fn cache_by_splatting(core: &mut Progressive) -> Cache {
         .store
         .batches()
         .iter()
-        .map(|b| prepare(&b.rays, &core.bandwidths(b.m), [false, true, false], mode))
+        .map(|b| {
+            prepare(
+                &b.rays,
+                &core.bandwidths(b.m),
+                [false, true, false],
+                mode,
+                &core.scene,
+            )
+        })
         .collect();
     let inv_b = 1.0 / batches.len().max(1) as f32;
     let side = &core.side;

@@ -68,7 +68,11 @@ impl Bandwidth {
     /// (h0, dh) of a ray (§6): h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i))/|x_{i+1} − x_i|.
     /// A ray from afar (bounce 0 with `pdf_start` > 0) is a cylinder of radius h(x_1).
     /// A ray that escapes has no end vertex: it keeps its start bandwidth (a cylinder) up to
-    /// where it leaves the scene, so the bounding box only clips it.
+    /// where it leaves the scene, so the bounding box only clips it. One that leaves a light
+    /// in the scene and escapes starts as a point (h(x_0) = 0): it grows as a cone to the
+    /// bandwidth of its end where it is cut (its `pdf_end` is eq. 7's at that length), so
+    /// that it splats onto the samples it passes, such as those at a lit floor's open edge
+    /// (docs/deviations.md §42; a cylinder of radius 0 splatted nothing there: −41%).
     #[inline]
     pub fn cone(&self, ray: &PhotonRay) -> (f32, f32) {
         let hi = if !ray.from_afar() && ray.bounce == 0 {
@@ -76,7 +80,7 @@ impl Bandwidth {
         } else {
             self.h(ray.pdf_start)
         };
-        if ray.escapes() {
+        if ray.escapes() && hi > 0.0 {
             return (hi, 0.0);
         }
         let hj = self.h(ray.pdf_end);

@@ -19,7 +19,8 @@ pub use pass::splat;
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::directional::{FILTER_TAPS, SH_COEFFS, filter_taps, sh_basis};
 use crate::pipeline::photon::{Bandwidth, PhotonRay};
-use crate::pipeline::splat_tree::Cone;
+use crate::pipeline::splat_tree::{Cone, clip};
+use crate::scene::Scene;
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
@@ -126,18 +127,46 @@ pub struct SplatBatch {
 }
 
 impl SplatRay {
-    /// The ray with its cone (h0, dh) from eq. 8's bandwidth `bw` (§6).
-    pub fn new(ray: &PhotonRay, bw: &Bandwidth) -> Self {
+    /// The ray with its cone (h0, dh) from eq. 8's bandwidth `bw` (§6), in a scene whose
+    /// eye samples lie within `bounds` (min, max).
+    ///
+    /// A ray that escapes is stored up to where it leaves the bounds; its footprint still
+    /// reaches samples within its radius of that point, beyond it along the ray (a lit
+    /// floor's open edge, the classic box's ceiling at its open front). It is kept up to
+    /// where it leaves the bounds grown by its radius, so that every sample its footprint
+    /// reaches projects inside the segment (docs/deviations.md §42).
+    pub fn new(ray: &PhotonRay, bw: &Bandwidth, bounds: (Vec3, Vec3)) -> Self {
         let (h0, dh) = bw.cone(ray);
-        Self::with_cone(ray, h0, dh)
+        let reach = if ray.escapes() {
+            let r = Vec3A::splat(h0 + dh * ray.length);
+            let (min, max) = (Vec3A::from(bounds.0) - r, Vec3A::from(bounds.1) + r);
+            clip(
+                ray.origin.into(),
+                ray.dir.into(),
+                min,
+                max,
+                0.0,
+                f32::INFINITY,
+            )
+            .map_or(ray.length, |(_, t1)| t1.max(ray.length))
+        } else {
+            ray.length
+        };
+        Self::with_cone_reach(ray, h0, dh, reach)
     }
 
     /// The ray with a given cone: radius h0 at its origin, growing by dh per unit length (§6).
     pub fn with_cone(ray: &PhotonRay, h0: f32, dh: f32) -> Self {
+        Self::with_cone_reach(ray, h0, dh, ray.length)
+    }
+
+    /// [`Self::with_cone`], the splat volume running to `reach` ≥ the ray's length (an
+    /// escaping ray's radius stays h_end past its stored end).
+    fn with_cone_reach(ray: &PhotonRay, h0: f32, dh: f32, reach: f32) -> Self {
         let cone = Cone {
             origin: ray.origin.into(),
             dir: ray.dir.into(),
-            length: ray.length,
+            length: reach,
             h0,
             dh,
             h_end: h0 + dh * ray.length,
@@ -173,11 +202,13 @@ pub fn prepare(
     bandwidths: &[Bandwidth; 3],
     classes: [bool; 3],
     mode: DirectionalMode,
+    scene: &Scene,
 ) -> SplatBatch {
     let selected = || rays.par_iter().filter(|r| classes[r.class as usize]);
+    let bounds = (scene.bounds_min, scene.bounds_max);
     SplatBatch {
         rays: selected()
-            .map(|r| SplatRay::new(r, &bandwidths[r.class as usize]))
+            .map(|r| SplatRay::new(r, &bandwidths[r.class as usize], bounds))
             .collect(),
         directions: if mode == DirectionalMode::Diffuse {
             Vec::new()
