@@ -11,7 +11,7 @@ use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::eye::trace_lobes;
 use crate::pipeline::photon::{Bandwidth, PhotonRay};
 use crate::pipeline::radiance_map::{Accumulators, RadianceMap};
-use crate::pipeline::splat::{prepare, splat};
+use crate::pipeline::splat::prepare_and_splat;
 use crate::pipeline::splat_tree::SplatTree;
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, RenderSettings};
@@ -116,12 +116,7 @@ impl TracedLobes {
         let (w, h) = (settings.width, settings.height);
         let mut gather = |classes: [bool; 3], into_direct: bool| {
             let mut acc = Accumulators::for_tree(&tree, &pass.targets.glossy, mode);
-            splat(
-                &tree,
-                &prepare(rays, bw, classes, mode, scene),
-                &mut acc,
-                Some(scene),
-            );
+            prepare_and_splat(&tree, rays, bw, classes, mode, scene, &mut acc, Some(scene));
             let mut map = RadianceMap::new(w, h);
             map.resolve_from(scene, samples, &tree.target_slot, &acc, 1);
             self.invalid += map.invalid;

@@ -24,7 +24,7 @@ use crate::pipeline::filter::filter_samples;
 use crate::pipeline::photon::{Bandwidth, BandwidthParams, PhotonRay};
 use crate::pipeline::photon_map::PmStats;
 use crate::pipeline::radiance_map::RadianceMap;
-use crate::pipeline::splat::{SplatCounters, prepare, splat};
+use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, MethodKind, RenderSettings};
 use glam::Vec3;
@@ -592,11 +592,27 @@ fn splat_rays(
     if classes == [false; 3] {
         return counters;
     }
-    let indirect = prepare(rays, bw, classes, mode, scene);
-    counters += splat(&side.tree, &indirect, &mut side.acc_indirect, Some(scene));
+    counters += prepare_and_splat(
+        &side.tree,
+        rays,
+        bw,
+        classes,
+        mode,
+        scene,
+        &mut side.acc_indirect,
+        Some(scene),
+    );
     if direct_photons {
-        let direct = prepare(rays, bw, [true, false, false], mode, scene);
-        counters += splat(&side.tree, &direct, &mut side.acc_direct, Some(scene));
+        counters += prepare_and_splat(
+            &side.tree,
+            rays,
+            bw,
+            [true, false, false],
+            mode,
+            scene,
+            &mut side.acc_direct,
+            Some(scene),
+        );
     }
     counters
 }

@@ -279,50 +279,54 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     let aspect = s.width as f32 / s.height as f32;
     // Angle subtended by one pixel (vertically), for the footprint of merged targets.
     let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / s.height as f32;
-    let rows: Vec<Row> = (0..s.height)
-        .into_par_iter()
-        .map(|y| {
-            let mut out = Vec::with_capacity((s.width * s.spp) as usize);
-            let mut emitted = vec![Vec3::ZERO; s.width as usize];
-            let mut targets = SplatTargets::default();
-            for x in 0..s.width {
-                let pixel = y * s.width + x;
-                let first = out.len();
-                let mut rng = Rng::new(s.seed, 0x1000_0000_0000 + pixel as u64);
-                // Directions of traced glossy lobes: a stream of their own, so that scenes
-                // without them keep their jitter.
-                let mut lobe_rng = Rng::new(s.seed, 0x3000_0000_0000 + pixel as u64);
-                for k in 0..s.spp {
-                    let j = jitter(k, s.spp, &mut rng);
-                    let dir = camera.direction(
-                        (x as f32 + j.x) / s.width as f32,
-                        (y as f32 + j.y) / s.height as f32,
-                        aspect,
-                    );
-                    let w = Vec3::splat(1.0 / s.spp as f32);
-                    let start = (camera.position, dir, w, 0, 0.0, u32::MAX, false);
-                    emitted[x as usize] +=
-                        trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut out);
-                }
-                assign_targets(
-                    &mut out[first..],
-                    &mut targets,
-                    s.merge_targets,
-                    pixel_angle,
+    let pixels = s.width * s.height;
+    collect_bands(s.height, pixels, (pixels * s.spp) as usize, |y| {
+        let mut out = Vec::with_capacity((s.width * s.spp) as usize);
+        let mut emitted = vec![Vec3::ZERO; s.width as usize];
+        let mut targets = SplatTargets::default();
+        for x in 0..s.width {
+            let pixel = y * s.width + x;
+            let first = out.len();
+            let mut rng = Rng::new(s.seed, 0x1000_0000_0000 + pixel as u64);
+            // Directions of traced glossy lobes: a stream of their own, so that scenes
+            // without them keep their jitter.
+            let mut lobe_rng = Rng::new(s.seed, 0x3000_0000_0000 + pixel as u64);
+            for k in 0..s.spp {
+                let j = jitter(k, s.spp, &mut rng);
+                let dir = camera.direction(
+                    (x as f32 + j.x) / s.width as f32,
+                    (y as f32 + j.y) / s.height as f32,
+                    aspect,
                 );
+                let w = Vec3::splat(1.0 / s.spp as f32);
+                let start = (camera.position, dir, w, 0, 0.0, u32::MAX, false);
+                emitted[x as usize] += trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut out);
             }
-            (out, emitted, targets)
-        })
-        .collect();
-    collect_rows(rows, s.width * s.height)
+            assign_targets(
+                &mut out[first..],
+                &mut targets,
+                s.merge_targets,
+                pixel_angle,
+            );
+        }
+        (out, emitted, targets)
+    })
 }
 
 /// One row's eye samples (targets row-local), emission per pixel and splat targets.
 type Row = (Vec<RawSample>, Vec<Vec3>, SplatTargets);
 
-/// Concatenate the rows of an eye pass over `pixels` pixels into its samples and targets.
-fn collect_rows(rows: Vec<Row>, pixels: u32) -> EyePass {
-    let total: usize = rows.iter().map(|r| r.0.len()).sum();
+/// The rows of an eye pass over `height` rows and `pixels` pixels, made by `row` in parallel
+/// a band of rows at a time and appended into the pass's arrays (reserved for `expect`
+/// samples; reserved pages that are never written take no memory), each band's rows freed
+/// before the next is made. Collecting every row before concatenating them held the whole
+/// pass twice: +70 MB at 500×500×4 (docs/benchmarks.md, "Memory").
+fn collect_bands(
+    height: u32,
+    pixels: u32,
+    expect: usize,
+    row: impl Fn(u32) -> Row + Sync + Send,
+) -> EyePass {
     let mut samples = EyeSamples::default();
     for v in [
         &mut samples.position,
@@ -333,32 +337,40 @@ fn collect_rows(rows: Vec<Row>, pixels: u32) -> EyePass {
         &mut samples.albedo,
         &mut samples.specular,
     ] {
-        v.reserve_exact(total);
+        v.reserve_exact(expect);
     }
-    samples.material.reserve_exact(total);
-    samples.offset.reserve_exact(total);
-    samples.primary.reserve_exact(total);
-    samples.lobe_traced.reserve_exact(total);
-    samples.pixel.reserve_exact(total);
-    samples.target.reserve_exact(total);
-    let mut emitted = Vec::with_capacity(pixels as usize);
-    let mut targets = SplatTargets::default();
-    for (row, em, row_targets) in rows {
-        let offset = targets.len() as u32;
-        for r in &row {
-            samples.push_sample(&r.sample, offset + r.target);
-        }
-        emitted.extend(em);
-        targets.position.extend(row_targets.position);
-        targets.normal.extend(row_targets.normal);
-        targets.geo_normal.extend(row_targets.geo_normal);
-        targets.glossy.extend(row_targets.glossy);
-    }
-    EyePass {
+    samples.material.reserve_exact(expect);
+    samples.offset.reserve_exact(expect);
+    samples.primary.reserve_exact(expect);
+    samples.lobe_traced.reserve_exact(expect);
+    samples.pixel.reserve_exact(expect);
+    samples.target.reserve_exact(expect);
+    let mut pass = EyePass {
         samples,
-        targets,
-        emitted,
+        targets: SplatTargets::default(),
+        emitted: Vec::with_capacity(pixels as usize),
+    };
+    // Enough rows per band to keep every thread busy despite rows of unequal cost.
+    let band = (8 * rayon::current_num_threads() as u32).max(16);
+    let mut y0 = 0;
+    while y0 < height {
+        let y1 = (y0 + band).min(height);
+        let rows: Vec<Row> = (y0..y1).into_par_iter().map(&row).collect();
+        for (row, em, row_targets) in rows {
+            let offset = pass.targets.len() as u32;
+            for r in &row {
+                pass.samples.push_sample(&r.sample, offset + r.target);
+            }
+            pass.emitted.extend(em);
+            let t = &mut pass.targets;
+            t.position.extend(row_targets.position);
+            t.normal.extend(row_targets.normal);
+            t.geo_normal.extend(row_targets.geo_normal);
+            t.glossy.extend(row_targets.glossy);
+        }
+        y0 = y1;
     }
+    pass
 }
 
 /// Give the samples of one pixel their splat targets: a new target per sample, or, when
@@ -576,61 +588,57 @@ pub fn trace_lobes(
         ..*s
     };
     let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / s.height as f32;
-    let rows: Vec<Row> = (0..s.height)
-        .into_par_iter()
-        .map(|y| {
-            let mut out = Vec::new();
-            let mut emitted = vec![Vec3::ZERO; s.width as usize];
-            let mut targets = SplatTargets::default();
-            let hi = eye.pixel.partition_point(|&p| p < (y + 1) * s.width);
-            let mut i = eye.pixel.partition_point(|&p| p < y * s.width);
-            while i < hi {
-                let pixel = eye.pixel[i];
-                let end = i + eye.pixel[i..hi].partition_point(|&p| p == pixel);
-                let first = out.len();
-                // m = ⌈traced / LOBE_SHARE⌉ of the pixel's traced samples, a circular run
-                // from a random one: each is followed with probability m / traced and
-                // weighted by its inverse (unbiased).
-                let traced = (i..end).filter(|&k| eye.lobe_traced[k]).count();
-                let m = traced.div_ceil(LOBE_SHARE);
-                // Streams of their own (high bits), apart from the light pass's photon
-                // streams and from each other.
-                let lobe_seed = s.seed ^ draw.wrapping_mul(0x9e37_79b9);
-                let mut pick = Rng::new(lobe_seed, LOBE_PICK_STREAMS | pixel as u64);
-                let from = ((pick.next_f32() * traced as f32) as usize).min(traced.max(1) - 1);
-                let scale = traced as f32 / m.max(1) as f32;
-                for (j, k) in (i..end).filter(|&k| eye.lobe_traced[k]).enumerate() {
-                    if (j + traced - from) % traced >= m {
-                        continue;
-                    }
-                    let mut rng = Rng::new(lobe_seed, LOBE_PATH_STREAMS | k as u64);
-                    let (p, n, ng) = (eye.position[k], eye.normal[k], eye.geo_normal[k]);
-                    let bsdf = eye.bsdf(k, scene);
-                    if let Some((d, lobe_w)) =
-                        sample_traced_lobe(bsdf, eye.wo[k], n, ng, s.lobe_limit, &mut rng)
-                    {
-                        let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[k], d);
-                        let w = eye.weight[k] * lobe_w * scale;
-                        // The length from the camera stands in for the path's (merging reach).
-                        let start = (origin, d, w, 1, p.distance(camera.position), u32::MAX, true);
-                        if w.max_element() >= MIN_BRANCH_WEIGHT {
-                            emitted[(pixel - y * s.width) as usize] +=
-                                trace_chain(scene, start, pixel, &s, &mut rng, &mut out);
-                        }
+    collect_bands(s.height, s.width * s.height, 0, |y| {
+        let mut out = Vec::new();
+        let mut emitted = vec![Vec3::ZERO; s.width as usize];
+        let mut targets = SplatTargets::default();
+        let hi = eye.pixel.partition_point(|&p| p < (y + 1) * s.width);
+        let mut i = eye.pixel.partition_point(|&p| p < y * s.width);
+        while i < hi {
+            let pixel = eye.pixel[i];
+            let end = i + eye.pixel[i..hi].partition_point(|&p| p == pixel);
+            let first = out.len();
+            // m = ⌈traced / LOBE_SHARE⌉ of the pixel's traced samples, a circular run
+            // from a random one: each is followed with probability m / traced and
+            // weighted by its inverse (unbiased).
+            let traced = (i..end).filter(|&k| eye.lobe_traced[k]).count();
+            let m = traced.div_ceil(LOBE_SHARE);
+            // Streams of their own (high bits), apart from the light pass's photon
+            // streams and from each other.
+            let lobe_seed = s.seed ^ draw.wrapping_mul(0x9e37_79b9);
+            let mut pick = Rng::new(lobe_seed, LOBE_PICK_STREAMS | pixel as u64);
+            let from = ((pick.next_f32() * traced as f32) as usize).min(traced.max(1) - 1);
+            let scale = traced as f32 / m.max(1) as f32;
+            for (j, k) in (i..end).filter(|&k| eye.lobe_traced[k]).enumerate() {
+                if (j + traced - from) % traced >= m {
+                    continue;
+                }
+                let mut rng = Rng::new(lobe_seed, LOBE_PATH_STREAMS | k as u64);
+                let (p, n, ng) = (eye.position[k], eye.normal[k], eye.geo_normal[k]);
+                let bsdf = eye.bsdf(k, scene);
+                if let Some((d, lobe_w)) =
+                    sample_traced_lobe(bsdf, eye.wo[k], n, ng, s.lobe_limit, &mut rng)
+                {
+                    let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[k], d);
+                    let w = eye.weight[k] * lobe_w * scale;
+                    // The length from the camera stands in for the path's (merging reach).
+                    let start = (origin, d, w, 1, p.distance(camera.position), u32::MAX, true);
+                    if w.max_element() >= MIN_BRANCH_WEIGHT {
+                        emitted[(pixel - y * s.width) as usize] +=
+                            trace_chain(scene, start, pixel, &s, &mut rng, &mut out);
                     }
                 }
-                assign_targets(
-                    &mut out[first..],
-                    &mut targets,
-                    s.merge_targets,
-                    pixel_angle,
-                );
-                i = end;
             }
-            (out, emitted, targets)
-        })
-        .collect();
-    collect_rows(rows, s.width * s.height)
+            assign_targets(
+                &mut out[first..],
+                &mut targets,
+                s.merge_targets,
+                pixel_angle,
+            );
+            i = end;
+        }
+        (out, emitted, targets)
+    })
 }
 
 /// True when `bsdf` is glossy with a lobe sharper than `limit` (traced by the eye path).

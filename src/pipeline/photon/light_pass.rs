@@ -79,7 +79,9 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
     let mut counts = [0u64; 3];
     let mut full_at: [Option<u64>; 3] = [None; 3];
     let mut emitted = 0u64;
-    let mut parts: Vec<Vec<TaggedRay>> = Vec::new();
+    // Each class stores at most its budget: the rays go straight into the batch, a wave at
+    // a time (collecting every wave first held the batch twice over, +50 MB at M = 500,000).
+    batch.rays.reserve_exact(total_budget as usize);
     while emitted < cap && (0..3).any(|c| keep[c] && full_at[c].is_none()) {
         let start = emitted;
         let end = (start + wave).min(cap);
@@ -128,7 +130,13 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
                 }
             }
         }
-        parts.extend(wave_parts);
+        for r in wave_parts.into_iter().flatten() {
+            let c = r.ray.class as usize;
+            let local = r.photon - s.first_photon;
+            if keep[c] && full_at[c].is_none_or(|f| local < f) {
+                batch.rays.push(r.ray);
+            }
+        }
         emitted = end;
     }
     for c in 0..3 {
@@ -139,21 +147,18 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
         };
     }
     batch.traced = emitted;
-    let total: usize = parts.iter().map(Vec::len).sum();
-    batch.rays.reserve_exact(total);
-    for r in parts.into_iter().flatten() {
-        let c = r.ray.class as usize;
-        let local = r.photon - s.first_photon;
-        if keep[c] && local < batch.emitted[c] {
-            let mut ray = r.ray;
-            ray.power /= batch.emitted[c] as f32;
-            if !ray.is_valid() {
-                batch.invalid += 1;
-                continue;
-            }
-            batch.stored[c] += 1;
-            batch.rays.push(ray);
-        }
-    }
+    // Every ray kept is of a photon before its class filled (local < emitted[c]); its power
+    // is divided by the photons emitted for its class.
+    let (emitted_per_class, mut invalid, mut stored) = (batch.emitted, 0u64, [0u64; 3]);
+    batch.rays.retain_mut(|ray| {
+        let c = ray.class as usize;
+        ray.power /= emitted_per_class[c] as f32;
+        let valid = ray.is_valid();
+        invalid += !valid as u64;
+        stored[c] += valid as u64;
+        valid
+    });
+    batch.invalid += invalid;
+    batch.stored = stored;
     batch
 }
