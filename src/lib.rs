@@ -20,6 +20,7 @@ pub mod bsdf;
 pub mod choice;
 pub mod film;
 pub mod methods;
+pub mod pack;
 pub mod pipeline;
 pub mod sampling;
 pub mod scene;

@@ -94,7 +94,7 @@ impl EyeSide {
             };
             invalid_direct = invalid;
             for (i, l) in per_sample.iter().enumerate() {
-                direct[eye.pixel[i] as usize] += eye.weight[i] * *l;
+                direct[eye.pixel[i] as usize] += eye.weight[i].get() * *l;
             }
         }
         timings.t_direct += t.elapsed().as_secs_f64();

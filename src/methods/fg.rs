@@ -260,7 +260,7 @@ impl Pass {
             .iter()
             .enumerate()
         {
-            image[eye.pixel[i] as usize] += eye.weight[i] * *l;
+            image[eye.pixel[i] as usize] += eye.weight[i].get() * *l;
         }
         timings.t_direct += t.elapsed().as_secs_f64();
 
@@ -352,7 +352,7 @@ impl Pass {
                     &empty,
                     caustic_map,
                     &band_eye.position,
-                    &band_eye.normal,
+                    &band_eye.normals(),
                     &tree.target_slot,
                     (0, s.pm_caustic_k),
                     r_max,
@@ -377,7 +377,7 @@ impl Pass {
                     global,
                     caustic_map,
                     &band.position,
-                    &band.normal,
+                    &band.normals(),
                     &tree.target_slot,
                     (s.pm_k, s.pm_caustic_k),
                     r_max,
@@ -430,7 +430,7 @@ fn estimate_at(
     if samples.is_empty() {
         return vec![Vec3::ZERO; n_pixels];
     }
-    let tree = SplatTree::build(&samples.position, &samples.normal);
+    let tree = SplatTree::build(&samples.position, &samples.normals());
     let mut acc = Accumulators::new(tree.slots());
     fill(&tree, &mut acc);
     let mut map = RadianceMap::new(w, h);
@@ -473,15 +473,15 @@ fn gather_from(
     out: &mut Vec<EyeSample>,
 ) {
     let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
-    let (p, nrm) = (eye.position[i], eye.normal[i]);
+    let (p, nrm) = (eye.position[i], eye.normal[i].get());
     let bsdf = eye.bsdf(i, scene);
     let (ng, offset) = (eye.geo_normal[i], eye.offset[i]);
     for _ in 0..n {
         // BSDF sampling (cosine sampling for a Lambertian: f·cos/pdf = ρ).
-        let Some(s) = bsdf.sample(eye.wo[i], nrm, rng.next_2d(), rng.next_f32()) else {
+        let Some(s) = bsdf.sample(eye.wo[i].get(), nrm, rng.next_2d(), rng.next_f32()) else {
             continue;
         };
-        let (dir, weight) = (s.wi, eye.weight[i] * s.weight / n as f32);
+        let (dir, weight) = (s.wi, eye.weight[i].get() * s.weight / n as f32);
         if ng.dot(dir) <= 0.0 {
             continue; // through the geometric surface (deviations §36)
         }

@@ -107,7 +107,7 @@ impl TracedLobes {
         };
         self.invalid += invalid;
         for (i, l) in nee.iter().enumerate() {
-            self.direct[samples.pixel[i] as usize] += samples.weight[i] * *l;
+            self.direct[samples.pixel[i] as usize] += samples.weight[i].get() * *l;
         }
         timings.t_direct += t.elapsed().as_secs_f64();
 

@@ -2,6 +2,7 @@
 //! allocated, so that an image size or sample count that cannot fit is refused with one line
 //! instead of aborting the process.
 
+use crate::pipeline::eye::EYE_SAMPLE_BYTES;
 use crate::pipeline::photon::PhotonRay;
 use crate::settings::{MethodKind, RenderSettings};
 
@@ -10,7 +11,7 @@ const PER_PIXEL: u64 = 256;
 /// Bytes per eye sample: the sample (SoA), its splat target, tree share and accumulators.
 /// Glossy samples' directional records (up to 48 floats) are counted for every sample, an
 /// upper bound for scenes full of glossy surfaces.
-const PER_EYE_SAMPLE: u64 = 102 + 32 + 16 + 2 * 28 + 48 * 4;
+const PER_EYE_SAMPLE: u64 = EYE_SAMPLE_BYTES as u64 + 32 + 16 + 2 * 28 + 48 * 4;
 /// Per pixel for glossy lobes traced by the eye path (issue 13): the film's glossy-source AOV
 /// (8 bytes) and rs's per-batch lobe sums (24); the eye samples its lobe paths reach (one per
 /// second eye sample, `eye::trace_lobes`) are counted with the eye samples.
@@ -19,7 +20,7 @@ const TRACED_LOBES_PER_PIXEL: u64 = 8 + 24;
 const EARLIER_PASSES_PER_PIXEL: u64 = 3 * 12;
 /// Gather hits a final-gathering band holds at once (`fg::FgSettings::max_band_samples`) and
 /// their bytes each.
-const FG_BAND_BYTES: u64 = (1 << 17) * (101 + 32 + 16 + 28);
+const FG_BAND_BYTES: u64 = (1 << 17) * (EYE_SAMPLE_BYTES as u64 + 32 + 16 + 28);
 
 /// The estimated peak bytes of a render with `settings` (one batch of photons in flight and
 /// one stored; the previewer's ray budget adds its own, bounded, store).

@@ -116,11 +116,11 @@ fn direct_light_through(
         .map(|i| {
             let mut rng = Rng::new(seed, 0x2000_0000_0000 + i as u64);
             let p = eye.position[i];
-            let n = eye.normal[i];
+            let n = eye.normal[i].get();
             let Some(bsdf) = bsdf_of(i) else {
                 return Vec3::ZERO;
             };
-            let wo = eye.wo[i];
+            let wo = eye.wo[i].get();
             let mut sum = Vec3::ZERO;
             for _ in 0..samples {
                 let u = rng.next_f32();

@@ -7,6 +7,7 @@
 //! does the environment seen where a ray escapes.
 
 use crate::bsdf::{Bsdf, fresnel_dielectric, reflect, refract, specular_probability};
+use crate::pack::{Oct, Rgb16};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 use glam::{Vec2, Vec3};
@@ -54,24 +55,25 @@ pub struct EyeSettings {
 pub struct EyeSamples {
     /// World-space position.
     pub position: Vec<Vec3>,
-    /// Shading normal, flipped to face the viewer.
-    pub normal: Vec<Vec3>,
-    /// Geometric normal, facing the viewer (rays leave the surface on its side).
+    /// Shading normal, flipped to face the viewer (octahedral, 32 bits).
+    pub normal: Vec<Oct>,
+    /// Geometric normal, facing the viewer (rays leave the surface on its side; full
+    /// precision, since ray offsets rest on it).
     pub geo_normal: Vec<Vec3>,
     /// Error bound of `position` along `geo_normal` ([`crate::scene::Hit::offset`]).
     pub offset: Vec<f32>,
-    /// Unit direction towards the viewer (the previous vertex of the eye path).
-    pub wo: Vec<Vec3>,
+    /// Unit direction towards the viewer (the previous vertex of the eye path; octahedral).
+    pub wo: Vec<Oct>,
     /// Material index.
     pub material: Vec<u32>,
     /// Pixel index, y·width + x.
     pub pixel: Vec<u32>,
-    /// RGB path weight: specular-chain throughput / samples per pixel.
-    pub weight: Vec<Vec3>,
-    /// Diffuse albedo at the sample (texture applied); kd of a glossy sample.
-    pub albedo: Vec<Vec3>,
-    /// Glossy-lobe reflectance ks (zero for Lambertian samples).
-    pub specular: Vec<Vec3>,
+    /// RGB path weight: specular-chain throughput / samples per pixel (f16).
+    pub weight: Vec<Rgb16>,
+    /// Diffuse albedo at the sample (texture applied); kd of a glossy sample (f16).
+    pub albedo: Vec<Rgb16>,
+    /// Glossy-lobe reflectance ks (zero for Lambertian samples; f16).
+    pub specular: Vec<Rgb16>,
     /// Seen directly from the camera (no specular bounce on the way).
     pub primary: Vec<bool>,
     /// The glossy lobe is traced by the eye path (too sharp for the radiance map): the
@@ -115,6 +117,11 @@ impl SplatTargets {
     }
 }
 
+/// Bytes of one eye sample in [`EyeSamples`]: position and geometric normal 12 each, the
+/// shading normal and wo 4 (octahedral), three colours 6 (f16), offset, material, pixel and
+/// target 4, two flags (102 with every vector and colour in f32).
+pub const EYE_SAMPLE_BYTES: usize = 2 * 12 + 2 * 4 + 3 * 6 + 4 * 4 + 2;
+
 impl EyeSamples {
     /// Number of eye samples.
     pub fn len(&self) -> usize {
@@ -128,13 +135,18 @@ impl EyeSamples {
 
     /// Bytes held by the sample arrays.
     pub fn memory_bytes(&self) -> usize {
-        self.len() * (7 * 12 + 4 * 4 + 2)
+        self.len() * EYE_SAMPLE_BYTES
+    }
+
+    /// The shading normals, decoded (for code that wants them as a slice).
+    pub fn normals(&self) -> Vec<Vec3> {
+        self.normal.iter().map(|n| n.get()).collect()
     }
 
     /// True when the sample's BSDF has a glossy lobe.
     #[inline]
     pub fn is_glossy(&self, i: usize) -> bool {
-        self.specular[i] != Vec3::ZERO
+        self.specular[i].get() != Vec3::ZERO
     }
 
     /// True when the sample's glossy lobe goes through the radiance map (a directional record
@@ -165,7 +177,7 @@ impl EyeSamples {
         let mut total = vec![0.0f32; out.len()];
         out.fill([0.0; 2]);
         for i in 0..self.len() {
-            let (px, w) = (self.pixel[i] as usize, self.weight[i].max_element());
+            let (px, w) = (self.pixel[i] as usize, self.weight[i].get().max_element());
             total[px] += w;
             if self.is_glossy(i) {
                 out[px][usize::from(self.lobe_traced[i])] += w;
@@ -184,13 +196,13 @@ impl EyeSamples {
     pub fn bsdf(&self, i: usize, scene: &Scene) -> Bsdf {
         if self.is_glossy(i) {
             Bsdf::Glossy {
-                kd: self.albedo[i],
-                ks: self.specular[i],
+                kd: self.albedo[i].get(),
+                ks: self.specular[i].get(),
                 exponent: scene.glossy_exponent(self.material[i]),
             }
         } else {
             Bsdf::Lambert {
-                albedo: self.albedo[i],
+                albedo: self.albedo[i].get(),
             }
         }
     }
@@ -199,15 +211,15 @@ impl EyeSamples {
     pub fn push_sample(&mut self, s: &EyeSample, target: u32) {
         self.target.push(target);
         self.position.push(s.position);
-        self.normal.push(s.normal);
+        self.normal.push(Oct::new(s.normal));
         self.geo_normal.push(s.geo_normal);
         self.offset.push(s.offset);
-        self.wo.push(s.wo);
+        self.wo.push(Oct::new(s.wo));
         self.material.push(s.material);
         self.pixel.push(s.pixel);
-        self.weight.push(s.weight);
-        self.albedo.push(s.albedo);
-        self.specular.push(s.specular);
+        self.weight.push(Rgb16::new(s.weight));
+        self.albedo.push(Rgb16::new(s.albedo));
+        self.specular.push(Rgb16::new(s.specular));
         self.primary.push(s.primary);
         self.lobe_traced.push(s.lobe_traced);
     }
@@ -328,11 +340,11 @@ fn collect_bands(
     row: impl Fn(u32) -> Row + Sync + Send,
 ) -> EyePass {
     let mut samples = EyeSamples::default();
+    samples.position.reserve_exact(expect);
+    samples.geo_normal.reserve_exact(expect);
+    samples.normal.reserve_exact(expect);
+    samples.wo.reserve_exact(expect);
     for v in [
-        &mut samples.position,
-        &mut samples.normal,
-        &mut samples.geo_normal,
-        &mut samples.wo,
         &mut samples.weight,
         &mut samples.albedo,
         &mut samples.specular,
@@ -614,13 +626,13 @@ pub fn trace_lobes(
                     continue;
                 }
                 let mut rng = Rng::new(lobe_seed, LOBE_PATH_STREAMS | k as u64);
-                let (p, n, ng) = (eye.position[k], eye.normal[k], eye.geo_normal[k]);
+                let (p, n, ng) = (eye.position[k], eye.normal[k].get(), eye.geo_normal[k]);
                 let bsdf = eye.bsdf(k, scene);
                 if let Some((d, lobe_w)) =
-                    sample_traced_lobe(bsdf, eye.wo[k], n, ng, s.lobe_limit, &mut rng)
+                    sample_traced_lobe(bsdf, eye.wo[k].get(), n, ng, s.lobe_limit, &mut rng)
                 {
                     let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[k], d);
-                    let w = eye.weight[k] * lobe_w * scale;
+                    let w = eye.weight[k].get() * lobe_w * scale;
                     // The length from the camera stands in for the path's (merging reach).
                     let start = (origin, d, w, 1, p.distance(camera.position), u32::MAX, true);
                     if w.max_element() >= MIN_BRANCH_WEIGHT {

@@ -251,7 +251,7 @@ pub fn filter_samples(
             .map(|p| rep(p).map_or(Vec3::ZERO, |i| eye.position[i]))
             .collect(),
         normal: (0..n)
-            .map(|p| rep(p).map_or(Vec3::ZERO, |i| eye.normal[i]))
+            .map(|p| rep(p).map_or(Vec3::ZERO, |i| eye.normal[i].get()))
             .collect(),
         material: (0..n)
             .map(|p| rep(p).map_or(u32::MAX, |i| eye.material[i]))
@@ -274,7 +274,7 @@ pub fn filter_samples(
             eye.target[i] == eye.target[f]
                 || (eye.primary[i]
                     && eye.material[i] == eye.material[f]
-                    && eye.normal[i].dot(eye.normal[f]) > 0.966)
+                    && eye.normal[i].get().dot(eye.normal[f].get()) > 0.966)
         })
         .collect();
     for c in 0..3 + floats {

@@ -33,7 +33,7 @@ pub fn build(
             sample: i as u32,
             pixel: (p % geo.width, p / geo.width),
             position: eye.position[i],
-            normal: eye.normal[i],
+            normal: eye.normal[i].get(),
             material: eye.material[i],
             depth,
             radius,
@@ -121,7 +121,7 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
         }
         let i = geo.first[p] as usize;
         let (x, y) = ((p % w) as u32, (p / w) as u32);
-        let (ps, ns, ms) = (eye.position[i], eye.normal[i], eye.material[i]);
+        let (ps, ns, ms) = (eye.position[i], eye.normal[i].get(), eye.material[i]);
         // Records grown for earlier pixels may cover this one now.
         let covering = rows[y as usize]
             .iter()

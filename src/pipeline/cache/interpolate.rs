@@ -71,7 +71,7 @@ pub fn interpolate(
                 let t = tent(r, x as u32, y as u32);
                 if t <= 0.0
                     || !eye.primary[i]
-                    || !compatible(r, eye.position[i], eye.normal[i], eye.material[i])
+                    || !compatible(r, eye.position[i], eye.normal[i].get(), eye.material[i])
                 {
                     continue;
                 }

@@ -193,7 +193,7 @@ fn pixel_coverage(records: &[Record], eye: &EyeSamples, geo: &PixelGeometry) -> 
                     continue;
                 }
                 let s = s as usize;
-                if compatible(r, eye.position[s], eye.normal[s], eye.material[s]) {
+                if compatible(r, eye.position[s], eye.normal[s].get(), eye.material[s]) {
                     *c += 1;
                 }
             }

@@ -79,7 +79,7 @@ impl RadianceMap {
             let l = slot % LANES;
             let get = |c: Channel| a[c as usize][l];
             let px = eye.pixel[i] as usize;
-            let w = eye.weight[i];
+            let w = eye.weight[i].get();
             let e = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B)) * inv_b;
             let out = w * shade(scene, eye, i, e, acc.record(slot), inv_b, acc.mode);
             if !out.is_finite() {
@@ -126,7 +126,7 @@ impl RadianceMap {
         self.invalid = 0;
         for i in 0..eye.len() {
             let e = values.irradiance[i];
-            let out = eye.weight[i] * shade(scene, eye, i, e, values.dir(i), 1.0, mode);
+            let out = eye.weight[i].get() * shade(scene, eye, i, e, values.dir(i), 1.0, mode);
             if !out.is_finite() {
                 self.invalid += 1;
                 continue;
@@ -150,11 +150,11 @@ fn shade(
     rec_scale: f32,
     mode: DirectionalMode,
 ) -> Vec3 {
-    let diffuse = eye.albedo[i] * FRAC_1_PI * e;
+    let diffuse = eye.albedo[i].get() * FRAC_1_PI * e;
     if !eye.lobe_in_map(i) {
         return diffuse;
     }
-    let ks = eye.specular[i];
+    let ks = eye.specular[i].get();
     diffuse
         + match rec {
             Some(rec) => ks * glossy_radiance(scene, eye, i, mode, rec) * rec_scale,
@@ -172,8 +172,8 @@ pub(crate) fn glossy_radiance(
     mode: DirectionalMode,
     rec: &[f32],
 ) -> Vec3 {
-    let n = eye.normal[i];
-    let r = crate::bsdf::reflect(eye.wo[i], n);
+    let n = eye.normal[i].get();
+    let r = crate::bsdf::reflect(eye.wo[i].get(), n);
     let exponent = scene.glossy_exponent(eye.material[i]);
     match mode {
         DirectionalMode::Diffuse => Vec3::ZERO,

@@ -1,0 +1,99 @@
+//! Compact storage for the per-eye-sample arrays (issue 16, docs/benchmarks.md "Memory"):
+//! unit vectors in 32 bits (octahedral, 16 bits per coordinate) and RGB in three f16.
+
+use glam::{Vec2, Vec3};
+use half::f16;
+
+/// A unit vector in 32 bits: the octahedral map (Meyer et al. 2010, "On floating-point
+/// normal vectors"), 16 bits per coordinate. The decoded vector is within 10⁻⁴ rad of the
+/// encoded one.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Oct(u32);
+
+impl Oct {
+    /// `v` (any length but zero) to 32 bits.
+    #[inline]
+    pub fn new(v: Vec3) -> Self {
+        let l1 = v.x.abs() + v.y.abs() + v.z.abs();
+        let p = Vec2::new(v.x, v.y) / l1.max(f32::MIN_POSITIVE);
+        let p = if v.z < 0.0 {
+            (Vec2::ONE - Vec2::new(p.y.abs(), p.x.abs())) * Vec2::new(sign(p.x), sign(p.y))
+        } else {
+            p
+        };
+        let q = |c: f32| ((c.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0).round() as u32;
+        Self(q(p.x) | (q(p.y) << 16))
+    }
+
+    /// The unit vector.
+    #[inline]
+    pub fn get(self) -> Vec3 {
+        let d = |b: u32| (b & 0xffff) as f32 / 65535.0 * 2.0 - 1.0;
+        let (x, y) = (d(self.0), d(self.0 >> 16));
+        let z = 1.0 - x.abs() - y.abs();
+        let t = (-z).max(0.0);
+        let v = Vec3::new(x - t * sign(x), y - t * sign(y), z);
+        v.normalize()
+    }
+}
+
+#[inline]
+fn sign(c: f32) -> f32 {
+    if c >= 0.0 { 1.0 } else { -1.0 }
+}
+
+/// RGB in three f16 (6 bytes): relative precision 2⁻¹¹, values above f16's largest finite
+/// number (65,504) clamped to it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Rgb16([f16; 3]);
+
+impl Rgb16 {
+    /// `c` in half precision.
+    #[inline]
+    pub fn new(c: Vec3) -> Self {
+        let h = |x: f32| f16::from_f32(x.min(f16::MAX.to_f32()));
+        Self([h(c.x), h(c.y), h(c.z)])
+    }
+
+    /// The colour.
+    #[inline]
+    pub fn get(self) -> Vec3 {
+        Vec3::new(self.0[0].to_f32(), self.0[1].to_f32(), self.0[2].to_f32())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{Rng, uniform_sphere};
+
+    #[test]
+    fn unit_vectors_survive_within_1e_4_rad() {
+        let mut rng = Rng::new(5, 1);
+        let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
+        let mut worst = 0.0f32;
+        for v in (0..100_000)
+            .map(|_| uniform_sphere(rng.next_2d()))
+            .chain(axes)
+        {
+            let back = Oct::new(v).get();
+            assert!((back.length() - 1.0).abs() < 1e-6);
+            worst = worst.max((back - v).length());
+        }
+        assert!(worst < 1e-4, "{worst}");
+        assert!((Oct::new(Vec3::Z * 3.0).get() - Vec3::Z).length() < 1e-4);
+    }
+
+    #[test]
+    fn colours_keep_eleven_bits() {
+        for c in [
+            Vec3::new(0.25, 1.0 / 3.0, 0.7),
+            Vec3::splat(1e-3),
+            Vec3::new(0.0, 4.0, 900.0),
+        ] {
+            let back = Rgb16::new(c).get();
+            assert!(((back - c).abs().cmple(c * 4.9e-4)).all(), "{c} -> {back}");
+        }
+        assert_eq!(Rgb16::new(Vec3::splat(1e9)).get(), Vec3::splat(65504.0));
+    }
+}
