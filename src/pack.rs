@@ -1,12 +1,12 @@
 //! Compact storage for the per-eye-sample arrays (issue 16, docs/benchmarks.md "Memory"):
 //! unit vectors in 32 bits (octahedral, 16 bits per coordinate) and RGB in three f16.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec3, Vec3A};
 use half::f16;
 
 /// A unit vector in 32 bits: the octahedral map (Meyer et al. 2010, "On floating-point
 /// normal vectors"), 16 bits per coordinate. The decoded vector is within 10⁻⁴ rad of the
-/// encoded one.
+/// encoded one. The splat tree's cull nodes store their reference normal in it too.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Oct(u32);
 
@@ -14,32 +14,46 @@ impl Oct {
     /// `v` (any length but zero) to 32 bits.
     #[inline]
     pub fn new(v: Vec3) -> Self {
-        let l1 = v.x.abs() + v.y.abs() + v.z.abs();
-        let p = Vec2::new(v.x, v.y) / l1.max(f32::MIN_POSITIVE);
-        let p = if v.z < 0.0 {
-            (Vec2::ONE - Vec2::new(p.y.abs(), p.x.abs())) * Vec2::new(sign(p.x), sign(p.y))
-        } else {
-            p
-        };
-        let q = |c: f32| ((c.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0).round() as u32;
-        Self(q(p.x) | (q(p.y) << 16))
+        let n = v / (v.x.abs() + v.y.abs() + v.z.abs());
+        let (mut x, mut y) = (n.x, n.y);
+        if n.z < 0.0 {
+            let (ox, oy) = (x, y);
+            x = (1.0 - oy.abs()) * ox.signum();
+            y = (1.0 - ox.abs()) * oy.signum();
+        }
+        let q = |c: f32| (((c.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0).round() as u32) & 0xffff;
+        Self(q(x) | (q(y) << 16))
     }
 
     /// The unit vector.
-    #[inline]
+    #[inline(always)]
     pub fn get(self) -> Vec3 {
-        let d = |b: u32| (b & 0xffff) as f32 / 65535.0 * 2.0 - 1.0;
-        let (x, y) = (d(self.0), d(self.0 >> 16));
+        Vec3::from(self.get_a())
+    }
+
+    /// The unit vector, SIMD-aligned.
+    #[inline(always)]
+    pub fn get_a(self) -> Vec3A {
+        let x = (self.0 & 0xffff) as f32 / 65535.0 * 2.0 - 1.0;
+        let y = (self.0 >> 16) as f32 / 65535.0 * 2.0 - 1.0;
         let z = 1.0 - x.abs() - y.abs();
         let t = (-z).max(0.0);
-        let v = Vec3::new(x - t * sign(x), y - t * sign(y), z);
-        v.normalize()
+        let x = x + if x >= 0.0 { -t } else { t };
+        let y = y + if y >= 0.0 { -t } else { t };
+        Vec3A::new(x, y, z).normalize()
     }
-}
 
-#[inline]
-fn sign(c: f32) -> f32 {
-    if c >= 0.0 { 1.0 } else { -1.0 }
+    /// The 32 bits.
+    #[inline]
+    pub fn bits(self) -> u32 {
+        self.0
+    }
+
+    /// From 32 bits written by [`Oct::bits`].
+    #[inline]
+    pub fn from_bits(bits: u32) -> Self {
+        Self(bits)
+    }
 }
 
 /// RGB in three f16 (6 bytes): relative precision 2⁻¹¹, values above f16's largest finite

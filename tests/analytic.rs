@@ -49,7 +49,7 @@ fn point_light_rings(
     let e = r.target_irradiance(true);
     let light = Vec3::new(0.0, height, 0.0);
     let mut out = vec![(0.0f64, 0.0f64, 0usize); rings];
-    for (p, e) in r.targets().position.iter().zip(&e) {
+    for (p, e) in r.target_positions().iter().zip(&e) {
         let ring = ((p.x * p.x + p.z * p.z).sqrt() / ring_width) as usize;
         if ring < rings {
             let d = light - *p;

@@ -43,13 +43,15 @@ impl EyeSide {
     /// caller draws their directions per batch, [`crate::methods::lobes::TracedLobes`]).
     /// `pass` numbers the eye passes of one view (issue 16): pass 0 draws from the settings'
     /// seed, every later one from its own streams (new sub-pixel positions, NEE samples and
-    /// branch choices).
+    /// branch choices). Without `keep_targets` the targets' positions and normals are freed
+    /// once the tree (which holds its own copy) is built.
     pub fn new(
         scene: &Scene,
         camera: &Camera,
         settings: &RenderSettings,
         follow_lobes: bool,
         pass: u32,
+        keep_targets: bool,
         timings: &mut Timings,
     ) -> Result<Self, String> {
         if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
@@ -79,6 +81,10 @@ impl EyeSide {
         let mut tree = SplatTree::build(&targets.position, &targets.normal);
         if settings.splat_visibility {
             tree.find_blockers(scene, &targets.geo_normal);
+        }
+        let mut targets = targets;
+        if !keep_targets {
+            targets.drop_geometry();
         }
         timings.t_eye += t.elapsed().as_secs_f64();
 

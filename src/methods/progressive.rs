@@ -19,11 +19,11 @@ use crate::methods::lobes::TracedLobes;
 use crate::methods::photon_store::PhotonStore;
 use crate::methods::{MemoryBreakdown, Method, MethodStats, Step, Timings};
 use crate::pipeline::cache::{Cache, PixelGeometry, sample_values};
-use crate::pipeline::eye::{EyeSamples, SplatTargets};
+use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::filter::filter_samples;
 use crate::pipeline::photon::{Bandwidth, BandwidthParams, PhotonRay};
 use crate::pipeline::photon_map::PmStats;
-use crate::pipeline::radiance_map::RadianceMap;
+use crate::pipeline::radiance_map::{RadianceMap, add_radiance};
 use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, MethodKind, RenderSettings};
@@ -70,6 +70,8 @@ pub struct Progressive {
     eye_pass: u32,
     /// The films of the finished eye passes of this view.
     earlier: EarlierPasses,
+    /// Keep the splat targets' positions and normals ([`Resolver::READS_TARGETS`]).
+    keep_targets: bool,
     /// Time per phase.
     pub timings: Timings,
 }
@@ -154,9 +156,18 @@ impl Progressive {
         splatted_classes: [bool; 3],
         redraw_lobes: bool,
         redraw_eye: bool,
+        keep_targets: bool,
     ) -> Result<Self, String> {
         let mut timings = Timings::default();
-        let side = EyeSide::new(&scene, &camera, &settings, !redraw_lobes, 0, &mut timings)?;
+        let side = EyeSide::new(
+            &scene,
+            &camera,
+            &settings,
+            !redraw_lobes,
+            0,
+            keep_targets,
+            &mut timings,
+        )?;
         let lobes = TracedLobes::new((settings.width * settings.height) as usize);
         let t = Instant::now();
         let store = PhotonStore::new(&scene, settings.seed);
@@ -179,6 +190,7 @@ impl Progressive {
             redraw_eye,
             eye_pass: 0,
             earlier: EarlierPasses::default(),
+            keep_targets,
             timings,
         })
     }
@@ -233,6 +245,7 @@ impl Progressive {
             &self.settings,
             !self.redraw_lobes,
             pass,
+            self.keep_targets,
             &mut self.timings,
         ) {
             Ok(side) => self.side = side,
@@ -385,6 +398,7 @@ impl Progressive {
             &settings,
             !self.redraw_lobes,
             0,
+            self.keep_targets,
             &mut self.timings,
         )?;
         self.eye_pass = 0;
@@ -483,26 +497,24 @@ impl Progressive {
         let (w, h) = (self.settings.width, self.settings.height);
         let side = &self.side;
         let mut film = Film::new(w, h);
-        let mut direct = side.direct.clone();
+        // Direct light goes straight into the film (no second map, no copy: docs/benchmarks.md,
+        // "Memory").
+        film.direct.copy_from_slice(&side.direct);
         if direct_photons {
-            let mut dmap = RadianceMap::new(w, h);
-            dmap.resolve_from(
+            film.invalid_contributions += add_radiance(
                 &self.scene,
                 &side.eye,
                 &side.tree.target_slot,
                 &side.acc_direct,
                 batches,
+                &mut film.direct,
             );
-            film.invalid_contributions += dmap.invalid;
-            for (d, s) in direct.iter_mut().zip(&dmap.radiance) {
-                *d += *s;
-            }
         }
         film.invalid_contributions +=
             map.invalid + side.invalid_direct + self.store.invalid_photon_rays + self.lobes.invalid;
-        for (i, (d, e)) in direct.iter().zip(&side.emitted).enumerate() {
+        for (i, e) in side.emitted.iter().enumerate() {
             let (lobe_d, lobe_ind) = self.lobes.mean(i);
-            let (mut d, mut ind) = (*d + *e + lobe_d, map.radiance[i] + lobe_ind);
+            let (mut d, mut ind) = (film.direct[i] + *e + lobe_d, map.radiance[i] + lobe_ind);
             // The last guard: nothing non-finite reaches the film.
             if !(d + ind).is_finite() {
                 film.invalid_contributions += 1;
@@ -630,6 +642,9 @@ pub trait Resolver: Send {
     /// Eye passes are drawn anew as batches go on (with `progressive_eye`): the resolver
     /// reads the current pass's accumulators only, over [`Progressive::pass_batches`].
     const REDRAWS_EYE: bool = false;
+    /// The film reads the splat targets' positions and normals (pm's density estimate,
+    /// rc's records); without it they are freed once the splat tree is built.
+    const READS_TARGETS: bool = true;
 
     /// The film from the core's state (may build a cache or a density estimate, timed into
     /// the core's T_S).
@@ -673,6 +688,7 @@ impl<R: Resolver + Default> PhotonMethod<R> {
                 R::SPLATTED,
                 R::REDRAWS_LOBES,
                 R::REDRAWS_EYE,
+                R::READS_TARGETS,
             )?,
             resolver: R::default(),
         })
@@ -723,9 +739,11 @@ impl<R: Resolver> PhotonMethod<R> {
         &self.core.side.eye
     }
 
-    /// The splat targets of the current view.
-    pub fn targets(&self) -> &SplatTargets {
-        &self.core.side.targets
+    /// The positions of the current view's splat targets, from the splat tree (rs frees the
+    /// targets' own copy once the tree is built).
+    pub fn target_positions(&self) -> Vec<Vec3> {
+        let tree = &self.core.side.tree;
+        tree.target_slot.iter().map(|&s| tree.position(s)).collect()
     }
 
     /// Batch-averaged splatted irradiance E (eq. 5) at every splat target of the current

@@ -25,6 +25,7 @@ impl Resolver for RsFilm {
     const SPLATTED: [bool; 3] = [false, true, true];
     const REDRAWS_LOBES: bool = true;
     const REDRAWS_EYE: bool = true;
+    const READS_TARGETS: bool = false;
 
     fn film(&mut self, core: &mut Progressive) -> Film {
         let t = Instant::now();

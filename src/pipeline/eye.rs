@@ -103,17 +103,26 @@ pub struct SplatTargets {
 impl SplatTargets {
     /// Bytes held by the target arrays.
     pub fn memory_bytes(&self) -> usize {
-        self.len() * (3 * 12 + 1)
+        self.position.len() * 3 * 12 + self.glossy.len()
     }
 
     /// Number of splat targets.
     pub fn len(&self) -> usize {
-        self.position.len()
+        self.glossy.len()
     }
 
     /// No splat targets.
     pub fn is_empty(&self) -> bool {
-        self.position.is_empty()
+        self.glossy.is_empty()
+    }
+
+    /// Free the positions and normals (the splat tree holds its own copy in slot order),
+    /// keeping which targets are glossy: for methods that read the targets only through
+    /// the tree (rs).
+    pub fn drop_geometry(&mut self) {
+        self.position = Vec::new();
+        self.normal = Vec::new();
+        self.geo_normal = Vec::new();
     }
 }
 

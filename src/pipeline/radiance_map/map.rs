@@ -80,8 +80,7 @@ impl RadianceMap {
             let get = |c: Channel| a[c as usize][l];
             let px = eye.pixel[i] as usize;
             let w = eye.weight[i].get();
-            let e = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B)) * inv_b;
-            let out = w * shade(scene, eye, i, e, acc.record(slot), inv_b, acc.mode);
+            let out = sample_radiance(scene, eye, i, slot, acc, inv_b);
             if !out.is_finite() {
                 self.invalid += 1;
                 continue;
@@ -110,6 +109,53 @@ impl RadianceMap {
             }
         }
     }
+}
+
+/// Add the radiance of slot accumulators (summed over `batches` light passes) to the pixels
+/// `out`, as [`RadianceMap::resolve_from`] folds it, without the splat statistics (for direct
+/// photons, added onto the film's direct light in place); returns the contributions dropped
+/// as NaN or infinite.
+pub fn add_radiance(
+    scene: &Scene,
+    eye: &EyeSamples,
+    target_slot: &[u32],
+    acc: &Accumulators,
+    batches: u32,
+    out: &mut [Vec3],
+) -> u64 {
+    if batches == 0 {
+        return 0;
+    }
+    let inv_b = 1.0 / batches as f32;
+    let mut invalid = 0;
+    for i in 0..eye.len() {
+        let slot = target_slot[eye.target[i] as usize] as usize;
+        let l = sample_radiance(scene, eye, i, slot, acc, inv_b);
+        if l.is_finite() {
+            out[eye.pixel[i] as usize] += l;
+        } else {
+            invalid += 1;
+        }
+    }
+    invalid
+}
+
+/// Radiance eye sample `i` sends towards the eye, its path weight applied, from the light its
+/// splat target's `slot` accumulated over 1/`inv_b` batches.
+#[inline]
+fn sample_radiance(
+    scene: &Scene,
+    eye: &EyeSamples,
+    i: usize,
+    slot: usize,
+    acc: &Accumulators,
+    inv_b: f32,
+) -> Vec3 {
+    let a = &acc.chunks[slot / LANES].ch;
+    let l = slot % LANES;
+    let get = |c: Channel| a[c as usize][l];
+    let e = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B)) * inv_b;
+    eye.weight[i].get() * shade(scene, eye, i, e, acc.record(slot), inv_b, acc.mode)
 }
 
 impl RadianceMap {

@@ -18,7 +18,7 @@ mod accumulators;
 mod map;
 
 pub use accumulators::{AccView, AccumChunk, Accumulators};
-pub use map::{RadianceMap, SplatInfo};
+pub use map::{RadianceMap, SplatInfo, add_radiance};
 
 use crate::pipeline::eye::EyeSamples;
 use glam::Vec3;

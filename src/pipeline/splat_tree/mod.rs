@@ -207,6 +207,13 @@ pub struct SplatTree {
 pub const PADDING: u32 = u32::MAX;
 
 impl SplatTree {
+    /// The position of the target in `slot`, as the tree holds it.
+    pub fn position(&self, slot: u32) -> Vec3 {
+        let (k, l) = (slot as usize / LANES, slot as usize % LANES);
+        let c = &self.points.chunks[k];
+        Vec3::new(c.px[l], c.py[l], c.pz[l])
+    }
+
     /// Slots (samples plus padding).
     pub fn slots(&self) -> usize {
         self.slot_target.len()

@@ -105,28 +105,14 @@ pub(super) fn small_angle(a: Vec3, b: Vec3) -> f32 {
     2.0 * (0.5 * (a - b).length()).min(1.0).asin()
 }
 
-/// Octahedral unit-vector encoding, 16 bits per coordinate.
+/// Octahedral unit-vector encoding, 16 bits per coordinate ([`crate::pack::Oct`]).
 pub(super) fn oct_encode(n: Vec3) -> u32 {
-    let n = n / (n.x.abs() + n.y.abs() + n.z.abs());
-    let (mut x, mut y) = (n.x, n.y);
-    if n.z < 0.0 {
-        let (ox, oy) = (x, y);
-        x = (1.0 - oy.abs()) * ox.signum();
-        y = (1.0 - ox.abs()) * oy.signum();
-    }
-    let q = |v: f32| (((v.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0).round() as u32) & 0xffff;
-    q(x) | (q(y) << 16)
+    crate::pack::Oct::new(n).bits()
 }
 
 #[inline(always)]
 pub(super) fn oct_decode(c: u32) -> Vec3A {
-    let x = (c & 0xffff) as f32 / 65535.0 * 2.0 - 1.0;
-    let y = (c >> 16) as f32 / 65535.0 * 2.0 - 1.0;
-    let z = 1.0 - x.abs() - y.abs();
-    let t = (-z).max(0.0);
-    let x = x + if x >= 0.0 { -t } else { t };
-    let y = y + if y >= 0.0 { -t } else { t };
-    Vec3A::new(x, y, z).normalize()
+    crate::pack::Oct::from_bits(c).get_a()
 }
 
 #[cfg(test)]
