@@ -56,6 +56,46 @@ impl Oct {
     }
 }
 
+/// A unit vector or the zero vector in 32 bits: [`Oct`] with code 0 kept for zero (the
+/// octahedron's corner codes all decode to −Z; −Z is written with the other one). A photon
+/// ray's origin normal is zero at a point light, its end normal zero when it escapes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OctOrZero(u32);
+
+impl OctOrZero {
+    /// The zero vector.
+    pub const ZERO: Self = Self(0);
+
+    /// `v` to 32 bits: zero (or not finite) to [`OctOrZero::ZERO`], any other length as its
+    /// direction.
+    #[inline]
+    pub fn new(v: Vec3) -> Self {
+        if v == Vec3::ZERO || !v.is_finite() {
+            return Self::ZERO;
+        }
+        match Oct::new(v).bits() {
+            0 => Self(u32::MAX),
+            b => Self(b),
+        }
+    }
+
+    /// True for the zero vector.
+    #[inline]
+    pub fn is_zero(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The unit vector, or zero.
+    #[inline]
+    pub fn get(self) -> Vec3 {
+        if self.is_zero() {
+            Vec3::ZERO
+        } else {
+            Oct::from_bits(self.0).get()
+        }
+    }
+}
+
 /// RGB in three f16 (6 bytes): relative precision 2⁻¹¹, values above f16's largest finite
 /// number (65,504) clamped to it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -96,6 +136,23 @@ mod tests {
         }
         assert!(worst < 1e-4, "{worst}");
         assert!((Oct::new(Vec3::Z * 3.0).get() - Vec3::Z).length() < 1e-4);
+    }
+
+    #[test]
+    fn zero_stays_zero_and_minus_z_survives() {
+        assert!(OctOrZero::new(Vec3::ZERO).is_zero());
+        assert_eq!(OctOrZero::new(Vec3::ZERO).get(), Vec3::ZERO);
+        assert!(OctOrZero::new(Vec3::NAN).is_zero());
+        // −Z with negative zeros is the one vector whose plain code is 0.
+        for v in [Vec3::new(-0.0, -0.0, -1.0), Vec3::NEG_Z, Vec3::Y * 2.0] {
+            let c = OctOrZero::new(v);
+            assert!(!c.is_zero());
+            assert!(
+                (c.get() - v.normalize()).length() < 1e-4,
+                "{v} -> {}",
+                c.get()
+            );
+        }
     }
 
     #[test]

@@ -256,14 +256,14 @@ mod tests {
             dir: Vec3::X,
             length: 2.0,
             power: Vec3::ONE,
-            origin_normal: Vec3::X,
+            origin_normal: crate::pack::OctOrZero::new(Vec3::X),
             end_shading_ratio: 1.0,
             pdf_start: 4.0,
             pdf_end: 1.0,
             bounce: 1,
             class: PhotonClass::Indirect,
             lands: true,
-            end_normal: -Vec3::X,
+            end_normal: crate::pack::OctOrZero::new(-Vec3::X),
         };
         // §6: h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i)) / length.
         let (hi, hj) = (bw.h(4.0), bw.h(1.0));

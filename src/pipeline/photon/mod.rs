@@ -23,6 +23,7 @@ pub use light_pass::{ClassBudgets, LightPassSettings, PhotonBatch, light_pass};
 pub use pilot::{Pilot, pilot};
 pub use trace::PathUnits;
 
+use crate::pack::OctOrZero;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
@@ -79,8 +80,9 @@ pub struct PhotonRay {
     pub length: f32,
     /// Power carried, already divided by the number of photons emitted for its class.
     pub power: Vec3,
-    /// Normal of the surface at the origin on the side the ray leaves (zero for point lights).
-    pub origin_normal: Vec3,
+    /// Normal of the surface at the origin on the side the ray leaves (zero for point lights;
+    /// octahedral, within 10⁻⁴ rad).
+    pub origin_normal: OctOrZero,
     /// |ω·n_s| / |ω·n_g| at the end vertex (1 if it escapes): converts the ray's flux through
     /// the geometric surface into the shading-normal cosine that the path tracer and the
     /// splat kernel use, for photon mapping's density estimate (Veach 1997, §5.3).
@@ -96,8 +98,9 @@ pub struct PhotonRay {
     pub class: PhotonClass,
     /// The ray ends on a non-specular surface (where photon mapping stores a photon).
     pub lands: bool,
-    /// Geometric normal of the surface the ray hits, facing the ray (zero if it escapes).
-    pub end_normal: Vec3,
+    /// Geometric normal of the surface the ray hits, facing the ray (zero if it escapes;
+    /// octahedral, within 10⁻⁴ rad).
+    pub end_normal: OctOrZero,
 }
 
 impl PhotonRay {
@@ -111,7 +114,7 @@ impl PhotonRay {
     /// The ray hits nothing (it was clipped where it leaves the scene's bounds).
     #[inline]
     pub fn escapes(&self) -> bool {
-        self.end_normal == Vec3::ZERO
+        self.end_normal.is_zero()
     }
 
     /// The ray ends on a mirror or glass surface: it splats nothing beyond its end, since the
@@ -128,9 +131,7 @@ impl PhotonRay {
             && self.length.is_finite()
             && self.power.is_finite()
             && self.power.min_element() >= 0.0
-            && self.origin_normal.is_finite()
             && self.end_shading_ratio.is_finite()
-            && self.end_normal.is_finite()
             && self.pdf_start.is_finite()
             && self.pdf_end.is_finite()
     }
@@ -147,14 +148,14 @@ mod tests {
             dir: Vec3::Y,
             length: 1.0,
             power: Vec3::ONE,
-            origin_normal: Vec3::Y,
+            origin_normal: OctOrZero::new(Vec3::Y),
             end_shading_ratio: 1.0,
             pdf_start: 0.0,
             pdf_end: 1.0,
             bounce: 0,
             class: PhotonClass::Direct,
             lands: true,
-            end_normal: -Vec3::Y,
+            end_normal: OctOrZero::new(-Vec3::Y),
         };
         assert!(good.is_valid());
         for bad in [

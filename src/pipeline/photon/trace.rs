@@ -3,6 +3,7 @@
 
 use super::{D_TILDE_FRACTION, MAX_PATH_SEGMENTS, PhotonClass, PhotonRay, SPECULAR_PDF};
 use crate::bsdf::Bsdf;
+use crate::pack::OctOrZero;
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -157,6 +158,11 @@ pub(super) fn trace_photon(
                 0.0
             }
         });
+        // Normals are stored octahedral, which has no NaN (a hit on degenerate geometry).
+        if !(normal.is_finite() && end_normal.is_finite()) {
+            *invalid += 1;
+            break;
+        }
         let pushed = keep[class as usize];
         if pushed {
             out.push(TaggedRay {
@@ -168,14 +174,14 @@ pub(super) fn trace_photon(
                     dir,
                     length,
                     power,
-                    origin_normal: normal,
+                    origin_normal: OctOrZero::new(normal),
                     end_shading_ratio,
                     pdf_start,
                     pdf_end,
                     bounce: bounce.min(255) as u8,
                     class,
                     lands,
-                    end_normal,
+                    end_normal: OctOrZero::new(end_normal),
                 },
             });
         }

@@ -211,13 +211,13 @@ mod tests {
                     dir,
                     length: len,
                     power: Vec3::ONE,
-                    origin_normal: Vec3::ZERO,
+                    origin_normal: crate::pack::OctOrZero::new(Vec3::ZERO),
                     pdf_start: 0.0,
                     pdf_end: 1.0,
                     bounce: 1,
                     class: crate::pipeline::photon::PhotonClass::Indirect,
                     lands: true,
-                    end_normal: Vec3::Y,
+                    end_normal: crate::pack::OctOrZero::new(Vec3::Y),
                 };
                 let sr = SplatRay::with_cone(&ray, h0, (h_end - h0) / len);
                 let n = 800;
@@ -314,14 +314,14 @@ mod tests {
                     dir: -back,
                     length: len,
                     power: Vec3::splat(std::f32::consts::PI * area / n_rays as f32),
-                    origin_normal,
+                    origin_normal: crate::pack::OctOrZero::new(origin_normal),
                     end_shading_ratio: 1.0,
                     pdf_start: 1.0,
                     pdf_end: 1.0,
                     bounce: 1,
                     class: PhotonClass::Indirect,
                     lands: true,
-                    end_normal: n,
+                    end_normal: crate::pack::OctOrZero::new(n),
                 };
                 rays.push(SplatRay::with_cone(&ray, h, 0.0));
             }
@@ -358,14 +358,14 @@ mod tests {
             dir: Vec3::new(0.6, -0.8, 0.0),
             length: 1.0,
             power: Vec3::ONE,
-            origin_normal: Vec3::ZERO,
+            origin_normal: crate::pack::OctOrZero::new(Vec3::ZERO),
             end_shading_ratio: 1.0,
             pdf_start: 1.0,
             pdf_end: 1.0,
             bounce: 1,
             class: crate::pipeline::photon::PhotonClass::Caustic,
             lands: true,
-            end_normal: Vec3::Y,
+            end_normal: crate::pack::OctOrZero::new(Vec3::Y),
         };
         let end = ray.origin + ray.dir * ray.length;
         // Just past the end, on the plane it hits, and just before the end, off the plane.

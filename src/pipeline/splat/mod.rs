@@ -173,7 +173,8 @@ impl SplatRay {
             h_end: h0 + dh * ray.length,
         };
         let (bounds_min, bounds_max) = cone.bounds();
-        let cos_hit = -ray.dir.dot(ray.end_normal);
+        let end_normal = ray.end_normal.get();
+        let cos_hit = -ray.dir.dot(end_normal);
         // Only a ray that lands on a surface that holds eye samples gets the hemisphere and
         // the end gain; a specular end has no samples on it to correct for.
         let end_gain = if !ray.lands {
@@ -185,10 +186,10 @@ impl SplatRay {
         Self {
             cone,
             power: ray.power,
-            origin_normal: ray.origin_normal.into(),
-            end_normal: ray.end_normal.into(),
+            origin_normal: ray.origin_normal.get().into(),
+            end_normal: end_normal.into(),
             end_gain,
-            end_plane: ray.length * ray.dir.dot(ray.end_normal),
+            end_plane: ray.length * ray.dir.dot(end_normal),
             beyond: if ray.lands { 1.0 } else { 0.0 },
             bounds_min,
             bounds_max,
