@@ -5,7 +5,7 @@
 
 use crate::film::Film;
 use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
-use crate::pipeline::cache::{self, Cache, PixelGeometry, record_value};
+use crate::pipeline::cache::{self, Cache, PixelGeometry, RecordValue, record_value};
 use crate::pipeline::radiance_map::Accumulators;
 use crate::pipeline::splat::{SplatBatch, SplatCounters, prepare, splat};
 use crate::pipeline::splat_tree::SplatTree;
@@ -84,10 +84,16 @@ fn cache_by_splatting(core: &mut Progressive) -> Cache {
             if samples.is_empty() {
                 return Vec::new();
             }
-            let targets: Vec<usize> = samples
+            // Samples of a pixel often share a splat target: each target is splatted once
+            // (docs/benchmarks.md, "Radiance caching": the eye samples behind specular
+            // surfaces, valued on their own, took most of rc's splat time).
+            let of_sample: Vec<usize> = samples
                 .iter()
                 .map(|&i| side.eye.target[i as usize] as usize)
                 .collect();
+            let mut targets = of_sample.clone();
+            targets.sort_unstable();
+            targets.dedup();
             let pos: Vec<Vec3> = targets.iter().map(|&t| side.targets.position[t]).collect();
             let nrm: Vec<Vec3> = targets.iter().map(|&t| side.targets.normal[t]).collect();
             let glossy: Vec<bool> = targets.iter().map(|&t| side.targets.glossy[t]).collect();
@@ -103,8 +109,12 @@ fn cache_by_splatting(core: &mut Progressive) -> Cache {
             for batch in &batches {
                 counters += splat(&tree, batch, &mut acc, Some(&core.scene));
             }
-            (0..samples.len())
+            let values: Vec<RecordValue> = (0..targets.len())
                 .map(|k| record_value(&acc, tree.target_slot[k] as usize, inv_b))
+                .collect();
+            of_sample
+                .iter()
+                .map(|t| values[targets.binary_search(t).expect("a sample's own target")].clone())
                 .collect()
         },
     );
