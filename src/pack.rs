@@ -11,7 +11,7 @@ use half::f16;
 pub struct Oct(u32);
 
 impl Oct {
-    /// `v` (any length but zero) to 32 bits.
+    /// `v` (any length but zero; finite: a NaN decodes to −Z) to 32 bits.
     #[inline]
     pub fn new(v: Vec3) -> Self {
         let n = v / (v.x.abs() + v.y.abs() + v.z.abs());
@@ -97,7 +97,7 @@ impl OctOrZero {
 }
 
 /// RGB in three f16 (6 bytes): relative precision 2⁻¹¹, values above f16's largest finite
-/// number (65,504) clamped to it.
+/// number (65,504) clamped to it, NaN kept.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Rgb16([f16; 3]);
 
@@ -105,7 +105,10 @@ impl Rgb16 {
     /// `c` in half precision.
     #[inline]
     pub fn new(c: Vec3) -> Self {
-        let h = |x: f32| f16::from_f32(x.min(f16::MAX.to_f32()));
+        // Not `min`, which would turn NaN into the maximum: NaN stays NaN, so the film's
+        // last guard still finds it.
+        let max = f16::MAX.to_f32();
+        let h = |x: f32| f16::from_f32(if x > max { max } else { x });
         Self([h(c.x), h(c.y), h(c.z)])
     }
 
@@ -166,5 +169,6 @@ mod tests {
             assert!(((back - c).abs().cmple(c * 4.9e-4)).all(), "{c} -> {back}");
         }
         assert_eq!(Rgb16::new(Vec3::splat(1e9)).get(), Vec3::splat(65504.0));
+        assert!(Rgb16::new(Vec3::new(f32::NAN, 0.5, 0.5)).get().x.is_nan());
     }
 }

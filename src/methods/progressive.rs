@@ -499,7 +499,10 @@ impl Progressive {
         let mut film = Film::new(w, h);
         // Direct light goes straight into the film (no second map, no copy: docs/benchmarks.md,
         // "Memory").
-        film.direct.copy_from_slice(&side.direct);
+        // (A released side, after a failed eye pass, has no sums: its film stays black.)
+        if side.direct.len() == film.direct.len() {
+            film.direct.copy_from_slice(&side.direct);
+        }
         if direct_photons {
             film.invalid_contributions += add_radiance(
                 &self.scene,

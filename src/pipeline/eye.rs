@@ -301,7 +301,10 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     // Angle subtended by one pixel (vertically), for the footprint of merged targets.
     let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / s.height as f32;
     let pixels = s.width * s.height;
-    collect_bands(s.height, pixels, (pixels * s.spp) as usize, |y| {
+    // Specular branches add samples beyond spp per pixel: an eighth more is reserved
+    // (reserved pages that are never written take no memory).
+    let expect = (pixels * s.spp) as usize;
+    collect_bands(s.height, pixels, expect + expect / 8, |y| {
         let mut out = Vec::with_capacity((s.width * s.spp) as usize);
         let mut emitted = vec![Vec3::ZERO; s.width as usize];
         let mut targets = SplatTargets::default();

@@ -1,7 +1,7 @@
 //! The light pass (§3, §6): photons traced until each class of Table 2 has its budget of rays.
 
 use super::trace::{PathUnits, TaggedRay, trace_photon};
-use super::{PhotonClass, PhotonRay};
+use super::{MAX_PATH_SEGMENTS, PhotonClass, PhotonRay};
 use crate::scene::Scene;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -81,7 +81,11 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
     let mut emitted = 0u64;
     // Each class stores at most its budget: the rays go straight into the batch, a wave at
     // a time (collecting every wave first held the batch twice over, +50 MB at M = 500,000).
-    batch.rays.reserve_exact(total_budget as usize);
+    // The photon that fills a class keeps its later rays of that class too: at most
+    // MAX_PATH_SEGMENTS more per class.
+    batch
+        .rays
+        .reserve_exact(total_budget as usize + 3 * MAX_PATH_SEGMENTS as usize);
     while emitted < cap && (0..3).any(|c| keep[c] && full_at[c].is_none()) {
         let start = emitted;
         let end = (start + wave).min(cap);

@@ -158,12 +158,13 @@ pub(super) fn trace_photon(
                 0.0
             }
         });
-        // Normals are stored octahedral, which has no NaN (a hit on degenerate geometry).
-        if !(normal.is_finite() && end_normal.is_finite()) {
+        // Normals are stored octahedral, which has no NaN (a hit on degenerate geometry):
+        // such a ray is counted invalid and not stored, as `PhotonRay::is_valid` did.
+        let finite_normals = normal.is_finite() && end_normal.is_finite();
+        if keep[class as usize] && !finite_normals {
             *invalid += 1;
-            break;
         }
-        let pushed = keep[class as usize];
+        let pushed = keep[class as usize] && finite_normals;
         if pushed {
             out.push(TaggedRay {
                 photon,

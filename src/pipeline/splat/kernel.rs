@@ -278,13 +278,13 @@ mod tests {
     /// A concave corner in a furnace: floor y = 0 and wall x = 0 under uniform radiance
     /// L = 1, so every point of either receives E = π. Rays land on both with the cosine
     /// distribution of a uniform field and start where their way back meets the other
-    /// surface (or 2 units away). Far from the corner the splatted estimate is π within 1%
+    /// surface (or 2 units away). Far from the corner the splatted estimate is π within 2%
     /// (grazing rays and the end gain included). Near it, the kernel's disc reaches past the
     /// corner where no ray lands: the known boundary bias of kernel estimates
     /// (docs/deviations.md §42), measured −33%, −18%, −8% at 0.05, 0.3, 0.6 h from the
     /// corner; it must shrink towards the interior and never turn into a gain.
     #[test]
-    fn a_concave_corner_in_a_furnace_gets_its_whole_irradiance() {
+    fn a_concave_corner_in_a_furnace_loses_light_only_near_the_corner() {
         use crate::pipeline::photon::PhotonClass;
         use crate::sampling::{Rng, cosine_hemisphere, to_world};
         let h = 0.1f32;
@@ -337,8 +337,9 @@ mod tests {
                 e / std::f64::consts::PI - 1.0
             })
             .collect();
+        // 2%: about three standard deviations of this estimate with 800,000 rays.
         assert!(
-            rel[3].abs() < 0.01,
+            rel[3].abs() < 0.02,
             "far from the corner: {:+.2}%",
             rel[3] * 100.0
         );

@@ -144,7 +144,9 @@ pub struct Cone {
     pub origin: Vec3A,
     /// Unit direction of the ray.
     pub dir: Vec3A,
-    /// Length of the ray to its hit point (scene units).
+    /// Length of the splat volume along the ray (scene units): to the hit point, or for an
+    /// escaping ray to where it leaves the scene's bounds grown by its radius (past its
+    /// stored end the radius stays h_end).
     pub length: f32,
     /// Splat radius at the origin, h0 of §6.
     pub h0: f32,
@@ -159,11 +161,7 @@ impl Cone {
     /// Splat radius at ray parameter t.
     #[inline(always)]
     pub fn radius(&self, t: f32) -> f32 {
-        if t <= self.length {
-            self.h0 + self.dh * t
-        } else {
-            self.h_end
-        }
+        (self.h0 + self.dh * t).min(self.h_end)
     }
 
     /// Bounding box of the whole splat volume.
