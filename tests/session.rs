@@ -496,3 +496,23 @@ fn the_reference_mode_from_the_start_renders_at_full_size() {
         "no photon batch is traced in the reference mode"
     );
 }
+
+/// The coarse first image traces half a batch (a faster first image, docs/benchmarks.md "The
+/// previewer"); the batches after it, at full size, have the configured size again.
+#[test]
+fn the_first_coarse_image_traces_half_a_batch_and_the_next_ones_a_whole() {
+    let _w = Watchdog::new(120);
+    let config = small_config();
+    let (w, m) = (config.settings.width, config.settings.photons);
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+    let first = wait(&session, 60, |f| f.stats.batches >= 1);
+    assert!(
+        first.interactive && first.settings.width < w,
+        "the first image is coarse"
+    );
+    assert_eq!(first.settings.photons, m / 2);
+    let later = wait(&session, 60, |f| {
+        f.settings.width == w && f.stats.batches >= 3
+    });
+    assert_eq!(later.settings.photons, m);
+}

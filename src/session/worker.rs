@@ -292,7 +292,10 @@ impl Worker {
             return;
         };
         let s = &self.config.settings;
-        let changed = p.update || p.bandwidth.is_some();
+        // Once the coarse first image is done, a renderer still on its half batch gets the
+        // configured size back with the next change of any kind.
+        let half_batch = !self.coarse_start && r.settings().photons != s.photons;
+        let changed = p.update || p.bandwidth.is_some() || half_batch;
         if changed && let Err(e) = r.update(s) {
             self.emit(Event::Error(e));
             return;
@@ -352,6 +355,13 @@ impl Worker {
             settings.width = limits::RESOLUTION.clamp(settings.width / d);
             settings.height = limits::RESOLUTION.clamp(settings.height / d);
             settings.spp = 1;
+        }
+        if self.coarse_start {
+            // The coarse first image traces half a batch: its splat time falls as M^(2/3)
+            // (the bandwidth grows as M^(−1/6)), first image 258–267 → 182–191 ms on the
+            // embedded scene (docs/benchmarks.md, "The previewer"). The batches after it
+            // have the configured size again (`apply`).
+            settings.photons = limits::PHOTONS.clamp(settings.photons / 2);
         }
         match methods::build_for(self.scene.clone(), settings, self.camera.clone()) {
             Ok(mut r) => {
