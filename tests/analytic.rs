@@ -541,3 +541,36 @@ fn an_open_edge_keeps_the_light_of_the_rays_that_pass_it() {
         "splatted / NEE direct light next to the edge: {ratio:.3} over {n} pixels"
     );
 }
+
+/// A headless rs render (`methods::run`) frees each photon batch once it is splatted: the
+/// same image as a render that keeps every batch, no stored rays at the end while its stats
+/// still count them; pm, whose film gathers the stored rays, keeps them (docs/benchmarks.md,
+/// "Memory": a 30 s render of the classic box peaked at 391 MB with every batch kept, 117 MB
+/// without).
+#[test]
+fn a_headless_rs_render_frees_its_rays_and_pm_keeps_them() {
+    use raysplat::methods::{Budget, build, render_method};
+    use raysplat::settings::MethodKind;
+    let scene = Arc::new(Scene::default_scene());
+    let s = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 1,
+        photons: 3_000,
+        ..RenderSettings::default()
+    };
+    let headless = render_method(&scene, MethodKind::Rs, &s, Budget::Passes(3)).unwrap();
+    assert_eq!(headless.stats.memory.photon_rays, 0);
+    let traced: u64 = headless.stats.photon_rays_per_class.iter().sum();
+    assert!(traced > 0);
+    assert_eq!(headless.stats.photon_rays as u64, traced);
+    // Stepped by hand, the store keeps every batch; the image is the same.
+    let mut kept = build(scene.clone(), s.clone()).unwrap();
+    for _ in 0..3 {
+        kept.step();
+    }
+    assert!(kept.stats().memory.photon_rays > 0);
+    assert!(kept.film().rgb == headless.film.rgb);
+    let pm = render_method(&scene, MethodKind::Pm, &s, Budget::Passes(2)).unwrap();
+    assert!(pm.stats.memory.photon_rays > 0);
+}

@@ -125,7 +125,8 @@ impl MemoryBreakdown {
 pub struct MethodStats {
     /// Photons traced (0 for the path tracer).
     pub photons_traced: u64,
-    /// Stored photon rays over all stored batches.
+    /// Stored photon rays over all stored batches, plus those a headless rs render freed once
+    /// they were splatted ([`Method::set_ray_budget`] with 0).
     pub photon_rays: usize,
     /// Photon rays per class (direct, indirect, caustic) over all traced batches.
     pub photon_rays_per_class: [u64; 3],
@@ -209,7 +210,9 @@ pub trait Method: Send {
     /// specular depth needs a new method from [`build`] ([`needs_rebuild`]).
     fn update(&mut self, settings: &RenderSettings) -> Result<(), String>;
 
-    /// Keep at most this many photon rays for re-splatting (older batches are folded).
+    /// Keep at most this many photon rays for re-splatting (older batches are folded). With
+    /// 0 (a headless render, [`run`]), a method whose film never reads stored rays (rs) keeps
+    /// none once they are splatted; the others keep the newest batch.
     fn set_ray_budget(&mut self, _rays: usize) {}
 
     /// The image so far (resolving what the steps accumulated).
@@ -316,6 +319,9 @@ pub struct Rendered {
 /// stops early (an interrupt).
 pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dyn Method) -> bool) {
     let start = Instant::now();
+    // Nothing re-splats in a headless render: stored rays are kept only where the film reads
+    // them (docs/benchmarks.md, "Memory").
+    method.set_ray_budget(0);
     loop {
         method.step();
         if !progress(&*method) {

@@ -34,6 +34,12 @@ pub struct PhotonStore {
     photons_used: u64,
     /// Keep at most this many photon rays; older batches are dropped ([`PhotonStore::fold`]).
     pub max_stored_rays: usize,
+    /// [`PhotonStore::fold`] keeps the newest batch whatever the budget (false only for a
+    /// method whose film never reads stored rays, in a render that never re-splats).
+    pub keep_newest: bool,
+    /// Rays dropped by [`PhotonStore::fold`] while `keep_newest` was false: a headless rs
+    /// render frees every batch once it is splatted, and its stats still count them.
+    pub released: usize,
 }
 
 impl PhotonStore {
@@ -47,6 +53,8 @@ impl PhotonStore {
             invalid_photon_rays: 0,
             photons_used: 0,
             max_stored_rays: usize::MAX,
+            keep_newest: true,
+            released: 0,
         }
     }
 
@@ -89,13 +97,18 @@ impl PhotonStore {
         self.batches.len() - 1
     }
 
-    /// Drop the oldest batches beyond the ray budget (always keeping the newest); returns how
+    /// Drop the oldest batches beyond the ray budget (keeping the newest unless
+    /// `keep_newest` is off); returns how
     /// many were dropped. Their light stays wherever it was splatted until the next re-splat.
     pub fn fold(&mut self) -> usize {
         let mut stored = self.rays();
         let mut drop = 0;
-        while self.batches.len() - drop > 1 && stored > self.max_stored_rays {
+        let keep = usize::from(self.keep_newest);
+        while self.batches.len() - drop > keep && stored > self.max_stored_rays {
             stored -= self.batches[drop].rays.len();
+            if !self.keep_newest {
+                self.released += self.batches[drop].rays.len();
+            }
             drop += 1;
         }
         self.batches.drain(..drop);

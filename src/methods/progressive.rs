@@ -565,7 +565,7 @@ impl Progressive {
         let clamps = self.store.clamps(&self.settings.bandwidth);
         MethodStats {
             photons_traced: self.store.photons_traced,
-            photon_rays: self.store.rays(),
+            photon_rays: self.store.rays() + self.store.released,
             photon_rays_per_class: self.store.rays_per_class(),
             photon_ray_bytes: self.store.memory_bytes(),
             passes: self.batch_count() as u64,
@@ -648,6 +648,9 @@ pub trait Resolver: Send {
     /// The film reads the splat targets' positions and normals (pm's density estimate,
     /// rc's records); without it they are freed once the splat tree is built.
     const READS_TARGETS: bool = true;
+    /// The film reads the stored photon rays (pm gathers them, rc splats them onto its
+    /// cache records); without it a headless render frees each batch once it is splatted.
+    const READS_STORED_RAYS: bool = true;
 
     /// The film from the core's state (may build a cache or a density estimate, timed into
     /// the core's T_S).
@@ -799,6 +802,9 @@ impl<R: Resolver> Method for PhotonMethod<R> {
 
     fn set_ray_budget(&mut self, rays: usize) {
         self.core.store.max_stored_rays = rays;
+        // A budget of 0 (a headless render, `methods::run`) lets a method whose film never
+        // reads stored rays drop every batch once it is splatted.
+        self.core.store.keep_newest = R::READS_STORED_RAYS || rays > 0;
     }
 
     fn film(&mut self) -> Film {

@@ -26,6 +26,7 @@ impl Resolver for RsFilm {
     const REDRAWS_LOBES: bool = true;
     const REDRAWS_EYE: bool = true;
     const READS_TARGETS: bool = false;
+    const READS_STORED_RAYS: bool = false;
 
     fn film(&mut self, core: &mut Progressive) -> Film {
         let t = Instant::now();
