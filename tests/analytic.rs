@@ -571,6 +571,12 @@ fn a_headless_rs_render_frees_its_rays_and_pm_keeps_them() {
     }
     assert!(kept.stats().memory.photon_rays > 0);
     assert!(kept.film().rgb == headless.film.rgb);
+    // pm keeps every batch it gathers from, not only the newest.
     let pm = render_method(&scene, MethodKind::Pm, &s, Budget::Passes(2)).unwrap();
-    assert!(pm.stats.memory.photon_rays > 0);
+    let pm_traced: u64 = pm.stats.photon_rays_per_class.iter().sum();
+    assert_eq!(pm.stats.photon_rays as u64, pm_traced);
+    assert_eq!(
+        pm.stats.memory.photon_rays,
+        pm.stats.photon_rays * std::mem::size_of::<raysplat::pipeline::photon::PhotonRay>()
+    );
 }

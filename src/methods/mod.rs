@@ -126,7 +126,7 @@ pub struct MethodStats {
     /// Photons traced (0 for the path tracer).
     pub photons_traced: u64,
     /// Stored photon rays over all stored batches, plus those a headless rs render freed once
-    /// they were splatted ([`Method::set_ray_budget`] with 0).
+    /// they were splatted ([`Method::headless`]).
     pub photon_rays: usize,
     /// Photon rays per class (direct, indirect, caustic) over all traced batches.
     pub photon_rays_per_class: [u64; 3],
@@ -210,10 +210,13 @@ pub trait Method: Send {
     /// specular depth needs a new method from [`build`] ([`needs_rebuild`]).
     fn update(&mut self, settings: &RenderSettings) -> Result<(), String>;
 
-    /// Keep at most this many photon rays for re-splatting (older batches are folded). With
-    /// 0 (a headless render, [`run`]), a method whose film never reads stored rays (rs) keeps
-    /// none once they are splatted; the others keep the newest batch.
+    /// Keep at most this many photon rays for re-splatting (older batches are folded).
     fn set_ray_budget(&mut self, _rays: usize) {}
+
+    /// Nothing will re-splat (a headless render, [`run`]): a method whose film never reads
+    /// its stored photon rays (rs) frees each batch once it is splatted; the others keep
+    /// every batch, as their films gather them.
+    fn headless(&mut self) {}
 
     /// The image so far (resolving what the steps accumulated).
     fn film(&mut self) -> Film;
@@ -321,7 +324,7 @@ pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dy
     let start = Instant::now();
     // Nothing re-splats in a headless render: stored rays are kept only where the film reads
     // them (docs/benchmarks.md, "Memory").
-    method.set_ray_budget(0);
+    method.headless();
     loop {
         method.step();
         if !progress(&*method) {

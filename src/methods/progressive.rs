@@ -802,9 +802,13 @@ impl<R: Resolver> Method for PhotonMethod<R> {
 
     fn set_ray_budget(&mut self, rays: usize) {
         self.core.store.max_stored_rays = rays;
-        // A budget of 0 (a headless render, `methods::run`) lets a method whose film never
-        // reads stored rays drop every batch once it is splatted.
-        self.core.store.keep_newest = R::READS_STORED_RAYS || rays > 0;
+    }
+
+    fn headless(&mut self) {
+        if !R::READS_STORED_RAYS {
+            self.core.store.max_stored_rays = 0;
+            self.core.store.keep_newest = false;
+        }
     }
 
     fn film(&mut self) -> Film {
