@@ -220,10 +220,7 @@ pub fn prepare_and_splat(
     visibility: Option<&Scene>,
 ) -> SplatCounters {
     let mut counters = SplatCounters::default();
-    let mut batch = SplatBatch {
-        rays: Vec::new(),
-        directions: Vec::new(),
-    };
+    let mut batch = SplatBatch::default();
     for chunk in rays.chunks(SPLAT_CHUNK) {
         prepare_into(chunk, bandwidths, classes, mode, scene, &mut batch);
         if !batch.rays.is_empty() {
@@ -242,10 +239,7 @@ pub fn prepare(
     mode: DirectionalMode,
     scene: &Scene,
 ) -> SplatBatch {
-    let mut batch = SplatBatch {
-        rays: Vec::new(),
-        directions: Vec::new(),
-    };
+    let mut batch = SplatBatch::default();
     prepare_into(rays, bandwidths, classes, mode, scene, &mut batch);
     batch
 }

@@ -1,11 +1,12 @@
 //! Building the splat tree (§7.1): sliding-midpoint splits, empty-space cut-offs, backface-cull
 //! nodes, subtrees for parallel splatting, and the padded slot layout.
 
-use super::node::{Node, oct_decode, oct_encode, small_angle};
+use super::node::{Node, small_angle};
 use super::{
     CULL_MARGIN, CULL_MAX_ANGLE, Chunk, LANES, LEAF_SIZE, Leaf, MAX_DEPTH, MIN_CELL_FRACTION,
     PADDING, Points, SplatTree, Subtree,
 };
+use crate::pack::Oct;
 use glam::{Vec3, Vec3A};
 
 impl SplatTree {
@@ -351,7 +352,7 @@ impl Builder<'_> {
             return None;
         }
         // Rays with dir·n > sin(α) meet every sample from behind.
-        let decoded: Vec3 = oct_decode(oct_encode(mean)).into();
+        let decoded = Oct::new(mean).get();
         let alpha = alpha + small_angle(decoded, mean);
         Some((mean, alpha.sin()))
     }

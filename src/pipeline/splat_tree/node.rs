@@ -1,5 +1,6 @@
 //! The 8-byte kd-tree node and its encodings: octahedral normals and quantised C_max.
 
+use crate::pack::Oct;
 use glam::{Vec3, Vec3A};
 
 pub(super) const KIND_INTERIOR: u32 = 0;
@@ -54,7 +55,7 @@ impl Node {
         }
         Self {
             word: KIND_CULL | (q << 2),
-            data: oct_encode(normal),
+            data: Oct::new(normal).bits(),
         }
     }
     /// The node's kind: interior, leaf, empty or backface-cull (bits 0–1 of `word`).
@@ -88,7 +89,7 @@ impl Node {
     }
     #[inline(always)]
     pub(super) fn normal(&self) -> Vec3A {
-        oct_decode(self.data)
+        Oct::from_bits(self.data).get_a()
     }
 }
 
@@ -105,29 +106,9 @@ pub(super) fn small_angle(a: Vec3, b: Vec3) -> f32 {
     2.0 * (0.5 * (a - b).length()).min(1.0).asin()
 }
 
-/// Octahedral unit-vector encoding, 16 bits per coordinate ([`crate::pack::Oct`]).
-pub(super) fn oct_encode(n: Vec3) -> u32 {
-    crate::pack::Oct::new(n).bits()
-}
-
-#[inline(always)]
-pub(super) fn oct_decode(c: u32) -> Vec3A {
-    crate::pack::Oct::from_bits(c).get_a()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn octahedral_roundtrip_is_accurate() {
-        let mut rng = crate::sampling::Rng::new(5, 5);
-        for _ in 0..10_000 {
-            let n = crate::sampling::uniform_sphere(rng.next_2d());
-            let d: Vec3 = oct_decode(oct_encode(n)).into();
-            assert!(small_angle(d, n) < 1e-4, "{n} -> {d}");
-        }
-    }
 
     #[test]
     fn cull_cmax_rounds_up() {
