@@ -97,6 +97,66 @@ fn oblique_incidence_keeps_its_energy() {
     }
 }
 
+/// A streamed light pass (`plan_light_pass`, then `LightPassPlan::stream`, for a render that
+/// never keeps its batches) hands on exactly the rays `light_pass` stores, in the same order,
+/// with the same counts: over several waves, with classes that fill in different waves and
+/// one that never fills (no specular surface: no caustic photon), and on the default scene.
+#[test]
+fn a_streamed_light_pass_hands_on_the_rays_of_a_stored_one() {
+    use raysplat::pipeline::photon::plan_light_pass;
+    let plane = common::area_light_over_plane(0.5, 5.0, 1.0);
+    let cornell = Scene::default_scene();
+    let cases = [
+        (&plane, ClassBudgets([3000, 9000, 500]), 2),
+        (&cornell, ClassBudgets([4000, 12000, 2000]), 50),
+    ];
+    // One thread: waves of 8,192 photons, so each case spans several.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    for (scene, budgets, max_emitted_factor) in cases {
+        let s = LightPassSettings {
+            budgets,
+            max_emitted_factor,
+            seed: 9,
+            first_photon: 1234,
+            units: PathUnits { length: 0.7 },
+        };
+        let (stored, plan, streamed, waves) = pool.install(|| {
+            let stored = light_pass(scene, &s);
+            let plan = plan_light_pass(scene, &s);
+            let (mut streamed, mut waves) = (Vec::new(), 0);
+            plan.stream(scene, &s, |rays| {
+                streamed.extend_from_slice(rays);
+                waves += 1;
+            });
+            (stored, plan, streamed, waves)
+        });
+        assert!(waves >= 2, "{waves} waves");
+        assert!(stored.rays.len() > 10_000);
+        assert_eq!(plan.batch.emitted, stored.emitted);
+        assert_eq!(plan.batch.stored, stored.stored);
+        assert_eq!(plan.batch.traced, stored.traced);
+        assert_eq!(plan.batch.invalid, stored.invalid);
+        assert_eq!(streamed.len(), stored.rays.len());
+        for (a, b) in streamed.iter().zip(&stored.rays) {
+            assert_eq!(format!("{a:?}"), format!("{b:?}"));
+        }
+    }
+    // The plane's caustic class never filled: it took every photon the cap allowed.
+    let s = LightPassSettings {
+        budgets: ClassBudgets([3000, 9000, 500]),
+        max_emitted_factor: 2,
+        seed: 9,
+        first_photon: 1234,
+        units: PathUnits { length: 0.7 },
+    };
+    let plan = pool.install(|| plan_light_pass(&plane, &s));
+    assert_eq!(plan.batch.stored[2], 0);
+    assert_eq!(plan.batch.emitted[2], plan.batch.traced);
+}
+
 /// eq. 7 on a known path, without units (lengths in the pilot's ⟨D⟩ = L, areas in L²): for a
 /// downward area light over a plane, every direct ray has p̃(x1|x0) = p_e / D(x0, x1) with
 /// p_e = (L²/A)·cos θ/π, and every ray leaving the plane after one diffuse bounce multiplies
@@ -571,6 +631,37 @@ fn a_headless_rs_render_frees_its_rays_and_pm_keeps_them() {
     }
     assert!(kept.stats().memory.photon_rays > 0);
     assert!(kept.film().rgb == headless.film.rgb);
+    // More photons than one wave, direct photons splatted too: the headless render streams
+    // each batch a wave at a time and is the stepped render's image up to the order of float
+    // additions (one thread: waves of 8,192 photons).
+    let s = RenderSettings {
+        photons: 30_000,
+        direct: DirectMode::Photons,
+        ..s
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let (streamed, stepped) = pool.install(|| {
+        let streamed = render_method(&scene, MethodKind::Rs, &s, Budget::Passes(2)).unwrap();
+        let mut kept = build(scene.clone(), s.clone()).unwrap();
+        for _ in 0..2 {
+            kept.step();
+        }
+        (streamed, kept.film())
+    });
+    assert_eq!(streamed.stats.memory.photon_rays, 0);
+    assert!(streamed.stats.photon_rays > 2 * 30_000 - 100);
+    let mut lit = 0;
+    for (a, b) in streamed.film.rgb.iter().zip(&stepped.rgb) {
+        assert!(
+            (*a - *b).abs().max_element() <= 1e-5 * b.max_element() + 1e-7,
+            "{a} vs {b}"
+        );
+        lit += usize::from(b.max_element() > 0.0);
+    }
+    assert!(lit > stepped.rgb.len() / 2);
     // pm keeps every batch it gathers from, not only the newest.
     let pm = render_method(&scene, MethodKind::Pm, &s, Budget::Passes(2)).unwrap();
     let pm_traced: u64 = pm.stats.photon_rays_per_class.iter().sum();

@@ -8,9 +8,10 @@
 use crate::methods::Timings;
 use crate::methods::eye_side::EyeSide;
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
+use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::eye::trace_lobes;
 use crate::pipeline::photon::{Bandwidth, PhotonRay};
-use crate::pipeline::radiance_map::{Accumulators, RadianceMap};
+use crate::pipeline::radiance_map::{Accumulators, add_radiance};
 use crate::pipeline::splat::prepare_and_splat;
 use crate::pipeline::splat_tree::SplatTree;
 use crate::scene::{Camera, Scene};
@@ -75,21 +76,42 @@ impl TracedLobes {
         classes: [bool; 3],
         timings: &mut Timings,
     ) {
+        let Some(mut batch) = self.begin_batch(scene, camera, settings, side, classes, timings)
+        else {
+            return;
+        };
+        let t = Instant::now();
+        batch.gather(scene, rays, bw);
+        self.finish_batch(scene, batch);
+        timings.t_splat += t.elapsed().as_secs_f64();
+    }
+
+    /// The first part of [`TracedLobes::add_batch`]: draw new directions, add the emission and
+    /// direct light they see, and return where they land, ready to gather the batch's rays
+    /// ([`LobeBatch::gather`], any number of times), or None where no lobe is traced.
+    pub fn begin_batch(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        settings: &RenderSettings,
+        side: &EyeSide,
+        classes: [bool; 3],
+        timings: &mut Timings,
+    ) -> Option<LobeBatch> {
         self.batches += 1;
         if !side.eye.lobe_traced.iter().any(|&t| t) {
-            return;
+            return None;
         }
         let draw = self.draws;
         self.draws += 1;
         let t = Instant::now();
         let pass = trace_lobes(scene, camera, &side.eye, &side.eye_settings, draw);
-        let samples = &pass.samples;
         for (d, e) in self.direct.iter_mut().zip(&pass.emitted) {
             *d += *e;
         }
-        if samples.is_empty() {
+        if pass.samples.is_empty() {
             timings.t_eye += t.elapsed().as_secs_f64();
-            return;
+            return None;
         }
         let mut tree = SplatTree::build(&pass.targets.position, &pass.targets.normal);
         if settings.splat_visibility {
@@ -98,6 +120,7 @@ impl TracedLobes {
         timings.t_eye += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
+        let samples = &pass.samples;
         // The eye pass's seed: each eye pass (issue 16) draws its own NEE streams.
         let seed = side.eye_settings.seed ^ (draw + 1).wrapping_mul(0x5851_f42d_4c95_7f2d);
         let (nee, invalid) = if settings.direct == DirectMode::Nee {
@@ -111,31 +134,31 @@ impl TracedLobes {
         }
         timings.t_direct += t.elapsed().as_secs_f64();
 
-        let t = Instant::now();
         let mode = settings.radiance_map;
-        let (w, h) = (settings.width, settings.height);
-        let mut gather = |classes: [bool; 3], into_direct: bool| {
-            let mut acc = Accumulators::for_tree(&tree, &pass.targets.glossy, mode);
-            prepare_and_splat(&tree, rays, bw, classes, mode, scene, &mut acc, Some(scene));
-            let mut map = RadianceMap::new(w, h);
-            map.resolve_from(scene, samples, &tree.target_slot, &acc, 1);
-            self.invalid += map.invalid;
-            let sums = if into_direct {
-                &mut self.direct
-            } else {
-                &mut self.indirect
-            };
-            for (s, l) in sums.iter_mut().zip(&map.radiance) {
-                *s += *l;
+        let acc = |on: bool| on.then(|| Accumulators::for_tree(&tree, &pass.targets.glossy, mode));
+        Some(LobeBatch {
+            classes,
+            indirect: acc(classes != [false; 3]),
+            direct: acc(settings.direct == DirectMode::Photons),
+            samples: pass.samples,
+            tree,
+        })
+    }
+
+    /// The last part of [`TracedLobes::add_batch`]: add the light `batch` gathered to the
+    /// sums.
+    pub fn finish_batch(&mut self, scene: &Scene, batch: LobeBatch) {
+        let target_slot = &batch.tree.target_slot;
+        for (acc, sums) in [
+            (&batch.indirect, &mut self.indirect),
+            (&batch.direct, &mut self.direct),
+        ] {
+            if let Some(acc) = acc {
+                // Straight into the sums (a full-size radiance map per gather was +8 MB at
+                // the peak of a 500×500 render: docs/benchmarks.md, "Memory").
+                self.invalid += add_radiance(scene, &batch.samples, target_slot, acc, 1, sums);
             }
-        };
-        if classes != [false; 3] {
-            gather(classes, false);
         }
-        if settings.direct == DirectMode::Photons {
-            gather([true, false, false], true);
-        }
-        timings.t_splat += t.elapsed().as_secs_f64();
     }
 
     /// The mean over batches of pixel `i`'s direct and splatted light through traced lobes.
@@ -146,5 +169,36 @@ impl TracedLobes {
         }
         let b = self.batches as f32;
         (self.direct[i] / b, self.indirect[i] / b)
+    }
+}
+
+/// One draw of the traced lobes with the light gathered so far ([`TracedLobes::begin_batch`]).
+pub struct LobeBatch {
+    /// Classes gathered into `indirect`.
+    classes: [bool; 3],
+    /// The eye samples the lobes reached.
+    samples: EyeSamples,
+    /// Their splat tree.
+    tree: SplatTree,
+    /// Light of `classes` at their targets (None when no class is splatted).
+    indirect: Option<Accumulators>,
+    /// Direct photons at their targets (with `--direct photons`).
+    direct: Option<Accumulators>,
+}
+
+impl LobeBatch {
+    /// Splat `rays` (of the batch, or one wave of it) onto the lobes' targets with the
+    /// batch's bandwidths `bw`.
+    pub fn gather(&mut self, scene: &Scene, rays: &[PhotonRay], bw: &[Bandwidth; 3]) {
+        let tree = &self.tree;
+        for (acc, classes) in [
+            (&mut self.indirect, self.classes),
+            (&mut self.direct, [true, false, false]),
+        ] {
+            if let Some(acc) = acc {
+                let mode = acc.mode;
+                prepare_and_splat(tree, rays, bw, classes, mode, scene, acc, Some(scene));
+            }
+        }
     }
 }

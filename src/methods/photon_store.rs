@@ -4,8 +4,8 @@
 //! data, so the store is what lets a new view or new C/S/R re-splat without re-tracing.
 
 use crate::pipeline::photon::{
-    Bandwidth, BandwidthParams, ClampCounts, ClassBudgets, LightPassSettings, PhotonClass,
-    PhotonRay, Pilot, light_pass, pilot,
+    Bandwidth, BandwidthParams, ClampCounts, ClassBudgets, LightPassPlan, LightPassSettings,
+    PhotonBatch, PhotonClass, PhotonRay, Pilot, light_pass, pilot,
 };
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
@@ -71,18 +71,42 @@ impl PhotonStore {
     /// Trace one light pass of `settings.photons` stored rays (split by the fractions; direct
     /// photons only when `with_direct`) and store it; returns its index.
     pub fn trace(&mut self, scene: &Scene, settings: &RenderSettings, with_direct: bool) -> usize {
-        let budgets =
-            ClassBudgets::from_fractions(settings.photons, settings.fractions, with_direct);
-        let batch = light_pass(
-            scene,
-            &LightPassSettings {
-                budgets,
-                max_emitted_factor: settings.max_emitted_factor,
-                seed: settings.seed,
-                first_photon: self.photons_used,
-                units: self.pilot.units(),
-            },
-        );
+        let batch = light_pass(scene, &self.light_pass_settings(settings, with_direct));
+        self.add(batch)
+    }
+
+    /// The next light pass's settings: its class budgets, and photon indices after those of
+    /// the batches so far.
+    pub fn light_pass_settings(
+        &self,
+        settings: &RenderSettings,
+        with_direct: bool,
+    ) -> LightPassSettings {
+        LightPassSettings {
+            budgets: ClassBudgets::from_fractions(
+                settings.photons,
+                settings.fractions,
+                with_direct,
+            ),
+            max_emitted_factor: settings.max_emitted_factor,
+            seed: settings.seed,
+            first_photon: self.photons_used,
+            units: self.pilot.units(),
+        }
+    }
+
+    /// Count a light pass planned from [`PhotonStore::light_pass_settings`] whose rays will
+    /// be streamed, not stored ([`PhotonStore::frees_every_batch`]): its M joins the total and
+    /// its rays count as released; it is stored as a batch without rays. Returns its index.
+    pub fn add_streamed(&mut self, plan: &LightPassPlan) -> usize {
+        self.released += plan.batch.stored.iter().sum::<u64>() as usize;
+        self.add(PhotonBatch {
+            rays: Vec::new(),
+            ..plan.batch.clone()
+        })
+    }
+
+    fn add(&mut self, batch: PhotonBatch) -> usize {
         self.photons_traced += batch.traced;
         self.invalid_photon_rays += batch.invalid;
         self.photons_used += batch.emitted.iter().copied().max().unwrap_or(0);
@@ -95,6 +119,12 @@ impl PhotonStore {
             clamps: None,
         });
         self.batches.len() - 1
+    }
+
+    /// No batch is kept once splatted (a headless rs render: [`PhotonStore::keep_newest`] off
+    /// and no ray budget), so a batch's rays can be splatted as they are traced and never held.
+    pub fn frees_every_batch(&self) -> bool {
+        !self.keep_newest && self.max_stored_rays == 0
     }
 
     /// Drop the oldest batches beyond the ray budget (keeping the newest unless

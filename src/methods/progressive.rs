@@ -21,7 +21,7 @@ use crate::methods::{MemoryBreakdown, Method, MethodStats, Step, Timings};
 use crate::pipeline::cache::{Cache, PixelGeometry, sample_values};
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::filter::filter_samples;
-use crate::pipeline::photon::{Bandwidth, BandwidthParams, PhotonRay};
+use crate::pipeline::photon::{Bandwidth, BandwidthParams, PhotonRay, plan_light_pass};
 use crate::pipeline::photon_map::PmStats;
 use crate::pipeline::radiance_map::{RadianceMap, add_radiance};
 use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
@@ -305,16 +305,20 @@ impl Progressive {
         while self.resplat_pending() {
             self.step();
         }
-        let t = Instant::now();
-        let b = self
-            .store
-            .trace(&self.scene, &self.settings, self.splat_direct());
-        self.timings.t_light += t.elapsed().as_secs_f64();
+        if self.store.frees_every_batch() {
+            self.stream_batch();
+        } else {
+            let t = Instant::now();
+            let b = self
+                .store
+                .trace(&self.scene, &self.settings, self.splat_direct());
+            self.timings.t_light += t.elapsed().as_secs_f64();
 
-        let t = Instant::now();
-        self.splat_stored(b);
-        self.timings.t_splat += t.elapsed().as_secs_f64();
-        self.draw_lobes(b);
+            let t = Instant::now();
+            self.splat_stored(b);
+            self.timings.t_splat += t.elapsed().as_secs_f64();
+            self.draw_lobes(b);
+        }
         let t = Instant::now();
         self.folded_total += self.store.fold();
         // The dropped batches are the oldest; those of earlier eye passes were not splatted
@@ -325,6 +329,57 @@ impl Progressive {
             self.splatted = stored;
         }
         self.timings.t_splat += t.elapsed().as_secs_f64();
+    }
+
+    /// [`Progressive::run_batch`] when no batch is kept once splatted (a headless rs render):
+    /// the light pass is counted first, then traced again a wave at a time, and each wave is
+    /// splatted (onto the eye side and the traced lobes) and dropped, so the batch's rays are
+    /// never held whole (docs/benchmarks.md, "Memory"). The same rays, in the same order, with
+    /// the same bandwidths as a stored batch; the second trace costs one more T_L.
+    fn stream_batch(&mut self) {
+        let t = Instant::now();
+        let lps = self
+            .store
+            .light_pass_settings(&self.settings, self.splat_direct());
+        let plan = plan_light_pass(&self.scene, &lps);
+        let b = self.store.add_streamed(&plan);
+        self.timings.t_light += t.elapsed().as_secs_f64();
+        let bw = self.bandwidths(self.store.batches()[b].m);
+        let mut lobes = if self.redraw_lobes {
+            self.lobes.begin_batch(
+                &self.scene,
+                &self.camera,
+                &self.settings,
+                &self.side,
+                self.splatted_classes,
+                &mut self.timings,
+            )
+        } else {
+            None
+        };
+
+        let t = Instant::now();
+        let mut t_splat = 0.0;
+        let (scene, side, counters) = (&self.scene, &mut self.side, &mut self.counters);
+        let (classes, direct) = (self.splatted_classes, self.settings.direct);
+        let mode = self.settings.radiance_map;
+        plan.stream(scene, &lps, |rays| {
+            let t = Instant::now();
+            let photons = direct == DirectMode::Photons;
+            *counters += splat_rays(scene, side, rays, &bw, classes, photons, mode);
+            if let Some(l) = lobes.as_mut() {
+                l.gather(scene, rays, &bw);
+            }
+            t_splat += t.elapsed().as_secs_f64();
+        });
+        self.timings.t_light += t.elapsed().as_secs_f64() - t_splat;
+        let t = Instant::now();
+        if let Some(l) = lobes {
+            self.lobes.finish_batch(&self.scene, l);
+        }
+        self.timings.t_splat += t_splat + t.elapsed().as_secs_f64();
+        self.splatted += 1;
+        self.generation += 1;
     }
 
     /// Splat stored batch `b` with the bandwidth of its M under the current parameters.

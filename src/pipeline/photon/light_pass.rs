@@ -66,95 +66,23 @@ pub struct LightPassSettings {
 /// Trace photons until every class has its budget of stored rays (Table 2's fractions), or
 /// until `max_emitted_factor × total budget` photons were emitted.
 pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
-    let budgets = s.budgets.0;
-    let keep = [budgets[0] > 0, budgets[1] > 0, budgets[2] > 0];
-    let total_budget = s.budgets.total();
-    let mut batch = PhotonBatch::default();
-    if total_budget == 0 {
-        return batch;
+    let mut rays = Vec::new();
+    if s.budgets.total() > 0 {
+        rays.reserve_exact(s.budgets.total() as usize + 3 * MAX_PATH_SEGMENTS as usize);
     }
-    let cap = total_budget.saturating_mul(s.max_emitted_factor.max(1));
-    let chunk = 2048u64;
-    let wave = chunk * 4 * rayon::current_num_threads().max(1) as u64;
-    let mut counts = [0u64; 3];
-    let mut full_at: [Option<u64>; 3] = [None; 3];
-    let mut emitted = 0u64;
     // Each class stores at most its budget: the rays go straight into the batch, a wave at
     // a time (collecting every wave first held the batch twice over, +50 MB at M = 500,000).
-    // The photon that fills a class keeps its later rays of that class too: at most
-    // MAX_PATH_SEGMENTS more per class.
-    batch
-        .rays
-        .reserve_exact(total_budget as usize + 3 * MAX_PATH_SEGMENTS as usize);
-    while emitted < cap && (0..3).any(|c| keep[c] && full_at[c].is_none()) {
-        let start = emitted;
-        let end = (start + wave).min(cap);
-        // Only classes that still need rays are stored in this wave.
-        let want = [
-            keep[0] && full_at[0].is_none(),
-            keep[1] && full_at[1].is_none(),
-            keep[2] && full_at[2].is_none(),
-        ];
-        let wave_parts: Vec<Vec<TaggedRay>> = (start..end)
-            .step_by(chunk as usize)
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .map(|c0| {
-                let mut out = Vec::with_capacity(chunk as usize * 2);
-                let mut invalid = 0u64;
-                for id in c0..(c0 + chunk).min(end) {
-                    trace_photon(
-                        scene,
-                        s.first_photon + id,
-                        s.seed,
-                        want,
-                        s.units,
-                        &mut out,
-                        &mut invalid,
-                    );
-                }
-                (out, invalid)
-            })
-            .collect::<Vec<_>>()
-            .into_iter()
-            .map(|(out, invalid)| {
-                batch.invalid += invalid;
-                out
-            })
-            .collect();
-        // Find, in photon order, where each class reaches its budget.
-        for part in &wave_parts {
-            for r in part {
-                let c = r.ray.class as usize;
-                if full_at[c].is_none() {
-                    counts[c] += 1;
-                    if counts[c] >= budgets[c] {
-                        full_at[c] = Some(r.photon - s.first_photon + 1);
-                    }
-                }
+    let mut batch = drive(scene, s, |parts, fill| {
+        for r in parts.iter().flatten() {
+            if fill.keeps(r, s.first_photon) {
+                rays.push(r.ray);
             }
         }
-        for r in wave_parts.into_iter().flatten() {
-            let c = r.ray.class as usize;
-            let local = r.photon - s.first_photon;
-            if keep[c] && full_at[c].is_none_or(|f| local < f) {
-                batch.rays.push(r.ray);
-            }
-        }
-        emitted = end;
-    }
-    for c in 0..3 {
-        batch.emitted[c] = if keep[c] {
-            full_at[c].unwrap_or(emitted)
-        } else {
-            0
-        };
-    }
-    batch.traced = emitted;
+    });
     // Every ray kept is of a photon before its class filled (local < emitted[c]); its power
     // is divided by the photons emitted for its class.
     let (emitted_per_class, mut invalid, mut stored) = (batch.emitted, 0u64, [0u64; 3]);
-    batch.rays.retain_mut(|ray| {
+    rays.retain_mut(|ray| {
         let c = ray.class as usize;
         ray.power /= emitted_per_class[c] as f32;
         let valid = ray.is_valid();
@@ -164,5 +92,192 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
     });
     batch.invalid += invalid;
     batch.stored = stored;
+    batch.rays = rays;
     batch
+}
+
+/// A light pass whose rays are handed on a wave at a time instead of stored
+/// ([`plan_light_pass`], then [`LightPassPlan::stream`]): a headless rs render splats each
+/// wave and drops it, so the batch is never held whole (docs/benchmarks.md, "Memory").
+#[derive(Clone, Debug)]
+pub struct LightPassPlan {
+    /// The batch's counts ([`PhotonBatch::emitted`], `stored`, `traced`, `invalid`) as
+    /// [`light_pass`] gives them; no rays.
+    pub batch: PhotonBatch,
+    /// Each wave that stores a ray: the classes it stores, and its photons (local indices)
+    /// that store one, in order.
+    waves: Vec<([bool; 3], Vec<u64>)>,
+}
+
+/// The first of a streamed light pass's two passes: trace the photons [`light_pass`] would
+/// and count, without keeping them, the rays each class stores and the photons it took to
+/// fill (a class's power normalisation and eq. 8's M are known only once it is full, so the
+/// rays cannot be splatted while they are first traced).
+pub fn plan_light_pass(scene: &Scene, s: &LightPassSettings) -> LightPassPlan {
+    let mut waves = Vec::new();
+    let (mut invalid, mut stored) = (0u64, [0u64; 3]);
+    let mut batch = drive(scene, s, |parts, fill| {
+        // Only photons that store a ray are traced again: not those spent looking for a class
+        // that never fills, such as caustics where few specular surfaces are (Šibenik: the
+        // second trace cost 2.6 s of T_L's 2.4 s when every photon was traced again).
+        let mut photons = Vec::new();
+        for r in parts.iter().flatten() {
+            if fill.keeps(r, s.first_photon) {
+                // Dividing a power by the photons emitted keeps it finite and non-negative
+                // or not: validity is known before the normalisation is.
+                let valid = r.ray.is_valid();
+                invalid += !valid as u64;
+                stored[r.ray.class as usize] += valid as u64;
+                let local = r.photon - s.first_photon;
+                if valid && photons.last() != Some(&local) {
+                    photons.push(local);
+                }
+            }
+        }
+        if !photons.is_empty() {
+            waves.push((fill.want, photons));
+        }
+    });
+    batch.invalid += invalid;
+    batch.stored = stored;
+    LightPassPlan { batch, waves }
+}
+
+impl LightPassPlan {
+    /// The second pass: trace the photons that store rays again (each photon has its own
+    /// random stream, so they are the same paths) and hand `sink` each wave's stored rays, normalised, in
+    /// photon order: the rays [`light_pass`] would store, a wave at a time.
+    pub fn stream(&self, scene: &Scene, s: &LightPassSettings, mut sink: impl FnMut(&[PhotonRay])) {
+        let emitted = self.batch.emitted;
+        let mut rays = Vec::new();
+        for (want, photons) in &self.waves {
+            let (parts, _) = trace_wave(scene, s, photons, *want);
+            rays.clear();
+            for r in parts.into_iter().flatten() {
+                let c = r.ray.class as usize;
+                if r.photon - s.first_photon < emitted[c] {
+                    let mut ray = r.ray;
+                    ray.power /= emitted[c] as f32;
+                    if ray.is_valid() {
+                        rays.push(ray);
+                    }
+                }
+            }
+            if !rays.is_empty() {
+                sink(&rays);
+            }
+        }
+    }
+}
+
+/// Where a light pass stands after a wave: which photons it traced, the classes it stored
+/// and the photon at which each class filled its budget.
+struct Fill {
+    start: u64,
+    end: u64,
+    want: [bool; 3],
+    keep: [bool; 3],
+    full_at: [Option<u64>; 3],
+}
+
+impl Fill {
+    /// The light pass keeps ray `r`: its class is stored and had not filled before its
+    /// photon (the photon that fills a class keeps its later rays of that class too: at most
+    /// MAX_PATH_SEGMENTS more per class).
+    #[inline]
+    fn keeps(&self, r: &TaggedRay, first_photon: u64) -> bool {
+        let c = r.ray.class as usize;
+        self.keep[c] && self.full_at[c].is_none_or(|f| r.photon - first_photon < f)
+    }
+}
+
+/// The wave loop shared by [`light_pass`] and [`plan_light_pass`]: trace waves of photons
+/// until every stored class has its budget or the emission cap is reached, finding in photon
+/// order where each class fills; `on_wave` sees each wave's rays with the fill so far. Returns
+/// the batch's counts without rays or `stored`.
+fn drive(
+    scene: &Scene,
+    s: &LightPassSettings,
+    mut on_wave: impl FnMut(&[Vec<TaggedRay>], &Fill),
+) -> PhotonBatch {
+    let budgets = s.budgets.0;
+    let total_budget = s.budgets.total();
+    let mut batch = PhotonBatch::default();
+    if total_budget == 0 {
+        return batch;
+    }
+    let cap = total_budget.saturating_mul(s.max_emitted_factor.max(1));
+    let wave = CHUNK * 4 * rayon::current_num_threads().max(1) as u64;
+    let mut counts = [0u64; 3];
+    let mut fill = Fill {
+        start: 0,
+        end: 0,
+        want: [false; 3],
+        keep: [budgets[0] > 0, budgets[1] > 0, budgets[2] > 0],
+        full_at: [None; 3],
+    };
+    while fill.end < cap && (0..3).any(|c| fill.keep[c] && fill.full_at[c].is_none()) {
+        fill.start = fill.end;
+        fill.end = (fill.start + wave).min(cap);
+        // Only classes that still need rays are stored in this wave.
+        fill.want = std::array::from_fn(|c| fill.keep[c] && fill.full_at[c].is_none());
+        let photons: Vec<u64> = (fill.start..fill.end).collect();
+        let (parts, invalid) = trace_wave(scene, s, &photons, fill.want);
+        batch.invalid += invalid;
+        // Find, in photon order, where each class reaches its budget.
+        for r in parts.iter().flatten() {
+            let c = r.ray.class as usize;
+            if fill.full_at[c].is_none() {
+                counts[c] += 1;
+                if counts[c] >= budgets[c] {
+                    fill.full_at[c] = Some(r.photon - s.first_photon + 1);
+                }
+            }
+        }
+        on_wave(&parts, &fill);
+    }
+    for c in 0..3 {
+        batch.emitted[c] = if fill.keep[c] {
+            fill.full_at[c].unwrap_or(fill.end)
+        } else {
+            0
+        };
+    }
+    batch.traced = fill.end;
+    batch
+}
+
+/// Photons traced per task.
+const CHUNK: u64 = 2048;
+
+/// Trace the pass's `photons` (local indices, in order) in parallel, storing rays of the
+/// classes `want`: their rays in photon order (one part per chunk of photons), and the paths
+/// cut short for NaN or infinite values.
+fn trace_wave(
+    scene: &Scene,
+    s: &LightPassSettings,
+    photons: &[u64],
+    want: [bool; 3],
+) -> (Vec<Vec<TaggedRay>>, u64) {
+    let parts: Vec<(Vec<TaggedRay>, u64)> = photons
+        .par_chunks(CHUNK as usize)
+        .map(|chunk| {
+            let mut out = Vec::with_capacity(CHUNK as usize * 2);
+            let mut invalid = 0u64;
+            for &id in chunk {
+                trace_photon(
+                    scene,
+                    s.first_photon + id,
+                    s.seed,
+                    want,
+                    s.units,
+                    &mut out,
+                    &mut invalid,
+                );
+            }
+            (out, invalid)
+        })
+        .collect();
+    let invalid = parts.iter().map(|p| p.1).sum();
+    (parts.into_iter().map(|p| p.0).collect(), invalid)
 }

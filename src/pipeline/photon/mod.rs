@@ -19,7 +19,9 @@ mod pilot;
 mod trace;
 
 pub use bandwidth::{Bandwidth, BandwidthParams, ClampCounts};
-pub use light_pass::{ClassBudgets, LightPassSettings, PhotonBatch, light_pass};
+pub use light_pass::{
+    ClassBudgets, LightPassPlan, LightPassSettings, PhotonBatch, light_pass, plan_light_pass,
+};
 pub use pilot::{Pilot, pilot};
 pub use trace::PathUnits;
 
