@@ -135,6 +135,11 @@ pub struct RenderSettings {
     /// anti-aliasing, NEE and traced branches converge with the batches too.
     #[serde(default = "yes")]
     pub progressive_eye: bool,
+    /// rs, rc: beyond the first photon batch the bandwidth shrinks as M^(−1/3) instead of
+    /// eq. 8's M^(−1/6) (issue 16, docs/deviations.md §43); off, every batch keeps eq. 8's
+    /// bandwidth for the total M, as in the paper.
+    #[serde(default = "yes")]
+    pub progressive_bandwidth: bool,
 }
 
 fn yes() -> bool {
@@ -167,6 +172,7 @@ impl Default for RenderSettings {
             cache: CacheParams::default(),
             cache_on: false,
             progressive_eye: true,
+            progressive_bandwidth: true,
             filter: FilterParams::default(),
         }
     }

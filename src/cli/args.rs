@@ -223,6 +223,11 @@ pub struct MethodArgs {
     /// them anew as batches go on (issue 16; the behaviour before it).
     #[arg(long)]
     pub fixed_eye_samples: bool,
+    /// rs, rc: every photon batch keeps eq. 8's bandwidth for the total M (h ∝ M^(−1/6)), as
+    /// in the paper, instead of shrinking it as M^(−1/3) beyond the first batch (issue 16;
+    /// docs/deviations.md §43)
+    #[arg(long)]
+    pub paper_bandwidth_rate: bool,
     /// Directional storage at glossy surfaces (§8.1): diffuse (irradiance only), sh
     /// (16 spherical-harmonic coefficients per channel) or histogram (20 strata).
     #[arg(long, default_value = RenderSettings::default().radiance_map.name(), value_parser = choice::<DirectionalMode>())]
@@ -287,6 +292,7 @@ impl SettingsArgs {
             merge_targets: !method.no_merge,
             splat_visibility: method.splat_visibility,
             progressive_eye: !method.fixed_eye_samples,
+            progressive_bandwidth: !method.paper_bandwidth_rate,
             method: kind,
             pm_k: method.pm_k,
             pm_caustic_k: method.pm_caustic_k,

@@ -26,6 +26,11 @@ pub struct PhotonStore {
     batches: Vec<StoredBatch>,
     /// Stored rays per class over all traced batches (each batch's M, eq. 8).
     m_total: [u64; 3],
+    /// Stored rays per class of the first batch that stored any (the progressive schedule's
+    /// M₁, [`Bandwidth::progressive`]); 0 until then.
+    m_first: [u64; 3],
+    /// Bandwidths follow the progressive schedule (deviations §43), else eq. 8 alone.
+    progressive_bandwidth: bool,
     /// Photons traced (depends on thread count: the last wave may trace beyond the budget).
     pub photons_traced: u64,
     /// Photon paths and rays dropped for NaN or infinite values, over all batches.
@@ -49,6 +54,8 @@ impl PhotonStore {
             pilot: pilot(scene, seed),
             batches: Vec::new(),
             m_total: [0; 3],
+            m_first: [0; 3],
+            progressive_bandwidth: true,
             photons_traced: 0,
             invalid_photon_rays: 0,
             photons_used: 0,
@@ -112,6 +119,9 @@ impl PhotonStore {
         self.photons_used += batch.emitted.iter().copied().max().unwrap_or(0);
         for c in 0..3 {
             self.m_total[c] += batch.stored[c];
+            if self.m_first[c] == 0 {
+                self.m_first[c] = self.m_total[c];
+            }
         }
         self.batches.push(StoredBatch {
             rays: batch.rays,
@@ -160,17 +170,43 @@ impl PhotonStore {
         self.rays() * std::mem::size_of::<PhotonRay>()
     }
 
-    /// Eq. 8's bandwidth per class for class sizes `m`.
+    /// The bandwidth per class that a batch with class sizes `m` (over every batch up to it)
+    /// is splatted with: eq. 8, shrunk by the progressive schedule beyond the first batch
+    /// unless it is off ([`PhotonStore::set_progressive_bandwidth`]).
     pub fn bandwidths(&self, params: &BandwidthParams, m: [u64; 3]) -> [Bandwidth; 3] {
         let mean_r = self.pilot.mean_r(params.sensitivity_s);
-        PhotonClass::ALL.map(|c| Bandwidth::new(params, &self.pilot, m[c as usize], mean_r))
+        PhotonClass::ALL.map(|c| {
+            let c = c as usize;
+            let first = if self.progressive_bandwidth {
+                self.m_first[c]
+            } else {
+                0
+            };
+            Bandwidth::progressive(params, &self.pilot, m[c], first, mean_r)
+        })
+    }
+
+    /// Follow the progressive bandwidth schedule (true, the default) or eq. 8 alone; returns
+    /// whether that changed (the stored batches then want a re-splat).
+    pub fn set_progressive_bandwidth(&mut self, on: bool) -> bool {
+        let changed = on != self.progressive_bandwidth;
+        self.progressive_bandwidth = on;
+        if changed {
+            for b in &mut self.batches {
+                b.clamps = None;
+            }
+        }
+        changed
     }
 
     /// Photon mapping's largest gather radius: rs's h_max (eq. 8's upper bound from μC and R)
     /// for the largest class stored, so both methods share one bound that follows the
     /// lighting's scale, never the bounding box.
     pub fn largest_h_max(&self, params: &BandwidthParams) -> f32 {
-        let bw = self.bandwidths(params, self.m_total);
+        // Eq. 8 alone: photon mapping's K-NN bound does not follow rs's schedule.
+        let mean_r = self.pilot.mean_r(params.sensitivity_s);
+        let bw = PhotonClass::ALL
+            .map(|c| Bandwidth::new(params, &self.pilot, self.m_total[c as usize], mean_r));
         PhotonClass::ALL
             .iter()
             .filter(|&&c| self.m_total[c as usize] > 0)

@@ -170,7 +170,8 @@ impl Progressive {
         )?;
         let lobes = TracedLobes::new((settings.width * settings.height) as usize);
         let t = Instant::now();
-        let store = PhotonStore::new(&scene, settings.seed);
+        let mut store = PhotonStore::new(&scene, settings.seed);
+        store.set_progressive_bandwidth(settings.progressive_bandwidth);
         timings.t_light = t.elapsed().as_secs_f64();
         Ok(Self {
             scene,
@@ -471,6 +472,13 @@ impl Progressive {
         self.settings.cache_on = s.cache_on;
         self.settings.filter = s.filter;
         self.settings.progressive_eye = s.progressive_eye;
+        self.settings.progressive_bandwidth = s.progressive_bandwidth;
+        if self
+            .store
+            .set_progressive_bandwidth(s.progressive_bandwidth)
+        {
+            self.begin_resplat(s.bandwidth);
+        }
         // Earlier passes' films were made without the cache and filter now asked for: their
         // batches go onto the current pass (a re-splat), so that the change reaches all of it.
         if !self.eye_passes_allowed() && self.earlier.batches > 0 {
