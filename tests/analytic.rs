@@ -624,6 +624,9 @@ fn a_headless_rs_render_frees_its_rays_and_pm_keeps_them() {
     let traced: u64 = headless.stats.photon_rays_per_class.iter().sum();
     assert!(traced > 0);
     assert_eq!(headless.stats.photon_rays as u64, traced);
+    // Every batch is released once splatted: none stays in the store, each counts as folded.
+    assert_eq!(headless.stats.stored_batches, 0);
+    assert_eq!(headless.stats.folded_batches, 3);
     // Stepped by hand, the store keeps every batch; the image is the same.
     let mut kept = build(scene.clone(), s.clone()).unwrap();
     for _ in 0..3 {

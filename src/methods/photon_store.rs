@@ -26,9 +26,14 @@ pub struct PhotonStore {
     batches: Vec<StoredBatch>,
     /// Stored rays per class over all traced batches (each batch's M, eq. 8).
     m_total: [u64; 3],
-    /// Stored rays per class of the first batch that stored any (the progressive schedule's
-    /// M₁, [`Bandwidth::progressive`]); 0 until then.
+    /// Stored rays per class of the first batch that stored any; 0 until then. With the
+    /// photons that batch asked for (`photons_first`) and the photons a batch asks for now
+    /// (`batch_photons`) it gives the progressive schedule's M₁ ([`PhotonStore::anchor`]).
     m_first: [u64; 3],
+    /// Photons per batch (settings' M) asked for by the batch that set `m_first`, per class.
+    photons_first: [u64; 3],
+    /// Photons per batch (settings' M) asked for now ([`PhotonStore::set_batch_photons`]).
+    batch_photons: u64,
     /// Bandwidths follow the progressive schedule (deviations §43), else eq. 8 alone.
     progressive_bandwidth: bool,
     /// Photons traced (depends on thread count: the last wave may trace beyond the budget).
@@ -55,6 +60,8 @@ impl PhotonStore {
             batches: Vec::new(),
             m_total: [0; 3],
             m_first: [0; 3],
+            photons_first: [0; 3],
+            batch_photons: 0,
             progressive_bandwidth: true,
             photons_traced: 0,
             invalid_photon_rays: 0,
@@ -79,7 +86,7 @@ impl PhotonStore {
     /// photons only when `with_direct`) and store it; returns its index.
     pub fn trace(&mut self, scene: &Scene, settings: &RenderSettings, with_direct: bool) -> usize {
         let batch = light_pass(scene, &self.light_pass_settings(settings, with_direct));
-        self.add(batch)
+        self.add(batch, settings.photons)
     }
 
     /// The next light pass's settings: its class budgets, and photon indices after those of
@@ -102,18 +109,24 @@ impl PhotonStore {
         }
     }
 
-    /// Count a light pass planned from [`PhotonStore::light_pass_settings`] whose rays will
-    /// be streamed, not stored ([`PhotonStore::frees_every_batch`]): its M joins the total and
-    /// its rays count as released; it is stored as a batch without rays. Returns its index.
-    pub fn add_streamed(&mut self, plan: &LightPassPlan) -> usize {
+    /// Count a light pass of `photons` (settings' M) planned from
+    /// [`PhotonStore::light_pass_settings`] whose rays will be streamed, not stored
+    /// ([`PhotonStore::frees_every_batch`]): its M joins the total and its rays count as
+    /// released; it is stored as a batch without rays until the next [`PhotonStore::fold`].
+    /// Returns its index.
+    pub fn add_streamed(&mut self, plan: &LightPassPlan, photons: u64) -> usize {
         self.released += plan.batch.stored.iter().sum::<u64>() as usize;
-        self.add(PhotonBatch {
-            rays: Vec::new(),
-            ..plan.batch.clone()
-        })
+        self.add(
+            PhotonBatch {
+                rays: Vec::new(),
+                ..plan.batch.clone()
+            },
+            photons,
+        )
     }
 
-    fn add(&mut self, batch: PhotonBatch) -> usize {
+    /// Store `batch`, traced for `photons` (settings' M).
+    fn add(&mut self, batch: PhotonBatch, photons: u64) -> usize {
         self.photons_traced += batch.traced;
         self.invalid_photon_rays += batch.invalid;
         self.photons_used += batch.emitted.iter().copied().max().unwrap_or(0);
@@ -121,6 +134,7 @@ impl PhotonStore {
             self.m_total[c] += batch.stored[c];
             if self.m_first[c] == 0 {
                 self.m_first[c] = self.m_total[c];
+                self.photons_first[c] = photons;
             }
         }
         self.batches.push(StoredBatch {
@@ -144,7 +158,9 @@ impl PhotonStore {
         let mut stored = self.rays();
         let mut drop = 0;
         let keep = usize::from(self.keep_newest);
-        while self.batches.len() - drop > keep && stored > self.max_stored_rays {
+        // A store that frees every batch drops them all, streamed ones (no rays) included.
+        let free_all = self.frees_every_batch();
+        while self.batches.len() - drop > keep && (free_all || stored > self.max_stored_rays) {
             stored -= self.batches[drop].rays.len();
             if !self.keep_newest {
                 self.released += self.batches[drop].rays.len();
@@ -175,22 +191,49 @@ impl PhotonStore {
     /// unless it is off ([`PhotonStore::set_progressive_bandwidth`]).
     pub fn bandwidths(&self, params: &BandwidthParams, m: [u64; 3]) -> [Bandwidth; 3] {
         let mean_r = self.pilot.mean_r(params.sensitivity_s);
+        let anchor = self.anchor();
         PhotonClass::ALL.map(|c| {
             let c = c as usize;
-            let first = if self.progressive_bandwidth {
-                self.m_first[c]
-            } else {
-                0
-            };
-            Bandwidth::progressive(params, &self.pilot, m[c], first, mean_r)
+            Bandwidth::progressive(params, &self.pilot, m[c], anchor[c], mean_r)
+        })
+    }
+
+    /// The progressive schedule's M₁ per class (0: eq. 8 alone): the M the class's first
+    /// batch stored, scaled to the photons a batch asks for now, so that M/M₁ counts batches
+    /// of the current size whatever the first one's (the previewer's coarse first image
+    /// traces half a batch; a slider can change the size later).
+    fn anchor(&self) -> [f64; 3] {
+        std::array::from_fn(|c| {
+            if !self.progressive_bandwidth || self.photons_first[c] == 0 {
+                return 0.0;
+            }
+            self.m_first[c] as f64 * self.batch_photons as f64 / self.photons_first[c] as f64
         })
     }
 
     /// Follow the progressive bandwidth schedule (true, the default) or eq. 8 alone; returns
-    /// whether that changed (the stored batches then want a re-splat).
+    /// whether any stored batch's bandwidth changed (they then want a re-splat).
     pub fn set_progressive_bandwidth(&mut self, on: bool) -> bool {
-        let changed = on != self.progressive_bandwidth;
-        self.progressive_bandwidth = on;
+        self.changing_anchor(|s| s.progressive_bandwidth = on)
+    }
+
+    /// The photons (settings' M) each batch asks for from now on; returns whether any stored
+    /// batch's bandwidth changed with the schedule's M₁ (they then want a re-splat).
+    pub fn set_batch_photons(&mut self, photons: u64) -> bool {
+        self.changing_anchor(|s| s.batch_photons = photons)
+    }
+
+    /// Apply `change`; forget the clamp counts and report true when it moved the bandwidth
+    /// of any stored batch.
+    fn changing_anchor(&mut self, change: impl FnOnce(&mut Self)) -> bool {
+        let before = self.anchor();
+        change(self);
+        let after = self.anchor();
+        let changed = self.batches.iter().any(|b| {
+            (0..3).any(|c| {
+                Bandwidth::shrink(b.m[c], before[c]) != Bandwidth::shrink(b.m[c], after[c])
+            })
+        });
         if changed {
             for b in &mut self.batches {
                 b.clamps = None;
@@ -237,5 +280,50 @@ impl PhotonStore {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The schedule's M₁ counts batches of the size asked for now: a first batch of half the
+    /// size (the previewer's coarse first image) gives the same M₁ as a full one, within the
+    /// few rays a photon's path stores beyond its class's budget.
+    #[test]
+    fn the_schedule_counts_batches_of_the_current_size() {
+        let scene = Scene::default_scene();
+        let full = RenderSettings {
+            photons: 4_000,
+            ..RenderSettings::default()
+        };
+        let half = RenderSettings {
+            photons: 2_000,
+            ..full.clone()
+        };
+        let mut a = PhotonStore::new(&scene, 1);
+        a.set_batch_photons(half.photons);
+        a.trace(&scene, &half, false);
+        // Only the first batch is stored, at or below either M₁: nothing to re-splat.
+        assert!(!a.set_batch_photons(full.photons));
+        let mut b = PhotonStore::new(&scene, 1);
+        b.set_batch_photons(full.photons);
+        b.trace(&scene, &full, false);
+        for c in 1..3 {
+            let (ma, mb) = (a.anchor()[c], b.anchor()[c]);
+            assert!(
+                mb > 0.0 && (ma / mb - 1.0).abs() < 0.01,
+                "class {c}: {ma} vs {mb}"
+            );
+        }
+        // With a second batch beyond M₁, a new batch size moves its bandwidth.
+        b.trace(&scene, &full, false);
+        let before = b.bandwidths(&BandwidthParams::default(), b.batches()[1].m);
+        assert!(b.set_batch_photons(2 * full.photons));
+        let after = b.bandwidths(&BandwidthParams::default(), b.batches()[1].m);
+        assert!(after[1].h_max > before[1].h_max);
+        // Without the schedule, M₁ plays no part.
+        assert!(b.set_progressive_bandwidth(false));
+        assert_eq!(b.anchor(), [0.0; 3]);
     }
 }

@@ -172,6 +172,7 @@ impl Progressive {
         let t = Instant::now();
         let mut store = PhotonStore::new(&scene, settings.seed);
         store.set_progressive_bandwidth(settings.progressive_bandwidth);
+        store.set_batch_photons(settings.photons);
         timings.t_light = t.elapsed().as_secs_f64();
         Ok(Self {
             scene,
@@ -343,7 +344,7 @@ impl Progressive {
             .store
             .light_pass_settings(&self.settings, self.splat_direct());
         let plan = plan_light_pass(&self.scene, &lps);
-        let b = self.store.add_streamed(&plan);
+        let b = self.store.add_streamed(&plan, self.settings.photons);
         self.timings.t_light += t.elapsed().as_secs_f64();
         let bw = self.bandwidths(self.store.batches()[b].m);
         let mut lobes = if self.redraw_lobes {
@@ -473,10 +474,11 @@ impl Progressive {
         self.settings.filter = s.filter;
         self.settings.progressive_eye = s.progressive_eye;
         self.settings.progressive_bandwidth = s.progressive_bandwidth;
-        if self
+        // Either can move the progressive schedule's M₁ (deviations §43).
+        let schedule = self
             .store
-            .set_progressive_bandwidth(s.progressive_bandwidth)
-        {
+            .set_progressive_bandwidth(s.progressive_bandwidth);
+        if self.store.set_batch_photons(s.photons) || schedule {
             self.begin_resplat(s.bandwidth);
         }
         // Earlier passes' films were made without the cache and filter now asked for: their

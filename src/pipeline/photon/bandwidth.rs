@@ -66,25 +66,34 @@ impl Bandwidth {
         }
     }
 
-    /// Eq. 8 for the total M = `m` of a progressive render whose first batch stored
-    /// `m_first` rays of the class, shrunk beyond it by (M/M₁)^(−[`PROGRESSIVE_SHRINK`]): so
-    /// h falls as M^(−1/3) from batch to batch, not M^(−1/6) (docs/deviations.md §43). The
-    /// first batch (and any render of one batch) keeps eq. 8's bandwidth.
+    /// Eq. 8 for the total M = `m` of a progressive render whose batches store about
+    /// `m_first` rays of the class each (M₁; 0: eq. 8 alone), shrunk beyond one batch by
+    /// (M/M₁)^(−[`PROGRESSIVE_SHRINK`]): so h and its bounds h_min, h_max fall as M^(−1/3)
+    /// from batch to batch, not M^(−1/6) (docs/deviations.md §43). The first batch (and any
+    /// render of one batch) keeps eq. 8's bandwidth.
     pub fn progressive(
         params: &BandwidthParams,
         pilot: &Pilot,
         m: u64,
-        m_first: u64,
+        m_first: f64,
         mean_r: f32,
     ) -> Self {
         let mut b = Self::new(params, pilot, m, mean_r);
-        if m_first > 0 && m > m_first {
-            let f = (m as f64 / m_first as f64).powf(-PROGRESSIVE_SHRINK) as f32;
-            b.scale *= f;
-            b.h_min *= f;
-            b.h_max *= f;
-        }
+        let f = Self::shrink(m, m_first);
+        b.scale *= f;
+        b.h_min *= f;
+        b.h_max *= f;
         b
+    }
+
+    /// The progressive schedule's factor on eq. 8 at M = `m` with M₁ = `m_first`
+    /// ([`Bandwidth::progressive`]): 1 up to M₁ (or without one).
+    pub fn shrink(m: u64, m_first: f64) -> f32 {
+        if m_first > 0.0 && m as f64 > m_first {
+            (m as f64 / m_first).powf(-PROGRESSIVE_SHRINK) as f32
+        } else {
+            1.0
+        }
     }
 
     /// h(x_i) for i > 0 (eq. 8): C·M^(−1/6)·w / √(p̃^S), clamped.
@@ -249,17 +258,17 @@ mod tests {
             max_bandwidth_r: R_MIN,
             ..BandwidthParams::default()
         };
-        let h = |m, first| Bandwidth::progressive(&params, &p, m, first, 1.0);
+        let h = |m, first: f64| Bandwidth::progressive(&params, &p, m, first, 1.0);
         // The first batch keeps eq. 8; 64× its M has 1/4 of its bandwidth (eq. 8 alone: 1/2).
         assert_eq!(
-            h(1_000, 1_000).h(1.0),
+            h(1_000, 1e3).h(1.0),
             Bandwidth::new(&params, &p, 1_000, 1.0).h(1.0)
         );
         assert_eq!(
-            h(1_000, 0).h(1.0),
+            h(1_000, 0.0).h(1.0),
             Bandwidth::new(&params, &p, 1_000, 1.0).h(1.0)
         );
-        let (a, b) = (h(1_000, 1_000), h(64_000, 1_000));
+        let (a, b) = (h(1_000, 1e3), h(64_000, 1e3));
         assert!((a.h(1.0) / b.h(1.0) - 4.0).abs() < 1e-4);
         assert!((a.h_max / b.h_max - 4.0).abs() < 1e-4);
         assert!((a.h_min / b.h_min - 4.0).abs() < 1e-4);

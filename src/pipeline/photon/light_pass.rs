@@ -84,8 +84,10 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
     let (emitted_per_class, mut invalid, mut stored) = (batch.emitted, 0u64, [0u64; 3]);
     rays.retain_mut(|ray| {
         let c = ray.class as usize;
-        ray.power /= emitted_per_class[c] as f32;
+        // Validity before the normalisation, as `plan_light_pass` must judge it (a tiny
+        // negative power would divide to −0 and pass).
         let valid = ray.is_valid();
+        ray.power /= emitted_per_class[c] as f32;
         invalid += !valid as u64;
         stored[c] += valid as u64;
         valid
@@ -123,8 +125,8 @@ pub fn plan_light_pass(scene: &Scene, s: &LightPassSettings) -> LightPassPlan {
         let mut photons = Vec::new();
         for r in parts.iter().flatten() {
             if fill.keeps(r, s.first_photon) {
-                // Dividing a power by the photons emitted keeps it finite and non-negative
-                // or not: validity is known before the normalisation is.
+                // Judged before the normalisation, as `light_pass` and `stream` judge it:
+                // dividing by the photons emitted is not known yet.
                 let valid = r.ray.is_valid();
                 invalid += !valid as u64;
                 stored[r.ray.class as usize] += valid as u64;
@@ -155,12 +157,10 @@ impl LightPassPlan {
             rays.clear();
             for r in parts.into_iter().flatten() {
                 let c = r.ray.class as usize;
-                if r.photon - s.first_photon < emitted[c] {
+                if r.photon - s.first_photon < emitted[c] && r.ray.is_valid() {
                     let mut ray = r.ray;
                     ray.power /= emitted[c] as f32;
-                    if ray.is_valid() {
-                        rays.push(ray);
-                    }
+                    rays.push(ray);
                 }
             }
             if !rays.is_empty() {
