@@ -9,6 +9,20 @@ use glam::Vec3;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// Per-pixel splat statistics (§3: kernel-weight sum and harmonic mean distance; plus the
+/// mean bandwidth for the false-colour view of Fig. 5).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SplatInfo {
+    /// Kernel-weight sum per batch, weighted by the pixel's eye-sample weights.
+    pub kernel_weight: f32,
+    /// Kernel-weighted mean bandwidth (m); 0 where nothing splatted.
+    pub mean_bandwidth: f32,
+    /// Weighted harmonic mean distance to the photon-ray origins (m); 0 where nothing splatted.
+    pub harmonic_mean_distance: f32,
+    /// Accepted splats per batch, weighted by the pixel's eye-sample weights.
+    pub splats: f32,
+}
+
 /// A rendered image with the buffers the view modes show.
 #[derive(Clone, Debug)]
 pub struct Film {
@@ -22,14 +36,9 @@ pub struct Film {
     pub direct: Vec<Vec3>,
     /// Splatted indirect light (indirect-diffuse and caustic photons).
     pub indirect: Vec<Vec3>,
-    /// Kernel-weighted mean splat bandwidth (m), 0 where nothing splatted.
-    pub bandwidth: Vec<f32>,
-    /// Kernel-weight sum per pixel.
-    pub kernel_weight: Vec<f32>,
-    /// Harmonic mean distance of incident photon rays (m).
-    pub harmonic_distance: Vec<f32>,
-    /// Accepted splats per batch.
-    pub splats: Vec<f32>,
+    /// Splat statistics per pixel: mean bandwidth (m), kernel weight, harmonic mean distance
+    /// of incident photon rays (m) and splats per batch; zero where nothing splatted.
+    pub info: Vec<SplatInfo>,
     /// Where the pixel's glossy reflection comes from (issue 13): the share of its eye-sample
     /// weight on glossy samples whose lobe went through the radiance map (`[0]`) and on those
     /// whose lobe the eye path traced (`[1]`); both 0 where nothing glossy is seen.
@@ -41,23 +50,36 @@ pub struct Film {
 }
 
 impl Film {
-    /// Bytes per pixel of a film: rgb, direct and indirect, four scalar AOVs and the glossy
-    /// source.
-    pub const BYTES_PER_PIXEL: usize = 3 * 12 + 4 * 4 + 8;
+    /// Bytes per pixel of a film: rgb, direct and indirect, the splat statistics and the
+    /// glossy source.
+    pub const BYTES_PER_PIXEL: usize = 3 * 12 + std::mem::size_of::<SplatInfo>() + 8;
 
     /// A black film of `width` × `height` pixels.
     pub fn new(width: u32, height: u32) -> Self {
         let n = (width * height) as usize;
+        Self::around(
+            width,
+            height,
+            vec![Vec3::ZERO; n],
+            vec![SplatInfo::default(); n],
+        )
+    }
+
+    /// A film whose indirect light and splat statistics are `indirect` and `info` (a radiance
+    /// map's, moved in rather than copied: docs/benchmarks.md, "Memory"), black otherwise.
+    pub fn around(width: u32, height: u32, indirect: Vec<Vec3>, info: Vec<SplatInfo>) -> Self {
+        let n = (width * height) as usize;
+        assert!(
+            indirect.len() == n && info.len() == n,
+            "a film's buffers have its size"
+        );
         Self {
             width,
             height,
             rgb: vec![Vec3::ZERO; n],
             direct: vec![Vec3::ZERO; n],
-            indirect: vec![Vec3::ZERO; n],
-            bandwidth: vec![0.0; n],
-            kernel_weight: vec![0.0; n],
-            harmonic_distance: vec![0.0; n],
-            splats: vec![0.0; n],
+            indirect,
+            info,
             glossy_source: vec![[0.0; 2]; n],
             invalid_contributions: 0,
         }

@@ -212,12 +212,13 @@ fn probe(response: egui::Response, pos: egui::Pos2, f: &Frame) {
         ui.label(format!("radiance {}", fmt3(film.rgb[i])));
         ui.label(format!("direct {}", fmt3(film.direct[i])));
         ui.label(format!("indirect {}", fmt3(film.indirect[i])));
-        ui.label(format!("bandwidth {:.4} m", film.bandwidth[i]));
-        ui.label(format!("kernel weight {:.3}", film.kernel_weight[i]));
-        ui.label(format!("splats per batch {:.0}", film.splats[i]));
+        let info = &film.info[i];
+        ui.label(format!("bandwidth {:.4} m", info.mean_bandwidth));
+        ui.label(format!("kernel weight {:.3}", info.kernel_weight));
+        ui.label(format!("splats per batch {:.0}", info.splats));
         ui.label(format!(
             "harmonic mean distance {:.3} m",
-            film.harmonic_distance[i]
+            info.harmonic_mean_distance
         ));
         if let Some(text) = glossy_source_text(film.glossy_source[i]) {
             ui.label(text);

@@ -97,15 +97,23 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     }
     let tone = &args.output.tone;
     let stops = tone.exposure.stops(&film);
+    let mut j = args
+        .output
+        .stats
+        .as_ref()
+        .map(|_| stats_json(&scene.name, m.as_ref(), &stats, &film, t_load));
+    // The images are written without the render's eye side and stores beside them.
+    drop(m);
     for path in &images {
         output::write_image(path, &film, stops, tone.tonemap)?;
         eprintln!("wrote {}", path.display());
     }
-    if let Some(path) = &args.output.stats {
-        let mut j = stats_json(&scene.name, m.as_ref(), &stats, &film, t_load);
+    if let (Some(path), Some(j)) = (&args.output.stats, j.as_mut()) {
         j["partial"] = json!(partial);
         j["exposure"] = json!(stops);
         j["environment"] = json!(scene.environment);
+        // The peak so far, image writing included.
+        j["peak_rss_mb"] = json!(peak_rss_mb());
         let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
         raysplat::film::write_atomic(path, &bytes)?;
         eprintln!("wrote {}", path.display());

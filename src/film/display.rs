@@ -1,7 +1,7 @@
 //! What the previewer shows: a view mode of the film, tone-mapped (final, direct, indirect) or
 //! in false colour (bandwidth as in Fig. 5, kernel density, harmonic mean distance), as RGBA8.
 
-use super::{Film, false_colour, linear_to_srgb};
+use super::{Film, SplatInfo, false_colour, linear_to_srgb};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
@@ -39,16 +39,19 @@ impl ViewMode {
         ViewMode::CacheRecords,
     ];
 
-    /// The film buffer a false-colour mode shows, with its unit.
-    fn scalar(self, film: &Film) -> Option<(&[f32], &'static str)> {
+    /// The splat statistic a false-colour mode shows, with its unit.
+    fn scalar(self) -> Option<(Statistic, &'static str)> {
         match self {
-            ViewMode::Bandwidth => Some((&film.bandwidth, "m")),
-            ViewMode::KernelDensity => Some((&film.kernel_weight, "1/m²")),
-            ViewMode::HarmonicDistance => Some((&film.harmonic_distance, "m")),
+            ViewMode::Bandwidth => Some((|i| i.mean_bandwidth, "m")),
+            ViewMode::KernelDensity => Some((|i| i.kernel_weight, "1/m²")),
+            ViewMode::HarmonicDistance => Some((|i| i.harmonic_mean_distance, "m")),
             _ => None,
         }
     }
 }
+
+/// One of a pixel's splat statistics.
+type Statistic = fn(&SplatInfo) -> f32;
 
 /// How linear radiance becomes display values (after the exposure).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -145,12 +148,9 @@ pub fn display(film: &Film, mode: ViewMode, exposure_stops: f32, tone: ToneMap) 
     let n = (film.width * film.height) as usize;
     let mut rgba = Vec::with_capacity(4 * n);
     let mut legend = None;
-    if let Some((values, unit)) = mode.scalar(film) {
-        let mut valid: Vec<f32> = values
-            .iter()
-            .copied()
-            .filter(|v| v.is_finite() && *v > 0.0)
-            .collect();
+    if let Some((get, unit)) = mode.scalar() {
+        let values = || film.info.iter().map(get);
+        let mut valid: Vec<f32> = values().filter(|v| v.is_finite() && *v > 0.0).collect();
         let (lo, hi) = if valid.is_empty() {
             (0.0, 1.0)
         } else {
@@ -159,7 +159,7 @@ pub fn display(film: &Film, mode: ViewMode, exposure_stops: f32, tone: ToneMap) 
             (at(0.005), at(0.995))
         };
         let span = (hi - lo).max(f32::MIN_POSITIVE);
-        for &v in values {
+        for v in values() {
             let c = if v.is_finite() && v > 0.0 {
                 false_colour((v - lo) / span)
             } else {
@@ -200,7 +200,9 @@ mod tests {
     #[test]
     fn bandwidth_view_runs_red_to_blue() {
         let mut film = Film::new(3, 1);
-        film.bandwidth = vec![0.01, 0.0, 0.05];
+        for (i, h) in film.info.iter_mut().zip([0.01, 0.0, 0.05]) {
+            i.mean_bandwidth = h;
+        }
         let d = display(&film, ViewMode::Bandwidth, 0.0, ToneMap::Clamp);
         assert_eq!(&d.rgba[0..4], &[255, 0, 0, 255]); // smallest: red
         assert_eq!(&d.rgba[4..8], &[0, 0, 0, 255]); // no splats: black

@@ -22,9 +22,9 @@ pub struct EyeSide {
     pub targets: SplatTargets,
     /// The kd-tree over the splat targets (§7.1).
     pub tree: SplatTree,
-    /// Per pixel: emission seen directly or through specular chains.
-    pub emitted: Vec<Vec3>,
-    /// Per pixel: NEE direct light (eye weights applied).
+    /// Per pixel: emission seen directly or through specular chains, plus NEE direct light
+    /// (eye weights applied): the film's direct light before splatted direct photons and
+    /// traced lobes (one sum, not two: docs/benchmarks.md, "Memory").
     pub direct: Vec<Vec3>,
     /// Eye samples whose NEE estimate was NaN or infinite (dropped).
     pub invalid_direct: u64,
@@ -76,7 +76,7 @@ impl EyeSide {
         let EyePass {
             samples: eye,
             targets,
-            emitted,
+            emitted: mut direct,
         } = eye_pass(scene, camera, &eye_settings);
         let mut tree = SplatTree::build(&targets.position, &targets.normal);
         if settings.splat_visibility {
@@ -89,7 +89,6 @@ impl EyeSide {
         timings.t_eye += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
-        let mut direct = vec![Vec3::ZERO; (settings.width * settings.height) as usize];
         let mut invalid_direct = 0;
         let any_traced = eye.lobe_traced.iter().any(|&t| t);
         if settings.direct == DirectMode::Nee || any_traced {
@@ -116,7 +115,6 @@ impl EyeSide {
             eye,
             targets,
             tree,
-            emitted,
             direct,
             invalid_direct,
             acc_indirect,
@@ -133,7 +131,6 @@ impl EyeSide {
         self.targets = SplatTargets::default();
         self.acc_indirect = Accumulators::default();
         self.acc_direct = Accumulators::default();
-        self.emitted = Vec::new();
         self.direct = Vec::new();
     }
 

@@ -11,7 +11,7 @@ use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::eye::trace_lobes;
 use crate::pipeline::photon::{Bandwidth, PhotonRay};
-use crate::pipeline::radiance_map::{Accumulators, add_radiance};
+use crate::pipeline::radiance_map::{Accumulators, add_radiance_at};
 use crate::pipeline::splat::prepare_and_splat;
 use crate::pipeline::splat_tree::SplatTree;
 use crate::scene::{Camera, Scene};
@@ -19,12 +19,16 @@ use crate::settings::{DirectMode, RenderSettings};
 use glam::Vec3;
 use std::time::Instant;
 
-/// The light the traced lobes reflect, summed over the batches drawn so far.
+/// The light the traced lobes reflect, summed over the batches drawn so far, for the pixels
+/// that have a traced lobe only (few, in most scenes: 2.9 of the 5.7 MB two full-size sums
+/// held on CORNELL BOX I at 500×500, docs/benchmarks.md, "Memory").
 #[derive(Clone, Debug, Default)]
 pub struct TracedLobes {
-    /// Per pixel: emission and direct light seen through the traced lobes, summed.
+    /// The pixels with an eye sample whose lobe is traced, ascending: the sums' index.
+    pixels: Vec<u32>,
+    /// Per entry of `pixels`: emission and direct light seen through the traced lobes, summed.
     direct: Vec<Vec3>,
-    /// Per pixel: splatted light seen through the traced lobes, summed.
+    /// Per entry of `pixels`: splatted light seen through the traced lobes, summed.
     indirect: Vec<Vec3>,
     /// Batches in the sums.
     batches: u32,
@@ -35,13 +39,25 @@ pub struct TracedLobes {
 }
 
 impl TracedLobes {
-    /// Empty sums for `pixels` pixels.
-    pub fn new(pixels: usize) -> Self {
+    /// Empty sums for the pixels of `eye` (in pixel order) with a traced lobe.
+    pub fn new(eye: &EyeSamples) -> Self {
+        let mut pixels: Vec<u32> = (0..eye.len())
+            .filter(|&i| eye.lobe_traced[i])
+            .map(|i| eye.pixel[i])
+            .collect();
+        pixels.dedup();
         Self {
-            direct: vec![Vec3::ZERO; pixels],
-            indirect: vec![Vec3::ZERO; pixels],
+            direct: vec![Vec3::ZERO; pixels.len()],
+            indirect: vec![Vec3::ZERO; pixels.len()],
+            pixels,
             ..Self::default()
         }
+    }
+
+    /// The sums' entry of `pixel`, if it has a traced lobe.
+    #[inline]
+    fn entry(&self, pixel: u32) -> Option<usize> {
+        self.pixels.binary_search(&pixel).ok()
     }
 
     /// Forget the sums (before a re-splat); the next draws are still new directions.
@@ -52,9 +68,10 @@ impl TracedLobes {
         self.invalid = 0;
     }
 
-    /// Bytes held by the per-pixel sums.
+    /// Bytes held by the sums and their pixel index.
     pub fn memory_bytes(&self) -> usize {
         (self.direct.len() + self.indirect.len()) * std::mem::size_of::<Vec3>()
+            + self.pixels.len() * 4
     }
 
     /// Batches in the sums.
@@ -106,8 +123,8 @@ impl TracedLobes {
         self.draws += 1;
         let t = Instant::now();
         let pass = trace_lobes(scene, camera, &side.eye, &side.eye_settings, draw);
-        for (d, e) in self.direct.iter_mut().zip(&pass.emitted) {
-            *d += *e;
+        for (d, &p) in self.direct.iter_mut().zip(&self.pixels) {
+            *d += pass.emitted[p as usize];
         }
         if pass.samples.is_empty() {
             timings.t_eye += t.elapsed().as_secs_f64();
@@ -130,7 +147,9 @@ impl TracedLobes {
         };
         self.invalid += invalid;
         for (i, l) in nee.iter().enumerate() {
-            self.direct[samples.pixel[i] as usize] += samples.weight[i].get() * *l;
+            if let Some(e) = self.entry(samples.pixel[i]) {
+                self.direct[e] += samples.weight[i].get() * *l;
+            }
         }
         timings.t_direct += t.elapsed().as_secs_f64();
 
@@ -149,6 +168,9 @@ impl TracedLobes {
     /// sums.
     pub fn finish_batch(&mut self, scene: &Scene, batch: LobeBatch) {
         let target_slot = &batch.tree.target_slot;
+        let pixels = &self.pixels;
+        let samples = &batch.samples;
+        let at = |i: usize| pixels.binary_search(&samples.pixel[i]).ok();
         for (acc, sums) in [
             (&batch.indirect, &mut self.indirect),
             (&batch.direct, &mut self.direct),
@@ -156,19 +178,22 @@ impl TracedLobes {
             if let Some(acc) = acc {
                 // Straight into the sums (a full-size radiance map per gather was +8 MB at
                 // the peak of a 500×500 render: docs/benchmarks.md, "Memory").
-                self.invalid += add_radiance(scene, &batch.samples, target_slot, acc, 1, sums);
+                self.invalid += add_radiance_at(scene, samples, target_slot, acc, 1, sums, at);
             }
         }
     }
 
-    /// The mean over batches of pixel `i`'s direct and splatted light through traced lobes.
-    #[inline]
-    pub fn mean(&self, i: usize) -> (Vec3, Vec3) {
+    /// Add the mean over batches of the direct and splatted light through traced lobes to
+    /// the per-pixel `direct` and `indirect`.
+    pub fn add_means(&self, direct: &mut [Vec3], indirect: &mut [Vec3]) {
         if self.batches == 0 {
-            return (Vec3::ZERO, Vec3::ZERO);
+            return;
         }
         let b = self.batches as f32;
-        (self.direct[i] / b, self.indirect[i] / b)
+        for (k, &p) in self.pixels.iter().enumerate() {
+            direct[p as usize] += self.direct[k] / b;
+            indirect[p as usize] += self.indirect[k] / b;
+        }
     }
 }
 

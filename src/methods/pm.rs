@@ -61,7 +61,7 @@ impl Resolver for PmFilm {
             core.resolve_samples(&mut map, None, 1, true);
         }
         // Direct photons, when stored, are in the global map already.
-        let film = core.compose(&map, 1, false);
+        let film = core.compose(map, 1, false);
         core.timings.t_resolve += t.elapsed().as_secs_f64();
         film
     }

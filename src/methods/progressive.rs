@@ -168,7 +168,7 @@ impl Progressive {
             keep_targets,
             &mut timings,
         )?;
-        let lobes = TracedLobes::new((settings.width * settings.height) as usize);
+        let lobes = TracedLobes::new(&side.eye);
         let t = Instant::now();
         let mut store = PhotonStore::new(&scene, settings.seed);
         store.set_progressive_bandwidth(settings.progressive_bandwidth);
@@ -241,6 +241,7 @@ impl Progressive {
         // one eye side, not two (a `--time-budget` render of CORNELL BOX I at 500×500×4:
         // docs/benchmarks.md, "Memory").
         self.side.release();
+        self.lobes = TracedLobes::default();
         match EyeSide::new(
             &self.scene,
             &self.camera,
@@ -260,7 +261,7 @@ impl Progressive {
             }
         }
         self.eye_pass = pass;
-        self.lobes = TracedLobes::new((self.settings.width * self.settings.height) as usize);
+        self.lobes = TracedLobes::new(&self.side.eye);
         self.splatted = 0;
         self.folded = 0;
         self.generation += 1;
@@ -459,7 +460,7 @@ impl Progressive {
             &mut self.timings,
         )?;
         self.eye_pass = 0;
-        self.lobes = TracedLobes::new((width * height) as usize);
+        self.lobes = TracedLobes::new(&self.side.eye);
         self.settings = settings;
         self.camera = camera;
         self.begin_resplat(self.settings.bandwidth);
@@ -558,10 +559,13 @@ impl Progressive {
 
     /// Compose the film: emission + direct light (NEE, or splatted direct photons when
     /// `direct_photons`) + the indirect radiance map, with AOVs.
-    pub fn compose(&self, map: &RadianceMap, batches: u32, direct_photons: bool) -> Film {
+    pub fn compose(&self, map: RadianceMap, batches: u32, direct_photons: bool) -> Film {
         let (w, h) = (self.settings.width, self.settings.height);
         let side = &self.side;
-        let mut film = Film::new(w, h);
+        // The map's radiance and statistics become the film's (moved: docs/benchmarks.md,
+        // "Memory").
+        let invalid_map = map.invalid;
+        let mut film = Film::around(w, h, map.radiance, map.info);
         // Direct light goes straight into the film (no second map, no copy: docs/benchmarks.md,
         // "Memory").
         // (A released side, after a failed eye pass, has no sums: its film stays black.)
@@ -579,23 +583,18 @@ impl Progressive {
             );
         }
         film.invalid_contributions +=
-            map.invalid + side.invalid_direct + self.store.invalid_photon_rays + self.lobes.invalid;
-        for (i, e) in side.emitted.iter().enumerate() {
-            let (lobe_d, lobe_ind) = self.lobes.mean(i);
-            let (mut d, mut ind) = (film.direct[i] + *e + lobe_d, map.radiance[i] + lobe_ind);
+            invalid_map + side.invalid_direct + self.store.invalid_photon_rays + self.lobes.invalid;
+        self.lobes.add_means(&mut film.direct, &mut film.indirect);
+        for i in 0..film.direct.len() {
+            let (mut d, mut ind) = (film.direct[i], film.indirect[i]);
             // The last guard: nothing non-finite reaches the film.
             if !(d + ind).is_finite() {
                 film.invalid_contributions += 1;
                 (d, ind) = (Vec3::ZERO, Vec3::ZERO);
             }
-            let info = &map.info[i];
             film.direct[i] = d;
             film.indirect[i] = ind;
             film.rgb[i] = d + ind;
-            film.bandwidth[i] = info.mean_bandwidth;
-            film.kernel_weight[i] = info.kernel_weight;
-            film.harmonic_distance[i] = info.harmonic_mean_distance;
-            film.splats[i] = info.splats;
         }
         side.eye.glossy_sources(&mut film.glossy_source);
         film
@@ -615,7 +614,7 @@ impl Progressive {
                 - directional,
             directional_records: directional,
             photon_rays: self.store.memory_bytes(),
-            pixel_sums: (side.emitted.len() + side.direct.len()) * vec3
+            pixel_sums: side.direct.len() * vec3
                 + self.lobes.memory_bytes()
                 + 3 * self.earlier.rgb.len() * vec3,
             film: pixels * Film::BYTES_PER_PIXEL,

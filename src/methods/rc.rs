@@ -42,7 +42,7 @@ impl Resolver for RcFilm {
             *m += c;
         }
         self.cache = Some(cache);
-        let film = core.compose(&map, b, core.splat_direct());
+        let film = core.compose(map, b, core.splat_direct());
         core.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;
         film
     }

@@ -44,7 +44,7 @@ impl Resolver for RsFilm {
         if self.cache.is_some() || core.settings.filter.enabled {
             core.resolve_samples(&mut map, self.cache.as_ref(), b, true);
         }
-        let film = core.compose(&map, b, core.splat_direct());
+        let film = core.compose(map, b, core.splat_direct());
         core.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;
         film
     }

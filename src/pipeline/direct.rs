@@ -117,6 +117,7 @@ fn direct_light_through(
             let mut rng = Rng::new(seed, 0x2000_0000_0000 + i as u64);
             let p = eye.position[i];
             let n = eye.normal[i].get();
+            let ng = eye.geo_normal[i].get();
             let Some(bsdf) = bsdf_of(i) else {
                 return Vec3::ZERO;
             };
@@ -130,13 +131,12 @@ fn direct_light_through(
                 let cos = n.dot(ls.wi);
                 // On the viewer's side of the geometric surface too (the shading normal can
                 // lean past it): the path tracer and photons draw the same line.
-                if cos <= 0.0 || !ls.value.is_finite() || eye.geo_normal[i].dot(ls.wi) <= 0.0 {
+                if cos <= 0.0 || !ls.value.is_finite() || ng.dot(ls.wi) <= 0.0 {
                     continue;
                 }
                 // Off the surface by the hit point's own error bound (never by a fraction of
                 // the scene's size), on the light's side of the geometric surface.
-                let origin =
-                    crate::scene::offset_ray_origin(p, eye.geo_normal[i], eye.offset[i], ls.wi);
+                let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[i], ls.wi);
                 if !scene.light_visible(origin, &ls) {
                     continue;
                 }
@@ -150,11 +150,10 @@ fn direct_light_through(
                 let Some(s) = bsdf.sample(wo, n, rng.next_2d(), rng.next_f32()) else {
                     continue;
                 };
-                if s.specular || s.pdf <= 0.0 || eye.geo_normal[i].dot(s.wi) <= 0.0 {
+                if s.specular || s.pdf <= 0.0 || ng.dot(s.wi) <= 0.0 {
                     continue;
                 }
-                let origin =
-                    crate::scene::offset_ray_origin(p, eye.geo_normal[i], eye.offset[i], s.wi);
+                let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[i], s.wi);
                 if let Some(tris) = few_emitters
                     && !has_environment
                     && !scene.meets_any(origin, s.wi, tris)

@@ -57,9 +57,10 @@ pub struct EyeSamples {
     pub position: Vec<Vec3>,
     /// Shading normal, flipped to face the viewer (octahedral, 32 bits).
     pub normal: Vec<Oct>,
-    /// Geometric normal, facing the viewer (rays leave the surface on its side; full
-    /// precision, since ray offsets rest on it).
-    pub geo_normal: Vec<Vec3>,
+    /// Geometric normal, facing the viewer (rays leave the surface on its side; octahedral:
+    /// its ≤ 10⁻⁴ rad error moves an offset origin by a relative 10⁻⁸ along the true normal,
+    /// see docs/benchmarks.md, "Memory").
+    pub geo_normal: Vec<Oct>,
     /// Error bound of `position` along `geo_normal` ([`crate::scene::Hit::offset`]).
     pub offset: Vec<f32>,
     /// Unit direction towards the viewer (the previous vertex of the eye path; octahedral).
@@ -126,10 +127,10 @@ impl SplatTargets {
     }
 }
 
-/// Bytes of one eye sample in [`EyeSamples`]: position and geometric normal 12 each, the
-/// shading normal and wo 4 (octahedral), three colours 6 (f16), offset, material, pixel and
-/// target 4, two flags (102 with every vector and colour in f32).
-pub const EYE_SAMPLE_BYTES: usize = 2 * 12 + 2 * 4 + 3 * 6 + 4 * 4 + 2;
+/// Bytes of one eye sample in [`EyeSamples`]: position 12, the shading and geometric normals
+/// and wo 4 (octahedral), three colours 6 (f16), offset, material, pixel and target 4, two
+/// flags (102 with every vector and colour in f32).
+pub const EYE_SAMPLE_BYTES: usize = 12 + 3 * 4 + 3 * 6 + 4 * 4 + 2;
 
 impl EyeSamples {
     /// Number of eye samples.
@@ -221,7 +222,7 @@ impl EyeSamples {
         self.target.push(target);
         self.position.push(s.position);
         self.normal.push(Oct::new(s.normal));
-        self.geo_normal.push(s.geo_normal);
+        self.geo_normal.push(Oct::new(s.geo_normal));
         self.offset.push(s.offset);
         self.wo.push(Oct::new(s.wo));
         self.material.push(s.material);
@@ -638,7 +639,11 @@ pub fn trace_lobes(
                     continue;
                 }
                 let mut rng = Rng::new(lobe_seed, LOBE_PATH_STREAMS | k as u64);
-                let (p, n, ng) = (eye.position[k], eye.normal[k].get(), eye.geo_normal[k]);
+                let (p, n, ng) = (
+                    eye.position[k],
+                    eye.normal[k].get(),
+                    eye.geo_normal[k].get(),
+                );
                 let bsdf = eye.bsdf(k, scene);
                 if let Some((d, lobe_w)) =
                     sample_traced_lobe(bsdf, eye.wo[k].get(), n, ng, s.lobe_limit, &mut rng)

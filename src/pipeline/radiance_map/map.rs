@@ -11,19 +11,7 @@ use crate::scene::Scene;
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
-/// Per-pixel splat statistics (§3: kernel-weight sum and harmonic mean distance; plus the
-/// mean bandwidth for the false-colour view of Fig. 5).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SplatInfo {
-    /// Kernel-weight sum per batch, weighted by the pixel's eye-sample weights.
-    pub kernel_weight: f32,
-    /// Kernel-weighted mean bandwidth (m); 0 where nothing splatted.
-    pub mean_bandwidth: f32,
-    /// Weighted harmonic mean distance to the photon-ray origins (m); 0 where nothing splatted.
-    pub harmonic_mean_distance: f32,
-    /// Accepted splats per batch, weighted by the pixel's eye-sample weights.
-    pub splats: f32,
-}
+pub use crate::film::SplatInfo;
 
 /// Per-pixel indirect (splatted) radiance and splat statistics.
 #[derive(Clone, Debug)]
@@ -123,16 +111,36 @@ pub fn add_radiance(
     batches: u32,
     out: &mut [Vec3],
 ) -> u64 {
+    add_radiance_at(scene, eye, target_slot, acc, batches, out, |i| {
+        Some(eye.pixel[i] as usize)
+    })
+}
+
+/// [`add_radiance`] into `out[at(i)]` for eye sample `i` (None: not added), for sums that are
+/// not one per pixel ([`crate::methods::lobes::TracedLobes`] keeps them for the pixels with a
+/// traced lobe only).
+pub fn add_radiance_at(
+    scene: &Scene,
+    eye: &EyeSamples,
+    target_slot: &[u32],
+    acc: &Accumulators,
+    batches: u32,
+    out: &mut [Vec3],
+    at: impl Fn(usize) -> Option<usize>,
+) -> u64 {
     if batches == 0 {
         return 0;
     }
     let inv_b = 1.0 / batches as f32;
     let mut invalid = 0;
     for i in 0..eye.len() {
+        let Some(o) = at(i) else {
+            continue;
+        };
         let slot = target_slot[eye.target[i] as usize] as usize;
         let l = sample_radiance(scene, eye, i, slot, acc, inv_b);
         if l.is_finite() {
-            out[eye.pixel[i] as usize] += l;
+            out[o] += l;
         } else {
             invalid += 1;
         }

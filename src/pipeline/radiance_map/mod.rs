@@ -18,7 +18,7 @@ mod accumulators;
 mod map;
 
 pub use accumulators::{AccView, AccumChunk, Accumulators};
-pub use map::{RadianceMap, SplatInfo, add_radiance};
+pub use map::{RadianceMap, SplatInfo, add_radiance, add_radiance_at};
 
 use crate::pipeline::eye::EyeSamples;
 use glam::Vec3;
