@@ -119,9 +119,53 @@ impl Rgb16 {
     }
 }
 
+/// A non-negative error bound in one f16 (2 bytes), never below the value given: rounded up
+/// to the next f16 (relative 2⁻¹⁰ at most; bounds below f16's smallest subnormal, 6·10⁻⁸,
+/// become it), and clamped to f16's largest finite number (65,504). A NaN or negative bound
+/// is 0.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Bound16(f16);
+
+impl Bound16 {
+    /// `x` rounded up to half precision.
+    #[inline]
+    pub fn new(x: f32) -> Self {
+        let x = if x > 0.0 { x } else { 0.0 };
+        let h = f16::from_f32(x.min(f16::MAX.to_f32()));
+        if h.to_f32() < x && h < f16::MAX {
+            // The next f16 up (bit patterns of positive f16 ascend with their values).
+            Self(f16::from_bits(h.to_bits() + 1))
+        } else {
+            Self(h)
+        }
+    }
+
+    /// The bound.
+    #[inline]
+    pub fn get(self) -> f32 {
+        self.0.to_f32()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bounds_round_up_within_one_f16_step() {
+        let mut rng = Rng::new(9, 2);
+        for _ in 0..100_000 {
+            // Magnitudes from 10⁻¹⁰ to 10⁴.
+            let x = 10f32.powf(rng.next_f32() * 14.0 - 10.0);
+            let b = Bound16::new(x).get();
+            assert!(b >= x, "{b} < {x}");
+            assert!(b <= x * (1.0 + 1.0 / 1024.0) + 6e-8, "{b} far above {x}");
+        }
+        assert_eq!(Bound16::new(0.0).get(), 0.0);
+        assert_eq!(Bound16::new(f32::NAN).get(), 0.0);
+        assert_eq!(Bound16::new(-1.0).get(), 0.0);
+        assert_eq!(Bound16::new(1e9).get(), 65504.0);
+    }
     use crate::sampling::{Rng, uniform_sphere};
 
     #[test]

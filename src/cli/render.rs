@@ -79,7 +79,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     // A film that holds no complete unit of work: a gathering pass cut by the time budget.
     let partial = stopped || m.passes() == 0;
     progress.set_message("resolving");
-    let film = m.film();
+    let film = m.final_film();
     progress.finish_and_clear();
     if stopped {
         eprintln!("interrupted: writing the image after {} passes", m.passes());

@@ -90,7 +90,7 @@ impl EyeSide {
 
         let t = Instant::now();
         let mut invalid_direct = 0;
-        let any_traced = eye.lobe_traced.iter().any(|&t| t);
+        let any_traced = eye.any_lobe_traced();
         if settings.direct == DirectMode::Nee || any_traced {
             let (per_sample, invalid) = if settings.direct == DirectMode::Nee {
                 direct_light(scene, &eye, settings.nee_samples, seed)

@@ -411,8 +411,7 @@ fn eye_range(eye: &EyeSamples, lo: u32, hi: u32) -> EyeSamples {
         weight: eye.weight[r.clone()].to_vec(),
         albedo: eye.albedo[r.clone()].to_vec(),
         specular: eye.specular[r.clone()].to_vec(),
-        primary: eye.primary[r.clone()].to_vec(),
-        lobe_traced: eye.lobe_traced[r.clone()].to_vec(),
+        flags: eye.flags[r.clone()].to_vec(),
         target: (0..r.len() as u32).collect(),
     }
 }
@@ -475,7 +474,7 @@ fn gather_from(
     let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
     let (p, nrm) = (eye.position[i], eye.normal[i].get());
     let bsdf = eye.bsdf(i, scene);
-    let (ng, offset) = (eye.geo_normal[i].get(), eye.offset[i]);
+    let (ng, offset) = (eye.geo_normal[i].get(), eye.offset[i].get());
     for _ in 0..n {
         // BSDF sampling (cosine sampling for a Lambertian: f·cos/pdf = ρ).
         let Some(s) = bsdf.sample(eye.wo[i].get(), nrm, rng.next_2d(), rng.next_f32()) else {

@@ -42,7 +42,7 @@ impl TracedLobes {
     /// Empty sums for the pixels of `eye` (in pixel order) with a traced lobe.
     pub fn new(eye: &EyeSamples) -> Self {
         let mut pixels: Vec<u32> = (0..eye.len())
-            .filter(|&i| eye.lobe_traced[i])
+            .filter(|&i| eye.lobe_traced(i))
             .map(|i| eye.pixel[i])
             .collect();
         pixels.dedup();
@@ -116,7 +116,7 @@ impl TracedLobes {
         timings: &mut Timings,
     ) -> Option<LobeBatch> {
         self.batches += 1;
-        if !side.eye.lobe_traced.iter().any(|&t| t) {
+        if !side.eye.any_lobe_traced() {
             return None;
         }
         let draw = self.draws;

@@ -221,6 +221,13 @@ pub trait Method: Send {
     /// The image so far (resolving what the steps accumulated).
     fn film(&mut self) -> Film;
 
+    /// The film of a finished render ([`finish`]): the method may first free what only
+    /// further steps need, so it takes no step afterwards. Its stats still report the memory
+    /// it held.
+    fn final_film(&mut self) -> Film {
+        self.film()
+    }
+
     /// Units of work whose light the film holds.
     fn passes(&self) -> u64;
 
@@ -363,7 +370,7 @@ pub fn render_method(
 
 /// The film, timings and counters of a method whose work is done.
 pub fn finish(m: &mut dyn Method) -> Rendered {
-    let film = m.film();
+    let film = m.final_film();
     let stats = m.stats();
     Rendered {
         invalid: film.invalid_pixels() as u64,

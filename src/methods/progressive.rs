@@ -72,6 +72,9 @@ pub struct Progressive {
     earlier: EarlierPasses,
     /// Keep the splat targets' positions and normals ([`Resolver::READS_TARGETS`]).
     keep_targets: bool,
+    /// The memory and splat-tree nodes held before [`Progressive::release_search`] (the
+    /// stats report what the render held, not what its final resolve left).
+    held: Option<(MemoryBreakdown, usize)>,
     /// Time per phase.
     pub timings: Timings,
 }
@@ -193,6 +196,7 @@ impl Progressive {
             eye_pass: 0,
             earlier: EarlierPasses::default(),
             keep_targets,
+            held: None,
             timings,
         })
     }
@@ -305,6 +309,10 @@ impl Progressive {
     /// Trace one light pass of M photons, splat it with the bandwidth for the total M so
     /// far. Finishes a pending re-splat first.
     pub fn run_batch(&mut self) {
+        debug_assert!(
+            !self.side.tree.is_released(),
+            "a render takes no step after its final film"
+        );
         while self.resplat_pending() {
             self.step();
         }
@@ -600,8 +608,21 @@ impl Progressive {
         film
     }
 
-    /// Where this render's memory is (issue 16).
+    /// Free the splat tree's search structure before a finished render's last resolve (it
+    /// takes no more steps); the stats keep reporting the memory held until then.
+    pub fn release_search(&mut self) {
+        if self.held.is_none() {
+            self.held = Some((self.memory(), self.side.tree.nodes.len()));
+        }
+        self.side.tree.release_search();
+    }
+
+    /// Where this render's memory is (issue 16): what it held before
+    /// [`Progressive::release_search`], if that was called.
     pub fn memory(&self) -> MemoryBreakdown {
+        if let Some((m, _)) = self.held {
+            return m;
+        }
         let side = &self.side;
         let (directional, _) = side.directional_memory();
         let pixels = (self.settings.width * self.settings.height) as usize;
@@ -644,7 +665,9 @@ impl Progressive {
             glossy_traced_samples,
             eye_samples: self.side.eye.len(),
             splat_targets: self.side.tree.samples,
-            splat_tree_nodes: self.side.tree.nodes.len(),
+            splat_tree_nodes: self
+                .held
+                .map_or(self.side.tree.nodes.len(), |(_, nodes)| nodes),
             tested_pairs: self.counters.tested,
             accepted_pairs: self.counters.accepted,
             shadow_tests: self.counters.shadow_tests,
@@ -879,6 +902,16 @@ impl<R: Resolver> Method for PhotonMethod<R> {
         let mut film = self.resolver.film(&mut self.core);
         self.core.blend_earlier(&mut film);
         film
+    }
+
+    fn final_film(&mut self) -> Film {
+        // A film that never reads stored rays resolves from the accumulators through
+        // `target_slot` alone: the rest of the splat tree goes first (9 MB of CORNELL BOX I's
+        // peak at 500×500×4).
+        if !R::READS_STORED_RAYS {
+            self.core.release_search();
+        }
+        self.film()
     }
 
     fn passes(&self) -> u64 {

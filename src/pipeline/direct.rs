@@ -84,7 +84,7 @@ pub fn traced_lobe_direct_light(
     seed: u64,
 ) -> (Vec<Vec3>, u64) {
     direct_light_through(scene, eye, samples, seed, |i| {
-        (eye.lobe_traced[i]).then(|| match eye.bsdf(i, scene) {
+        (eye.lobe_traced(i)).then(|| match eye.bsdf(i, scene) {
             Bsdf::Glossy { ks, exponent, .. } => Bsdf::Glossy {
                 kd: Vec3::ZERO,
                 ks,
@@ -136,7 +136,7 @@ fn direct_light_through(
                 }
                 // Off the surface by the hit point's own error bound (never by a fraction of
                 // the scene's size), on the light's side of the geometric surface.
-                let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[i], ls.wi);
+                let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[i].get(), ls.wi);
                 if !scene.light_visible(origin, &ls) {
                     continue;
                 }
@@ -153,7 +153,7 @@ fn direct_light_through(
                 if s.specular || s.pdf <= 0.0 || ng.dot(s.wi) <= 0.0 {
                     continue;
                 }
-                let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[i], s.wi);
+                let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[i].get(), s.wi);
                 if let Some(tris) = few_emitters
                     && !has_environment
                     && !scene.meets_any(origin, s.wi, tris)

@@ -7,7 +7,7 @@
 //! does the environment seen where a ray escapes.
 
 use crate::bsdf::{Bsdf, fresnel_dielectric, reflect, refract, specular_probability};
-use crate::pack::{Oct, Rgb16};
+use crate::pack::{Bound16, Oct, Rgb16};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 use glam::{Vec2, Vec3};
@@ -61,8 +61,9 @@ pub struct EyeSamples {
     /// its ≤ 10⁻⁴ rad error moves an offset origin by a relative 10⁻⁸ along the true normal,
     /// see docs/benchmarks.md, "Memory").
     pub geo_normal: Vec<Oct>,
-    /// Error bound of `position` along `geo_normal` ([`crate::scene::Hit::offset`]).
-    pub offset: Vec<f32>,
+    /// Error bound of `position` along `geo_normal` ([`crate::scene::Hit::offset`]), rounded
+    /// up to f16.
+    pub offset: Vec<Bound16>,
     /// Unit direction towards the viewer (the previous vertex of the eye path; octahedral).
     pub wo: Vec<Oct>,
     /// Material index.
@@ -75,12 +76,8 @@ pub struct EyeSamples {
     pub albedo: Vec<Rgb16>,
     /// Glossy-lobe reflectance ks (zero for Lambertian samples; f16).
     pub specular: Vec<Rgb16>,
-    /// Seen directly from the camera (no specular bounce on the way).
-    pub primary: Vec<bool>,
-    /// The glossy lobe is traced by the eye path (too sharp for the radiance map): the
-    /// splatted light is reflected by the diffuse part only, the lobe's light comes from the
-    /// eye samples further along the path and from NEE.
-    pub lobe_traced: Vec<bool>,
+    /// [`EyeSamples::primary`] and [`EyeSamples::lobe_traced`], one bit each.
+    pub flags: Vec<u8>,
     /// The splat target whose splatted irradiance this sample uses.
     pub target: Vec<u32>,
 }
@@ -127,10 +124,15 @@ impl SplatTargets {
     }
 }
 
+/// [`EyeSamples::flags`]: seen directly from the camera.
+const PRIMARY: u8 = 1;
+/// [`EyeSamples::flags`]: the glossy lobe is traced by the eye path.
+const LOBE_TRACED: u8 = 2;
+
 /// Bytes of one eye sample in [`EyeSamples`]: position 12, the shading and geometric normals
-/// and wo 4 (octahedral), three colours 6 (f16), offset, material, pixel and target 4, two
-/// flags (102 with every vector and colour in f32).
-pub const EYE_SAMPLE_BYTES: usize = 12 + 3 * 4 + 3 * 6 + 4 * 4 + 2;
+/// and wo 4 (octahedral), three colours 6 (f16), the offset 2 (f16), material, pixel and
+/// target 4, one byte of flags (102 with every vector and colour in f32).
+pub const EYE_SAMPLE_BYTES: usize = 12 + 3 * 4 + 3 * 6 + 2 + 3 * 4 + 1;
 
 impl EyeSamples {
     /// Number of eye samples.
@@ -159,11 +161,30 @@ impl EyeSamples {
         self.specular[i].get() != Vec3::ZERO
     }
 
+    /// Sample `i` is seen directly from the camera (no specular bounce on the way).
+    #[inline]
+    pub fn primary(&self, i: usize) -> bool {
+        self.flags[i] & PRIMARY != 0
+    }
+
+    /// Sample `i`'s glossy lobe is traced by the eye path (too sharp for the radiance map):
+    /// the splatted light is reflected by the diffuse part only, the lobe's light comes from
+    /// the eye samples further along the path and from NEE.
+    #[inline]
+    pub fn lobe_traced(&self, i: usize) -> bool {
+        self.flags[i] & LOBE_TRACED != 0
+    }
+
+    /// Some sample's lobe is traced.
+    pub fn any_lobe_traced(&self) -> bool {
+        self.flags.iter().any(|&f| f & LOBE_TRACED != 0)
+    }
+
     /// True when the sample's glossy lobe goes through the radiance map (a directional record
     /// at its splat target, §8.1): glossy and not traced.
     #[inline]
     pub fn lobe_in_map(&self, i: usize) -> bool {
-        self.is_glossy(i) && !self.lobe_traced[i]
+        self.is_glossy(i) && !self.lobe_traced(i)
     }
 
     /// Glossy eye samples whose lobe goes through the radiance map, and those whose lobe is
@@ -172,7 +193,7 @@ impl EyeSamples {
         (0..self.len()).fold((0, 0), |(m, t), i| {
             if !self.is_glossy(i) {
                 (m, t)
-            } else if self.lobe_traced[i] {
+            } else if self.lobe_traced(i) {
                 (m, t + 1)
             } else {
                 (m + 1, t)
@@ -190,7 +211,7 @@ impl EyeSamples {
             let (px, w) = (self.pixel[i] as usize, self.weight[i].get().max_element());
             total[px] += w;
             if self.is_glossy(i) {
-                out[px][usize::from(self.lobe_traced[i])] += w;
+                out[px][usize::from(self.lobe_traced(i))] += w;
             }
         }
         for (o, t) in out.iter_mut().zip(total) {
@@ -223,15 +244,15 @@ impl EyeSamples {
         self.position.push(s.position);
         self.normal.push(Oct::new(s.normal));
         self.geo_normal.push(Oct::new(s.geo_normal));
-        self.offset.push(s.offset);
+        self.offset.push(Bound16::new(s.offset));
         self.wo.push(Oct::new(s.wo));
         self.material.push(s.material);
         self.pixel.push(s.pixel);
         self.weight.push(Rgb16::new(s.weight));
         self.albedo.push(Rgb16::new(s.albedo));
         self.specular.push(Rgb16::new(s.specular));
-        self.primary.push(s.primary);
-        self.lobe_traced.push(s.lobe_traced);
+        self.flags
+            .push((u8::from(s.primary) * PRIMARY) | (u8::from(s.lobe_traced) * LOBE_TRACED));
     }
 }
 
@@ -366,8 +387,7 @@ fn collect_bands(
     }
     samples.material.reserve_exact(expect);
     samples.offset.reserve_exact(expect);
-    samples.primary.reserve_exact(expect);
-    samples.lobe_traced.reserve_exact(expect);
+    samples.flags.reserve_exact(expect);
     samples.pixel.reserve_exact(expect);
     samples.target.reserve_exact(expect);
     let mut pass = EyePass {
@@ -626,7 +646,7 @@ pub fn trace_lobes(
             // m = ⌈traced / LOBE_SHARE⌉ of the pixel's traced samples, a circular run
             // from a random one: each is followed with probability m / traced and
             // weighted by its inverse (unbiased).
-            let traced = (i..end).filter(|&k| eye.lobe_traced[k]).count();
+            let traced = (i..end).filter(|&k| eye.lobe_traced(k)).count();
             let m = traced.div_ceil(LOBE_SHARE);
             // Streams of their own (high bits), apart from the light pass's photon
             // streams and from each other.
@@ -634,7 +654,7 @@ pub fn trace_lobes(
             let mut pick = Rng::new(lobe_seed, LOBE_PICK_STREAMS | pixel as u64);
             let from = ((pick.next_f32() * traced as f32) as usize).min(traced.max(1) - 1);
             let scale = traced as f32 / m.max(1) as f32;
-            for (j, k) in (i..end).filter(|&k| eye.lobe_traced[k]).enumerate() {
+            for (j, k) in (i..end).filter(|&k| eye.lobe_traced(k)).enumerate() {
                 if (j + traced - from) % traced >= m {
                     continue;
                 }
@@ -648,7 +668,7 @@ pub fn trace_lobes(
                 if let Some((d, lobe_w)) =
                     sample_traced_lobe(bsdf, eye.wo[k].get(), n, ng, s.lobe_limit, &mut rng)
                 {
-                    let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[k], d);
+                    let origin = crate::scene::offset_ray_origin(p, ng, eye.offset[k].get(), d);
                     let w = eye.weight[k].get() * lobe_w * scale;
                     // The length from the camera stands in for the path's (merging reach).
                     let start = (origin, d, w, 1, p.distance(camera.position), u32::MAX, true);

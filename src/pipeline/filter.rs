@@ -272,7 +272,7 @@ pub fn filter_samples(
                 return false;
             };
             eye.target[i] == eye.target[f]
-                || (eye.primary[i]
+                || (eye.primary(i)
                     && eye.material[i] == eye.material[f]
                     && eye.normal[i].get().dot(eye.normal[f].get()) > 0.966)
         })

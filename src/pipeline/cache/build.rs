@@ -48,7 +48,7 @@ pub fn build(
         }
     };
     let own: Vec<u32> = (0..eye.len() as u32)
-        .filter(|&i| !eye.primary[i as usize])
+        .filter(|&i| !eye.primary(i as usize))
         .collect();
     if !own.is_empty() {
         let values = evaluate(&own);

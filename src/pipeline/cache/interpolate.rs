@@ -70,7 +70,7 @@ pub fn interpolate(
                 let x = eye.pixel[i] as usize - y * w;
                 let t = tent(r, x as u32, y as u32);
                 if t <= 0.0
-                    || !eye.primary[i]
+                    || !eye.primary(i)
                     || !compatible(r, eye.position[i], eye.normal[i].get(), eye.material[i])
                 {
                     continue;

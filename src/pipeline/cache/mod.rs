@@ -117,7 +117,7 @@ impl PixelGeometry {
         let mut first = vec![u32::MAX; n];
         let mut start = vec![0u32; n + 1];
         for i in (0..eye.len()).rev() {
-            if eye.primary[i] {
+            if eye.primary(i) {
                 first[eye.pixel[i] as usize] = i as u32;
             }
             start[eye.pixel[i] as usize + 1] += 1;

@@ -217,6 +217,25 @@ impl SplatTree {
         self.slot_target.len()
     }
 
+    /// Free all but `target_slot`, which is all that resolving the accumulators needs: the
+    /// tree cannot be searched or splatted onto afterwards ([`SplatTree::is_released`]). A
+    /// finished headless render does this before its film is resolved (docs/benchmarks.md,
+    /// "Memory").
+    pub fn release_search(&mut self) {
+        self.nodes = Vec::new();
+        self.leaves = Vec::new();
+        self.chunks = Vec::new();
+        self.points = Points::default();
+        self.blockers = Vec::new();
+        self.slot_target = Vec::new();
+        self.subtrees = Vec::new();
+    }
+
+    /// [`SplatTree::release_search`] freed the search structure of a tree that had targets.
+    pub fn is_released(&self) -> bool {
+        self.slot_target.is_empty() && !self.target_slot.is_empty()
+    }
+
     /// Bytes held by the tree's arrays.
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * 8
