@@ -60,9 +60,15 @@ pub fn main() -> i32 {
     let result = match cli.command {
         None => view::run(cli.view),
         Some(Command::View(args)) => view::run(args),
-        Some(Command::Render(args)) => render::run(args),
+        Some(Command::Render(args)) => {
+            return_freed_memory();
+            render::run(args)
+        }
         Some(Command::Bench(args)) => bench::run(args),
-        Some(Command::Compare(args)) => compare::run(args),
+        Some(Command::Compare(args)) => {
+            return_freed_memory();
+            compare::run(args)
+        }
         Some(Command::Tonemap(args)) => tonemap::run(args),
         Some(Command::Scenes(args)) => scenes::run(args),
     };
@@ -74,6 +80,28 @@ pub fn main() -> i32 {
         }
     }
 }
+
+/// For the headless renders (`render`, `compare`), whose peak is what counts: glibc serves a
+/// block of any size up to 32 MiB from its heap once a block that large was freed (the mmap
+/// threshold follows the largest freed mapping), and freed heap blocks stay resident, so the
+/// eye pass's bands, a light pass's waves and the resolve's maps held about 10 MB of a
+/// render's peak that nothing used (docs/benchmarks.md, "Memory"). A fixed threshold of 1 MiB
+/// maps every large array of its own, so freeing it gives it back; smaller blocks (the
+/// per-task buffers of the hot loops) stay on the heap. The previewer (and `bench`, whose
+/// previewer rows measure it) keeps glibc's default: it allocates a film and display buffers
+/// per frame, and fresh mappings' page faults cost its re-splat 12% (docs/benchmarks.md).
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn return_freed_memory() {
+    // SAFETY: mallopt only sets a parameter of the allocator (under its own lock); a refusal
+    // (return 0) leaves glibc's default, which is harmless.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 1 << 20);
+    }
+}
+
+/// Other allocators return large blocks on their own terms.
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn return_freed_memory() {}
 
 /// Set by the first Ctrl-C (a render then stops after its current step and writes what it
 /// has); a second Ctrl-C exits at once with status 130.
