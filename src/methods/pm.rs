@@ -58,7 +58,7 @@ impl Resolver for PmFilm {
         // The estimate is already averaged over the batches.
         let mut map = core.resolve_indirect(1);
         if core.settings.filter.enabled {
-            core.resolve_samples(&mut map, None, 1, true);
+            core.resolve_samples(&mut map, None, 1, true, false);
         }
         // Direct photons, when stored, are in the global map already.
         let film = core.compose(map, 1, false);

@@ -525,13 +525,15 @@ impl Progressive {
     /// Resolve `map` again from per-sample incident light: the cache's interpolation of
     /// `cache`, or else the accumulators' own values over `batches`, filtered in image space
     /// when the filter is on (§8.2), with the splat statistics of `map` when `splat_stats`
-    /// (none exist at interpolated samples: the filter then takes its default radius).
+    /// (none exist at interpolated samples: the filter then takes its default radius). The
+    /// light replaces the map's, or is added to it with `add`.
     pub fn resolve_samples(
         &self,
         map: &mut RadianceMap,
         cache: Option<&Cache>,
         batches: u32,
         splat_stats: bool,
+        add: bool,
     ) {
         let side = &self.side;
         let geo = PixelGeometry::new(&side.eye, self.settings.width, self.settings.height);
@@ -562,7 +564,7 @@ impl Progressive {
                 &mut values,
             );
         }
-        map.resolve_interpolated(&self.scene, &side.eye, &values, mode);
+        map.resolve_interpolated(&self.scene, &side.eye, &values, mode, add);
     }
 
     /// Compose the film: emission + direct light (NEE, or splatted direct photons when

@@ -34,13 +34,9 @@ impl Resolver for RcFilm {
         let cache = cache_by_splatting(core);
         let cache_time = tc.elapsed().as_secs_f64();
         core.timings.t_splat += cache_time;
-        // The caustics, splatted onto every target.
+        // The caustics, splatted onto every target; the interpolated light is added to them.
         let mut map = core.resolve_indirect(b);
-        let caustics = map.radiance.clone();
-        core.resolve_samples(&mut map, Some(&cache), b, false);
-        for (m, c) in map.radiance.iter_mut().zip(caustics) {
-            *m += c;
-        }
+        core.resolve_samples(&mut map, Some(&cache), b, false, true);
         self.cache = Some(cache);
         let film = core.compose(map, b, core.splat_direct());
         core.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;
@@ -72,6 +68,12 @@ fn cache_by_splatting(core: &mut Progressive) -> Cache {
             )
         })
         .collect();
+    // Without indirect photon rays (a row of fractions such as CORNELL BOX II's (0.2, 0, 0.8))
+    // there is no light to cache: records would all be dark, each as small as the image
+    // allows, and their passes cost more than the splatted caustics.
+    if batches.iter().all(|b| b.rays.is_empty()) {
+        return Cache::default();
+    }
     let inv_b = 1.0 / batches.len().max(1) as f32;
     let side = &core.side;
     let mut counters = SplatCounters::default();
@@ -84,9 +86,7 @@ fn cache_by_splatting(core: &mut Progressive) -> Cache {
             if samples.is_empty() {
                 return Vec::new();
             }
-            // Samples of a pixel often share a splat target: each target is splatted once
-            // (docs/benchmarks.md, "Radiance caching": the eye samples behind specular
-            // surfaces, valued on their own, took most of rc's splat time).
+            // Samples of a pixel often share a splat target: each target is splatted once.
             let of_sample: Vec<usize> = samples
                 .iter()
                 .map(|&i| side.eye.target[i as usize] as usize)

@@ -42,7 +42,7 @@ impl Resolver for RsFilm {
         }
         let mut map = core.resolve_indirect(b);
         if self.cache.is_some() || core.settings.filter.enabled {
-            core.resolve_samples(&mut map, self.cache.as_ref(), b, true);
+            core.resolve_samples(&mut map, self.cache.as_ref(), b, true, false);
         }
         let film = core.compose(map, b, core.splat_direct());
         core.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;

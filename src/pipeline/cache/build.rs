@@ -1,18 +1,25 @@
 //! Placing the cache's records (§8.3): coarse-to-fine passes, widening, and the fix-up pass.
 
 use super::{
-    Cache, CacheParams, LEVELS, MAX_RADIUS_PX, MIN_RADIUS_PX, PixelGeometry, Record, RecordValue,
-    compatible, normal_tolerance, pixel_coverage, rows_of, tent,
+    Cache, CacheParams, Compatibility, LEVELS, MAX_RADIUS_PX, MIN_RADIUS_PX, PixelGeometry, Record,
+    RecordValue, add_coverage, compatible, normal_tolerance, rows_of, tent, within_reach,
 };
 use crate::pipeline::eye::EyeSamples;
 use crate::scene::Camera;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::collections::HashMap;
 
 /// Build the cache for `eye` seen through `camera`: passes over grids of spacing 64 … 1 px; in
 /// each, every grid pixel covered by fewer than `min_records` compatible records gets one, and
 /// `evaluate` supplies the new records' values (indices are eye samples). Then any pixel still
 /// short of records widens its nearest compatible records (within 64 px) until it is covered,
-/// and pixels still short after that become records themselves. Eye samples reached through
-/// specular chains are valued on their own (`Cache::own`).
+/// and pixels still short after that become records themselves. This runs twice: over each
+/// pixel's first eye sample seen directly, then over its first sample reached through a
+/// specular chain (a mirror's or a glass's image is as coherent in image space as a wall; the
+/// world-space test keeps records to their own surfaces), each kind's records serving its own
+/// kind. Chained samples that no record covers (a pixel's other chain) are valued on their
+/// own (`Cache::own`).
 pub fn build(
     eye: &EyeSamples,
     geo: &PixelGeometry,
@@ -35,7 +42,9 @@ pub fn build(
             position: eye.position[i],
             normal: eye.normal[i].get(),
             material: eye.material[i],
+            primary: eye.primary(i),
             depth,
+            pixel_size: depth * pixel_angle,
             radius,
             radius_px: if radius_px.is_finite() {
                 radius_px
@@ -47,38 +56,61 @@ pub fn build(
             value,
         }
     };
-    let own: Vec<u32> = (0..eye.len() as u32)
-        .filter(|&i| !eye.primary(i as usize))
+    // The kinds with samples: each pixel's first sample seen directly, and its first reached
+    // through a specular chain. Both kinds' records are placed in the same passes (one
+    // evaluation per pass), each kind's coverage counting its own records only.
+    let kinds: Vec<bool> = [true, false]
+        .into_iter()
+        .filter(|&primary| geo.first_of(primary).iter().any(|&s| s != u32::MAX))
         .collect();
-    if !own.is_empty() {
-        let values = evaluate(&own);
-        cache.own = own.into_iter().zip(values).collect();
-    }
+    let mut coverage: Vec<Vec<u32>> = kinds.iter().map(|_| vec![0; geo.first.len()]).collect();
     for (pass, &s) in LEVELS.iter().enumerate() {
-        let cov = if cache.records.is_empty() {
-            vec![0; geo.first.len()]
-        } else {
-            pixel_coverage(&cache.records, eye, geo)
-        };
         let mut new_samples = Vec::new();
-        for y in (s / 2..geo.height).step_by(s as usize) {
-            for x in (s / 2..geo.width).step_by(s as usize) {
-                let p = (y * geo.width + x) as usize;
-                if geo.first[p] != u32::MAX && cov[p] < params.min_records {
-                    new_samples.push(geo.first[p]);
+        for (&primary, cov) in kinds.iter().zip(&coverage) {
+            let first = geo.first_of(primary);
+            for y in (s / 2..geo.height).step_by(s as usize) {
+                for x in (s / 2..geo.width).step_by(s as usize) {
+                    let p = (y * geo.width + x) as usize;
+                    if first[p] != u32::MAX && cov[p] < params.min_records {
+                        new_samples.push(first[p]);
+                    }
                 }
             }
         }
         let values = evaluate(&new_samples);
+        let from = cache.records.len();
         for (&i, value) in new_samples.iter().zip(values) {
             cache.records.push(place(i as usize, pass as u8, value));
         }
         cache.per_pass.push(new_samples.len());
+        // Only the new records' discs are added to the coverage.
+        for (&primary, cov) in kinds.iter().zip(&mut coverage) {
+            add_coverage(&cache.records[from..], eye, geo, primary, cov);
+        }
     }
-    widen_for_coverage(&mut cache, eye, geo, params.min_records);
-    // Pixels still short of records (a small surface, few records in reach) become records
-    // themselves, one more pass, and the widening runs again.
-    let short = short_samples(&cache, eye, geo, params.min_records);
+    // The pixels each kind's records leave short grow the nearest records; those still short
+    // after that (a small surface, few records in reach) become records themselves, one more
+    // pass, and the widening runs again over them.
+    let mut short_px: Vec<Vec<usize>> = Vec::with_capacity(kinds.len());
+    for (&primary, cov) in kinds.iter().zip(&coverage) {
+        let first = geo.first_of(primary);
+        let candidates: Vec<usize> = (0..first.len())
+            .filter(|&p| first[p] != u32::MAX && cov[p] < params.min_records)
+            .collect();
+        short_px.push(widen_for_coverage(
+            &mut cache,
+            eye,
+            geo,
+            primary,
+            params.min_records,
+            &candidates,
+        ));
+    }
+    let short: Vec<u32> = kinds
+        .iter()
+        .zip(&short_px)
+        .flat_map(|(&primary, px)| px.iter().map(move |&p| geo.first_of(primary)[p]))
+        .collect();
     if !short.is_empty() {
         let values = evaluate(&short);
         for (&i, value) in short.iter().zip(values) {
@@ -87,49 +119,201 @@ pub fn build(
                 .push(place(i as usize, LEVELS.len() as u8, value));
         }
         cache.per_pass.push(short.len());
-        widen_for_coverage(&mut cache, eye, geo, params.min_records);
+        for (&primary, px) in kinds.iter().zip(&short_px) {
+            widen_for_coverage(&mut cache, eye, geo, primary, params.min_records, px);
+        }
+    }
+    // Eye samples no image-space record of their kind covers (mostly a pixel's other chains
+    // behind glass, such as its faint reflection; rarely a sample on another surface than its
+    // pixel's first) take the records around them in world space (Ward's test, as a
+    // world-space irradiance cache would), and only those with no record there are valued on
+    // their own (docs/benchmarks.md, "Radiance caching").
+    let uncovered = uncovered_samples(&cache, eye, geo);
+    let index = WorldIndex::new(&cache.records);
+    let looked_up: Vec<(u32, Option<RecordValue>)> = uncovered
+        .par_iter()
+        .map(|&i| (i, index.value_at(&cache.records, eye, i as usize)))
+        .collect();
+    let mut own = Vec::new();
+    for (i, value) in looked_up {
+        match value {
+            Some(v) => cache.from_world.push((i, v)),
+            None => own.push(i),
+        }
+    }
+    if !own.is_empty() {
+        let values = evaluate(&own);
+        cache.own = own.into_iter().zip(values).collect();
     }
     cache
 }
 
-/// First primary eye samples of the pixels covered by fewer than `min` compatible records.
-fn short_samples(cache: &Cache, eye: &EyeSamples, geo: &PixelGeometry, min: u32) -> Vec<u32> {
-    let coverage = pixel_coverage(&cache.records, eye, geo);
-    (0..geo.first.len())
-        .filter(|&p| geo.first[p] != u32::MAX && coverage[p] < min)
-        .map(|p| geo.first[p])
+/// The eye samples that no compatible record covers in image space.
+fn uncovered_samples(cache: &Cache, eye: &EyeSamples, geo: &PixelGeometry) -> Vec<u32> {
+    let rows = rows_of(&cache.records, geo.height, None);
+    let w = geo.width as usize;
+    (0..geo.height as usize)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            let (a, b) = (geo.start[y * w] as usize, geo.start[(y + 1) * w] as usize);
+            // The row's records with their tests in locals: (x, dy², (radius + ½)², test).
+            let near: Vec<(f32, f32, f32, Compatibility)> = rows[y]
+                .iter()
+                .map(|&k| {
+                    let r = &cache.records[k as usize];
+                    let dy = y as f32 - r.pixel.1 as f32;
+                    let reach = r.radius_px + 0.5;
+                    (
+                        r.pixel.0 as f32,
+                        dy * dy,
+                        reach * reach,
+                        Compatibility::of(r),
+                    )
+                })
+                .collect();
+            (a..b).filter(move |&i| {
+                let x = (eye.pixel[i] as usize - y * w) as f32;
+                // `tent` > 0 is d < radius + ½.
+                !near.iter().any(|(cx, dy2, reach2, test)| {
+                    (x - cx) * (x - cx) + dy2 < *reach2 && test.accepts(eye, i)
+                })
+            })
+        })
+        .map(|i| i as u32)
         .collect()
 }
 
-/// Give every pixel (its first eye sample) at least `min` compatible records: the nearest
-/// compatible records within MAX_RADIUS_PX not yet covering it grow to reach it.
+/// Records by world-space cell, for the lookup of samples image space leaves uncovered: cells
+/// as wide as the largest validity radius, so that a point's records lie in its cell and the
+/// 26 around it.
+struct WorldIndex {
+    cell: f32,
+    cells: HashMap<[i32; 3], Vec<u32>>,
+}
+
+impl WorldIndex {
+    fn new(records: &[Record]) -> Self {
+        let valid = |r: &Record| r.radius.is_finite() && r.radius > 0.0;
+        let cell = records
+            .iter()
+            .filter(|r| valid(r))
+            .map(|r| r.radius)
+            .fold(0.0f32, f32::max);
+        let mut cells: HashMap<[i32; 3], Vec<u32>> = HashMap::new();
+        if cell > 0.0 {
+            for (k, r) in records.iter().enumerate().filter(|(_, r)| valid(r)) {
+                cells
+                    .entry(key(r.position, cell))
+                    .or_default()
+                    .push(k as u32);
+            }
+        }
+        Self { cell, cells }
+    }
+
+    /// Eye sample `i`'s irradiance (and directional floats) from the compatible records whose
+    /// validity sphere (radius ε·R) holds it, weighted 1 − d/(ε·R); None where there are none.
+    fn value_at(&self, records: &[Record], eye: &EyeSamples, i: usize) -> Option<RecordValue> {
+        if self.cell <= 0.0 {
+            return None;
+        }
+        let (p, n, m) = (eye.position[i], eye.normal[i].get(), eye.material[i]);
+        let c = key(p, self.cell);
+        let mut out = RecordValue::default();
+        let (mut wsum, mut wdir) = (0.0f32, 0.0f32);
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let Some(ks) = self.cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else {
+                        continue;
+                    };
+                    for &k in ks {
+                        let r = &records[k as usize];
+                        let d = (p - r.position).length();
+                        if d >= r.radius || !compatible(r, p, n, m) {
+                            continue;
+                        }
+                        let w = 1.0 - d / r.radius;
+                        out.irradiance += w * r.value.irradiance;
+                        out.harmonic_distance += w * r.value.harmonic_distance;
+                        wsum += w;
+                        let dir = &r.value.directional;
+                        if !dir.is_empty() {
+                            if out.directional.is_empty() {
+                                out.directional = vec![0.0; dir.len()];
+                            }
+                            if out.directional.len() == dir.len() {
+                                for (o, v) in out.directional.iter_mut().zip(dir) {
+                                    *o += w * v;
+                                }
+                                wdir += w;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if wsum <= 0.0 {
+            return None;
+        }
+        out.irradiance /= wsum;
+        out.harmonic_distance /= wsum;
+        for v in &mut out.directional {
+            *v /= wdir;
+        }
+        Some(out)
+    }
+}
+
+/// The world-space cell of `p` for cells `cell` wide.
+fn key(p: Vec3, cell: f32) -> [i32; 3] {
+    let q = (p / cell).floor();
+    [q.x as i32, q.y as i32, q.z as i32]
+}
+
+/// Give every pixel (its first eye sample of one kind, [`PixelGeometry::first_of`]) at least
+/// `min` compatible records: the nearest compatible records within MAX_RADIUS_PX not yet covering it grow to
+/// reach it.
 #[allow(clippy::needless_range_loop)] // p addresses the pixel arrays and the image
-fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, min: u32) {
+fn widen_for_coverage(
+    cache: &mut Cache,
+    eye: &EyeSamples,
+    geo: &PixelGeometry,
+    primary: bool,
+    min: u32,
+    candidates: &[usize],
+) -> Vec<usize> {
+    let first = geo.first_of(primary);
     let w = geo.width as usize;
     // Records per coarse cell, to search outward from a pixel.
     let cell = 16usize;
     let (cw, ch) = (w.div_ceil(cell), (geo.height as usize).div_ceil(cell));
     let mut grid = vec![Vec::new(); cw * ch];
     for (k, r) in cache.records.iter().enumerate() {
-        grid[(r.pixel.1 as usize / cell) * cw + r.pixel.0 as usize / cell].push(k as u32);
-    }
-    let coverage = pixel_coverage(&cache.records, eye, geo);
-    let mut rows = rows_of(&cache.records, geo.height);
-    for p in 0..geo.first.len() {
-        if geo.first[p] == u32::MAX || coverage[p] >= min {
+        if r.primary != primary {
             continue;
         }
-        let i = geo.first[p] as usize;
+        grid[(r.pixel.1 as usize / cell) * cw + r.pixel.0 as usize / cell].push(k as u32);
+    }
+    let mut rows = rows_of(&cache.records, geo.height, Some(primary));
+    // Compatible records covering pixel p's sample.
+    let covering = |records: &[Record], rows: &[Vec<u32>], p: usize| {
+        let i = first[p] as usize;
+        let (x, y) = ((p % w) as u32, (p / w) as u32);
+        let test = |r: &Record| tent(r, x, y) > 0.0 && Compatibility::of(r).accepts(eye, i);
+        rows[y as usize]
+            .iter()
+            .filter(|&&k| test(&records[k as usize]))
+            .count() as u32
+    };
+    let mut failed = Vec::new();
+    for &p in candidates {
+        let i = first[p] as usize;
         let (x, y) = ((p % w) as u32, (p / w) as u32);
         let (ps, ns, ms) = (eye.position[i], eye.normal[i].get(), eye.material[i]);
+        let compatible = |r: &Record| r.primary == primary && compatible(r, ps, ns, ms);
         // Records grown for earlier pixels may cover this one now.
-        let covering = rows[y as usize]
-            .iter()
-            .filter(|&&k| {
-                let r = &cache.records[k as usize];
-                tent(r, x, y) > 0.0 && compatible(r, ps, ns, ms)
-            })
-            .count() as u32;
+        let covering = covering(&cache.records, &rows, p);
         if covering >= min {
             continue;
         }
@@ -149,11 +333,11 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
                     }
                     for &k in &grid[gy * cw + gx] {
                         let r = &cache.records[k as usize];
-                        if tent(r, x, y) <= 0.0 && compatible(r, ps, ns, ms) {
+                        if tent(r, x, y) <= 0.0 && compatible(r) {
                             let dx = x as f32 - r.pixel.0 as f32;
                             let dy = y as f32 - r.pixel.1 as f32;
                             let d = (dx * dx + dy * dy).sqrt();
-                            if d < MAX_RADIUS_PX {
+                            if d < MAX_RADIUS_PX && within_reach(r, ps, d + 1.0) {
                                 found.push((d, k));
                             }
                         }
@@ -165,7 +349,10 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
                 break;
             }
         }
-        found.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // At the image's edge a ring's clamped border repeats cells of the rings before it:
+        // each record counts once.
+        found.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        found.dedup_by_key(|f| f.1);
         for (d, k) in found {
             if need == 0 {
                 break;
@@ -188,5 +375,11 @@ fn widen_for_coverage(cache: &mut Cache, eye: &EyeSamples, geo: &PixelGeometry, 
             }
             need -= 1;
         }
+        if need > 0 {
+            failed.push(p);
+        }
     }
+    // Records grown for later pixels may cover an earlier one that fell short.
+    failed.retain(|&p| covering(&cache.records, &rows, p) < min);
+    failed
 }

@@ -1,7 +1,7 @@
 //! Reading the cache (§8.3): records splatted in image space, and record values from the splat
 //! accumulators.
 
-use super::{Cache, PixelGeometry, RecordValue, compatible, rows_of, tent};
+use super::{Cache, Compatibility, PixelGeometry, RecordValue, rows_of, span};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::radiance_map::{Accumulators, Channel, Interpolated};
@@ -18,7 +18,7 @@ pub fn interpolate(
     mode: DirectionalMode,
 ) -> Interpolated {
     let floats = mode.record_floats();
-    let rows = rows_of(&cache.records, geo.height);
+    let rows = rows_of(&cache.records, geo.height, None);
     let w = geo.width as usize;
     // Eye samples are in pixel order: row y's samples are one contiguous range.
     let row_start: Vec<usize> = (0..=geo.height as usize)
@@ -60,30 +60,41 @@ pub fn interpolate(
         let mut wsum = vec![0.0f32; e.len()];
         for &k in &rows[y] {
             let r = &cache.records[k as usize];
-            let x0 = (r.pixel.0 as f32 - r.radius_px - 1.0).max(0.0) as usize;
-            let x1 = ((r.pixel.0 as f32 + r.radius_px + 1.0) as usize).min(w - 1);
+            let Some((x0, x1)) = span(r, y as u32, w) else {
+                continue;
+            };
             let (s0, s1) = (
                 geo.start[y * w + x0] as usize,
                 geo.start[y * w + x1 + 1] as usize,
             );
+            // The record's fields in locals: the loop below writes only the row's sums.
+            let test = Compatibility::of(r);
+            let (cx, reach) = (r.pixel.0 as f32, r.radius_px + 0.5);
+            let dy = y as f32 - r.pixel.1 as f32;
+            let dy2 = dy * dy;
+            let irradiance = r.value.irradiance;
+            let directional = (r.value.directional.len() == floats).then_some(&r.value.directional);
             for i in s0..s1 {
-                let x = eye.pixel[i] as usize - y * w;
-                let t = tent(r, x as u32, y as u32);
-                if t <= 0.0
-                    || !eye.primary(i)
-                    || !compatible(r, eye.position[i], eye.normal[i].get(), eye.material[i])
-                {
+                if !test.accepts(eye, i) {
+                    continue;
+                }
+                let dx = (eye.pixel[i] as usize - y * w) as f32 - cx;
+                // `super::tent`, to the last bit: the cache's coverage counts use it.
+                let t = 1.0 - (dx * dx + dy2).sqrt() / reach;
+                if t <= 0.0 {
                     continue;
                 }
                 let j = i - a;
-                e[j] += t * r.value.irradiance;
+                e[j] += t * irradiance;
                 wsum[j] += t;
                 cov[j] += 1;
-                let g = glossy_index[i];
-                if g != u32::MAX && r.value.directional.len() == floats {
-                    let at = (g as usize - g0) * floats;
-                    for (o, v) in d[at..at + floats].iter_mut().zip(&r.value.directional) {
-                        *o += t * v;
+                if let Some(dir) = directional {
+                    let g = glossy_index[i];
+                    if g != u32::MAX {
+                        let at = (g as usize - g0) * floats;
+                        for (o, v) in d[at..at + floats].iter_mut().zip(dir) {
+                            *o += t * v;
+                        }
                     }
                 }
             }
@@ -101,7 +112,7 @@ pub fn interpolate(
             }
         }
     });
-    for (i, v) in &cache.own {
+    for (i, v) in cache.own.iter().chain(&cache.from_world) {
         let i = *i as usize;
         out.irradiance[i] = v.irradiance;
         if let Some(d) = out.dir_mut(i)

@@ -52,6 +52,9 @@ const MAX_RADIUS_PX: f32 = 64.0;
 /// Compatibility: plane distance within 5% of the record's depth; normals within the angle
 /// Ward's error metric allows for ε: √(1 − n·nᵢ) < ε, i.e. n·nᵢ > 1 − ε² (kept in [0.5, 0.995]).
 const COMPAT_PLANE: f32 = 0.05;
+/// A chained record's world reach over the world size of its image disc: room for grazing
+/// views and mild minification (a plane mirror's image needs 1).
+const CHAIN_REACH: f32 = 4.0;
 
 /// The smallest n·nᵢ a record of cache error `eps` accepts.
 pub fn normal_tolerance(eps: f32) -> f32 {
@@ -83,8 +86,14 @@ pub struct Record {
     pub normal: Vec3,
     /// Material index; records serve eye samples of the same material only.
     pub material: u32,
+    /// Stands at a primary eye sample (seen directly); records serve samples of their own
+    /// kind only, those seen directly or those reached through specular chains.
+    pub primary: bool,
     /// Distance from the camera.
     pub depth: f32,
+    /// World size of one pixel at that distance (m): with the image radius, a chained
+    /// record's reach in world space ([`within_reach`]).
+    pub pixel_size: f32,
     /// World-space validity radius ε·R (m).
     pub radius: f32,
     /// Image-space radius (pixels).
@@ -106,6 +115,8 @@ pub struct PixelGeometry {
     /// First eye sample of each pixel seen directly from the camera, or u32::MAX where the
     /// pixel has none (only specular chains, or nothing).
     pub first: Vec<u32>,
+    /// First eye sample of each pixel reached through a specular chain, or u32::MAX.
+    pub first_chained: Vec<u32>,
     /// The eye samples of pixel p are `start[p]..start[p + 1]` (samples are in pixel order).
     pub start: Vec<u32>,
 }
@@ -115,10 +126,13 @@ impl PixelGeometry {
     pub fn new(eye: &EyeSamples, width: u32, height: u32) -> Self {
         let n = (width * height) as usize;
         let mut first = vec![u32::MAX; n];
+        let mut first_chained = vec![u32::MAX; n];
         let mut start = vec![0u32; n + 1];
         for i in (0..eye.len()).rev() {
             if eye.primary(i) {
                 first[eye.pixel[i] as usize] = i as u32;
+            } else {
+                first_chained[eye.pixel[i] as usize] = i as u32;
             }
             start[eye.pixel[i] as usize + 1] += 1;
         }
@@ -129,7 +143,18 @@ impl PixelGeometry {
             width,
             height,
             first,
+            first_chained,
             start,
+        }
+    }
+
+    /// Each pixel's first eye sample of one kind: seen directly (`primary`) or reached
+    /// through a specular chain; u32::MAX where it has none.
+    pub fn first_of(&self, primary: bool) -> &[u32] {
+        if primary {
+            &self.first
+        } else {
+            &self.first_chained
         }
     }
 }
@@ -141,12 +166,72 @@ pub struct Cache {
     pub records: Vec<Record>,
     /// Records created per pass.
     pub per_pass: Vec<usize>,
-    /// Eye samples reached through specular chains: image-space neighbours say nothing about
-    /// them, so each is valued on its own (full splat accuracy), not interpolated.
+    /// Eye samples reached through specular chains that no record of their kind covers
+    /// (such as a pixel's second chain, behind glass and in its reflection): each is valued
+    /// on its own (full splat accuracy), not interpolated.
     pub own: Vec<(u32, RecordValue)>,
+    /// Eye samples no image-space record covers, valued from the records around them in
+    /// world space (within ε·R, Ward's test) instead.
+    pub from_world: Vec<(u32, RecordValue)>,
 }
 
-/// Is the eye sample at (p, n, material) within the validity of `r`?
+/// A record's validity for eye samples ([`compatible`] and [`within_reach`]), its fields in
+/// locals for loops over many samples.
+#[derive(Clone, Copy)]
+struct Compatibility {
+    primary: bool,
+    material: u32,
+    position: Vec3,
+    normal: Vec3,
+    plane: f32,
+    reach2: f32,
+    cos_min: f32,
+}
+
+impl Compatibility {
+    #[inline]
+    fn of(r: &Record) -> Self {
+        let reach = CHAIN_REACH * (r.radius_px + 0.5) * r.pixel_size;
+        Self {
+            primary: r.primary,
+            material: r.material,
+            position: r.position,
+            normal: r.normal,
+            plane: COMPAT_PLANE * r.depth,
+            reach2: if r.primary {
+                f32::INFINITY
+            } else {
+                reach * reach
+            },
+            cos_min: r.cos_min,
+        }
+    }
+
+    /// The tests cheapest first: the octahedral normal is decoded last.
+    #[inline]
+    fn accepts(&self, eye: &EyeSamples, i: usize) -> bool {
+        if self.primary != eye.primary(i) || self.material != eye.material[i] {
+            return false;
+        }
+        let d = eye.position[i] - self.position;
+        d.dot(self.normal).abs() <= self.plane
+            && d.length_squared() <= self.reach2
+            && eye.normal[i].get().dot(self.normal) >= self.cos_min
+    }
+}
+
+/// A record seen through a specular chain serves points within CHAIN_REACH times the world
+/// size of its image disc (`radius_px`) at its depth. On a surface seen directly, image
+/// distance bounds world distance and this always holds; through a curved mirror or a glass
+/// sphere neighbouring pixels can see points far apart on one plane (the image is minified),
+/// which the plane and normal tests would let through.
+#[inline]
+fn within_reach(r: &Record, p: Vec3, radius_px: f32) -> bool {
+    let reach = CHAIN_REACH * (radius_px + 0.5) * r.pixel_size;
+    r.primary || (p - r.position).length_squared() <= reach * reach
+}
+
+/// Is a point at (p, n, material) within the validity of `r`?
 #[inline]
 fn compatible(r: &Record, p: Vec3, n: Vec3, material: u32) -> bool {
     material == r.material
@@ -163,11 +248,41 @@ fn tent(r: &Record, x: u32, y: u32) -> f32 {
     (1.0 - d / (r.radius_px + 0.5)).max(0.0)
 }
 
+/// The pixels x of row `y` (inclusive range, within an image `w` wide) where `r`'s tent is
+/// positive; None where its disc misses the row.
+#[inline]
+fn span(r: &Record, y: u32, w: usize) -> Option<(usize, usize)> {
+    let reach = r.radius_px + 0.5;
+    let dy = y as f32 - r.pixel.1 as f32;
+    let h2 = reach * reach - dy * dy;
+    if h2 <= 0.0 {
+        return None;
+    }
+    let h = h2.sqrt();
+    let cx = r.pixel.0 as f32;
+    let mut x0 = (cx - h).ceil().max(0.0) as usize;
+    let mut x1 = ((cx + h).floor().max(0.0) as usize).min(w - 1);
+    // The ends by the tent itself, so that rounding never lets in a pixel it weighs 0.
+    while x0 <= x1 && tent(r, x0 as u32, y) <= 0.0 {
+        x0 += 1;
+    }
+    while x1 >= x0 && tent(r, x1 as u32, y) <= 0.0 {
+        if x1 == 0 {
+            return None;
+        }
+        x1 -= 1;
+    }
+    (x0 <= x1).then_some((x0, x1))
+}
+
 /// Records bucketed by image row for row-parallel splatting: for each row, the records whose
-/// disc reaches it.
-fn rows_of(records: &[Record], height: u32) -> Vec<Vec<u32>> {
+/// disc reaches it (of one kind only with `Some(primary)`).
+fn rows_of(records: &[Record], height: u32, kind: Option<bool>) -> Vec<Vec<u32>> {
     let mut rows = vec![Vec::new(); height as usize];
     for (k, r) in records.iter().enumerate() {
+        if kind.is_some_and(|primary| r.primary != primary) {
+            continue;
+        }
         let y0 = (r.pixel.1 as f32 - r.radius_px - 1.0).max(0.0) as u32;
         let y1 = ((r.pixel.1 as f32 + r.radius_px + 1.0) as u32).min(height - 1);
         for row in &mut rows[y0 as usize..=y1 as usize] {
@@ -177,29 +292,36 @@ fn rows_of(records: &[Record], height: u32) -> Vec<Vec<u32>> {
     rows
 }
 
-/// Count compatible records covering the first eye sample of every pixel.
-fn pixel_coverage(records: &[Record], eye: &EyeSamples, geo: &PixelGeometry) -> Vec<u32> {
-    let rows = rows_of(records, geo.height);
+/// Add to `cov` the count of compatible `records` covering every pixel's first eye sample of
+/// one kind; records of the other kind are skipped without a look at their discs.
+fn add_coverage(
+    records: &[Record],
+    eye: &EyeSamples,
+    geo: &PixelGeometry,
+    primary: bool,
+    cov: &mut [u32],
+) {
+    if records.is_empty() {
+        return;
+    }
+    let first = geo.first_of(primary);
+    let rows = rows_of(records, geo.height, Some(primary));
     let w = geo.width as usize;
-    let mut cov = vec![0u32; geo.first.len()];
     cov.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
         for &k in &rows[y] {
             let r = &records[k as usize];
-            let x0 = (r.pixel.0 as f32 - r.radius_px - 1.0).max(0.0) as usize;
-            let x1 = ((r.pixel.0 as f32 + r.radius_px + 1.0) as usize).min(w - 1);
-            for (x, c) in out.iter_mut().enumerate().take(x1 + 1).skip(x0) {
-                let s = geo.first[y * w + x];
-                if s == u32::MAX || tent(r, x as u32, y as u32) <= 0.0 {
-                    continue;
-                }
-                let s = s as usize;
-                if compatible(r, eye.position[s], eye.normal[s].get(), eye.material[s]) {
+            let Some((x0, x1)) = span(r, y as u32, w) else {
+                continue;
+            };
+            let row = &first[y * w..(y + 1) * w];
+            let test = Compatibility::of(r);
+            for (c, &s) in out[x0..=x1].iter_mut().zip(&row[x0..=x1]) {
+                if s != u32::MAX && test.accepts(eye, s as usize) {
                     *c += 1;
                 }
             }
         }
     });
-    cov
 }
 
 #[cfg(test)]
@@ -211,6 +333,12 @@ mod tests {
 
     /// A 64×48 image of one plane facing the camera: one sample per pixel.
     fn plane_samples(w: u32, h: u32) -> (EyeSamples, Camera) {
+        plane_seen_through(w, h, 1.0, true)
+    }
+
+    /// [`plane_samples`], its points spread `minify` times wider apart than their pixels,
+    /// as seen through a minifying specular chain when not `primary`.
+    fn plane_seen_through(w: u32, h: u32, minify: f32, primary: bool) -> (EyeSamples, Camera) {
         let camera = Camera::look_at("c", Vec3::new(0.0, 0.0, 2.0), Vec3::ZERO, 0.8);
         let mut eye = EyeSamples::default();
         let aspect = w as f32 / h as f32;
@@ -222,8 +350,9 @@ mod tests {
                     aspect,
                 );
                 let t = 2.0 / -d.z;
+                let on_plane = camera.position + d * t;
                 let s = EyeSample {
-                    position: camera.position + d * t,
+                    position: Vec3::new(on_plane.x * minify, on_plane.y * minify, 0.0),
                     normal: Vec3::Z,
                     geo_normal: Vec3::Z,
                     offset: 0.0,
@@ -233,7 +362,7 @@ mod tests {
                     weight: Vec3::ONE,
                     albedo: Vec3::splat(0.5),
                     specular: Vec3::ZERO,
-                    primary: true,
+                    primary,
                     lobe_traced: false,
                 };
                 let n = eye.len() as u32;
@@ -277,6 +406,65 @@ mod tests {
                     .all(|e| (*e - Vec3::ONE).abs().max_element() < 1e-5)
             );
         }
+    }
+
+    /// Through a chain that spreads neighbouring pixels 8× farther apart in world space than
+    /// seen directly, image-space neighbours would mix light from far apart: a record serves
+    /// chained samples only within its world reach, so with irradiance linear in x every
+    /// interpolated value is within that reach's change of the sample's own. All records
+    /// are of the chained kind, and every sample is valued (covered, looked up in world
+    /// space, or on its own).
+    #[test]
+    fn chained_records_serve_only_within_their_world_reach() {
+        let (w, h) = (64, 48);
+        let (eye, camera) = plane_seen_through(w, h, 8.0, false);
+        let geo = PixelGeometry::new(&eye, w, h);
+        assert!(geo.first.iter().all(|&s| s == u32::MAX));
+        let light = |p: Vec3| Vec3::splat(p.x + 100.0);
+        let params = CacheParams::default();
+        let cache = build(&eye, &geo, &camera, &params, |s| {
+            s.iter()
+                .map(|&i| RecordValue {
+                    irradiance: light(eye.position[i as usize]),
+                    harmonic_distance: 0.5,
+                    directional: Vec::new(),
+                })
+                .collect()
+        });
+        assert!(!cache.records.is_empty());
+        assert!(cache.records.iter().all(|r| !r.primary));
+        let reach = cache
+            .records
+            .iter()
+            .map(|r| CHAIN_REACH * (r.radius_px + 0.5) * r.pixel_size)
+            .fold(0.0f32, f32::max);
+        let it = interpolate(&cache, &eye, &geo, DirectionalMode::Diffuse);
+        let valued: std::collections::HashSet<u32> = cache
+            .own
+            .iter()
+            .chain(&cache.from_world)
+            .map(|(i, _)| *i)
+            .collect();
+        for i in 0..eye.len() {
+            assert!(
+                it.coverage[i] > 0 || valued.contains(&(i as u32)),
+                "sample {i}"
+            );
+            let err = (it.irradiance[i] - light(eye.position[i]))
+                .abs()
+                .max_element();
+            assert!(
+                err <= reach * 1.001,
+                "sample {i}: off by {err}, reach {reach}"
+            );
+        }
+        // The image-space disc alone would reach 8× as far: the bound is not idle.
+        let disc = cache
+            .records
+            .iter()
+            .map(|r| 8.0 * r.radius_px * r.pixel_size)
+            .fold(0.0f32, f32::max);
+        assert!(disc > 1.2 * reach, "disc {disc}, reach {reach}");
     }
 
     #[test]

@@ -168,16 +168,21 @@ fn sample_radiance(
 
 impl RadianceMap {
     /// Fold interpolated cache values (§8.3; already batch-averaged) into pixels, through each
-    /// eye sample's BSDF as [`RadianceMap::resolve_from`] does. SplatInfo is left as it was.
+    /// eye sample's BSDF as [`RadianceMap::resolve_from`] does, replacing the map's radiance,
+    /// or adding to it with `add` (rc's interpolated light onto its splatted caustics).
+    /// SplatInfo is left as it was.
     pub fn resolve_interpolated(
         &mut self,
         scene: &Scene,
         eye: &EyeSamples,
         values: &Interpolated,
         mode: DirectionalMode,
+        add: bool,
     ) {
-        self.radiance.fill(Vec3::ZERO);
-        self.invalid = 0;
+        if !add {
+            self.radiance.fill(Vec3::ZERO);
+            self.invalid = 0;
+        }
         for i in 0..eye.len() {
             let e = values.irradiance[i];
             let out = eye.weight[i].get() * shade(scene, eye, i, e, values.dir(i), 1.0, mode);
