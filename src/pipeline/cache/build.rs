@@ -14,12 +14,13 @@ use std::collections::HashMap;
 /// each, every grid pixel covered by fewer than `min_records` compatible records gets one, and
 /// `evaluate` supplies the new records' values (indices are eye samples). Then any pixel still
 /// short of records widens its nearest compatible records (within 64 px) until it is covered,
-/// and pixels still short after that become records themselves. This runs twice: over each
-/// pixel's first eye sample seen directly, then over its first sample reached through a
-/// specular chain (a mirror's or a glass's image is as coherent in image space as a wall; the
-/// world-space test keeps records to their own surfaces), each kind's records serving its own
-/// kind. Chained samples that no record covers (a pixel's other chain) are valued on their
-/// own (`Cache::own`).
+/// and pixels still short after that become records themselves. Two kinds of records are placed
+/// in the same passes: at each pixel's first eye sample seen directly, and at its first reached
+/// through a specular chain or a traced lobe (a mirror's or a glass's image is as coherent in
+/// image space as a wall; a chained record serves only within its world reach), each kind
+/// serving its own. Samples no record covers in image space (a pixel's other chains) are
+/// interpolated from the records around them in world space (`Cache::from_world`), and only
+/// those with none there are valued on their own (`Cache::own`).
 pub fn build(
     eye: &EyeSamples,
     geo: &PixelGeometry,
@@ -156,26 +157,26 @@ fn uncovered_samples(cache: &Cache, eye: &EyeSamples, geo: &PixelGeometry) -> Ve
         .into_par_iter()
         .flat_map_iter(|y| {
             let (a, b) = (geo.start[y * w] as usize, geo.start[(y + 1) * w] as usize);
-            // The row's records with their tests in locals: (x, dy², (radius + ½)², test).
+            // The row's records with their tests in locals: (x, dy², radius + ½, test).
             let near: Vec<(f32, f32, f32, Compatibility)> = rows[y]
                 .iter()
                 .map(|&k| {
                     let r = &cache.records[k as usize];
                     let dy = y as f32 - r.pixel.1 as f32;
-                    let reach = r.radius_px + 0.5;
                     (
                         r.pixel.0 as f32,
                         dy * dy,
-                        reach * reach,
+                        r.radius_px + 0.5,
                         Compatibility::of(r),
                     )
                 })
                 .collect();
             (a..b).filter(move |&i| {
                 let x = (eye.pixel[i] as usize - y * w) as f32;
-                // `tent` > 0 is d < radius + ½.
-                !near.iter().any(|(cx, dy2, reach2, test)| {
-                    (x - cx) * (x - cx) + dy2 < *reach2 && test.accepts(eye, i)
+                // `tent` > 0, by its own arithmetic (interpolation and coverage use it too).
+                !near.iter().any(|(cx, dy2, reach, test)| {
+                    let dx = x - cx;
+                    1.0 - (dx * dx + dy2).sqrt() / reach > 0.0 && test.accepts(eye, i)
                 })
             })
         })
@@ -188,7 +189,7 @@ fn uncovered_samples(cache: &Cache, eye: &EyeSamples, geo: &PixelGeometry) -> Ve
 /// 26 around it.
 struct WorldIndex {
     cell: f32,
-    cells: HashMap<[i32; 3], Vec<u32>>,
+    cells: HashMap<[i64; 3], Vec<u32>>,
 }
 
 impl WorldIndex {
@@ -199,7 +200,7 @@ impl WorldIndex {
             .filter(|r| valid(r))
             .map(|r| r.radius)
             .fold(0.0f32, f32::max);
-        let mut cells: HashMap<[i32; 3], Vec<u32>> = HashMap::new();
+        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
         if cell > 0.0 {
             for (k, r) in records.iter().enumerate().filter(|(_, r)| valid(r)) {
                 cells
@@ -266,9 +267,9 @@ impl WorldIndex {
 }
 
 /// The world-space cell of `p` for cells `cell` wide.
-fn key(p: Vec3, cell: f32) -> [i32; 3] {
+fn key(p: Vec3, cell: f32) -> [i64; 3] {
     let q = (p / cell).floor();
-    [q.x as i32, q.y as i32, q.z as i32]
+    [q.x as i64, q.y as i64, q.z as i64]
 }
 
 /// Give every pixel (its first eye sample of one kind, [`PixelGeometry::first_of`]) at least
@@ -337,7 +338,12 @@ fn widen_for_coverage(
                             let dx = x as f32 - r.pixel.0 as f32;
                             let dy = y as f32 - r.pixel.1 as f32;
                             let d = (dx * dx + dy * dy).sqrt();
-                            if d < MAX_RADIUS_PX && within_reach(r, ps, d + 1.0) {
+                            // At the image's edge a ring's clamped border repeats cells
+                            // of the rings before it: each record counts once.
+                            if d < MAX_RADIUS_PX
+                                && within_reach(r, ps, d + 1.0)
+                                && !found.iter().any(|f| f.1 == k)
+                            {
                                 found.push((d, k));
                             }
                         }
@@ -349,10 +355,7 @@ fn widen_for_coverage(
                 break;
             }
         }
-        // At the image's edge a ring's clamped border repeats cells of the rings before it:
-        // each record counts once.
-        found.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        found.dedup_by_key(|f| f.1);
+        found.sort_by(|a, b| a.0.total_cmp(&b.0));
         for (d, k) in found {
             if need == 0 {
                 break;

@@ -106,7 +106,8 @@ pub struct Record {
     pub value: RecordValue,
 }
 
-/// The per-pixel geometry the cache works with: each pixel's first primary eye sample.
+/// The per-pixel geometry the cache works with: each pixel's first eye sample of each kind
+/// (seen directly, reached through a specular chain or a traced lobe).
 pub struct PixelGeometry {
     /// Image width (pixels).
     pub width: u32,
@@ -166,9 +167,8 @@ pub struct Cache {
     pub records: Vec<Record>,
     /// Records created per pass.
     pub per_pass: Vec<usize>,
-    /// Eye samples reached through specular chains that no record of their kind covers
-    /// (such as a pixel's second chain, behind glass and in its reflection): each is valued
-    /// on its own (full splat accuracy), not interpolated.
+    /// Eye samples that no record covers in image space and none holds in world space
+    /// (`from_world`): each is valued on its own (full splat accuracy), not interpolated.
     pub own: Vec<(u32, RecordValue)>,
     /// Eye samples no image-space record covers, valued from the records around them in
     /// world space (within ε·R, Ward's test) instead.
@@ -260,9 +260,10 @@ fn span(r: &Record, y: u32, w: usize) -> Option<(usize, usize)> {
     }
     let h = h2.sqrt();
     let cx = r.pixel.0 as f32;
-    let mut x0 = (cx - h).ceil().max(0.0) as usize;
-    let mut x1 = ((cx + h).floor().max(0.0) as usize).min(w - 1);
-    // The ends by the tent itself, so that rounding never lets in a pixel it weighs 0.
+    // One pixel more on each side, then the ends by the tent itself: rounding neither lets
+    // in a pixel it weighs 0 nor leaves out one it weighs more.
+    let mut x0 = (cx - h - 1.0).ceil().max(0.0) as usize;
+    let mut x1 = ((cx + h + 1.0).floor().max(0.0) as usize).min(w - 1);
     while x0 <= x1 && tent(r, x0 as u32, y) <= 0.0 {
         x0 += 1;
     }
@@ -408,19 +409,18 @@ mod tests {
         }
     }
 
-    /// Through a chain that spreads neighbouring pixels 8× farther apart in world space than
-    /// seen directly, image-space neighbours would mix light from far apart: a record serves
-    /// chained samples only within its world reach, so with irradiance linear in x every
-    /// interpolated value is within that reach's change of the sample's own. All records
-    /// are of the chained kind, and every sample is valued (covered, looked up in world
-    /// space, or on its own).
+    /// A plane seen only through a chain that spreads neighbouring pixels 8× farther apart
+    /// in world space than seen directly, lit by a step in x: all records are of the chained
+    /// kind, every sample is valued (covered, looked up in world space, or on its own), and
+    /// samples farther from the step than the largest record reach get its exact value.
     #[test]
     fn chained_records_serve_only_within_their_world_reach() {
         let (w, h) = (64, 48);
         let (eye, camera) = plane_seen_through(w, h, 8.0, false);
         let geo = PixelGeometry::new(&eye, w, h);
         assert!(geo.first.iter().all(|&s| s == u32::MAX));
-        let light = |p: Vec3| Vec3::splat(p.x + 100.0);
+        // A step in x: a record serving across it from beyond its reach shows at once.
+        let light = |p: Vec3| Vec3::splat(if p.x < 0.0 { 1.0 } else { 1000.0 });
         let params = CacheParams::default();
         let cache = build(&eye, &geo, &camera, &params, |s| {
             s.iter()
@@ -445,26 +445,64 @@ mod tests {
             .chain(&cache.from_world)
             .map(|(i, _)| *i)
             .collect();
+        let mut near_step = 0;
         for i in 0..eye.len() {
             assert!(
                 it.coverage[i] > 0 || valued.contains(&(i as u32)),
                 "sample {i}"
             );
+            let x = eye.position[i].x;
+            if x.abs() <= reach * 1.001 {
+                near_step += 1;
+                continue;
+            }
             let err = (it.irradiance[i] - light(eye.position[i]))
                 .abs()
                 .max_element();
             assert!(
-                err <= reach * 1.001,
-                "sample {i}: off by {err}, reach {reach}"
+                err < 1e-3,
+                "sample {i} at x {x}: off by {err}, reach {reach}"
             );
         }
-        // The image-space disc alone would reach 8× as far: the bound is not idle.
-        let disc = cache
-            .records
-            .iter()
-            .map(|r| 8.0 * r.radius_px * r.pixel_size)
-            .fold(0.0f32, f32::max);
-        assert!(disc > 1.2 * reach, "disc {disc}, reach {reach}");
+        // Some samples lie within reach of the step: the image-space discs (8× wider in
+        // world space) reach well beyond it.
+        assert!(near_step > 0 && near_step < eye.len() / 4);
+    }
+
+    /// A chained record accepts a sample on its plane within CHAIN_REACH × its disc's world
+    /// size and refuses one beyond it; a record seen directly has no such limit.
+    #[test]
+    fn a_chained_record_serves_only_within_its_reach() {
+        let (mut eye, _) = plane_seen_through(4, 1, 1.0, false);
+        let (direct, _) = plane_seen_through(4, 1, 1.0, true);
+        let record = |primary: bool| Record {
+            sample: 0,
+            pixel: (0, 0),
+            position: Vec3::ZERO,
+            normal: Vec3::Z,
+            material: 0,
+            primary,
+            depth: 2.0,
+            pixel_size: 0.01,
+            radius: 0.05,
+            radius_px: 2.0,
+            pass: 0,
+            cos_min: normal_tolerance(0.5),
+            value: RecordValue::default(),
+        };
+        let reach = CHAIN_REACH * 2.5 * 0.01;
+        for (i, d) in [0.5, 0.99, 1.01, 3.0].into_iter().enumerate() {
+            eye.position[i] = Vec3::new(d * reach, 0.0, 0.0);
+        }
+        let chained = Compatibility::of(&record(false));
+        let got: Vec<bool> = (0..4).map(|i| chained.accepts(&eye, i)).collect();
+        assert_eq!(got, [true, true, false, false]);
+        let mut direct = direct;
+        direct.position.clone_from(&eye.position);
+        let seen = Compatibility::of(&record(true));
+        assert!((0..4).all(|i| seen.accepts(&direct, i)));
+        // Kinds never mix.
+        assert!(!seen.accepts(&eye, 0) && !chained.accepts(&direct, 0));
     }
 
     #[test]
