@@ -36,7 +36,7 @@ impl Resolver for RcFilm {
         core.timings.t_splat += cache_time;
         // The caustics, splatted onto every target; the interpolated light is added to them.
         let mut map = core.resolve_indirect(b);
-        if !(cache.records.is_empty() && cache.own.is_empty() && cache.from_world.is_empty()) {
+        if !cache.is_empty() {
             core.resolve_samples(&mut map, Some(&cache), b, false, true);
         }
         self.cache = Some(cache);

@@ -2,7 +2,7 @@
 
 use super::{
     Cache, CacheParams, Compatibility, LEVELS, MAX_RADIUS_PX, MIN_RADIUS_PX, PixelGeometry, Record,
-    RecordValue, add_coverage, compatible, normal_tolerance, rows_of, tent, within_reach,
+    RecordValue, add_coverage, normal_tolerance, rows_of, tent, tent_at,
 };
 use crate::pipeline::eye::EyeSamples;
 use crate::scene::Camera;
@@ -173,10 +173,8 @@ fn uncovered_samples(cache: &Cache, eye: &EyeSamples, geo: &PixelGeometry) -> Ve
                 .collect();
             (a..b).filter(move |&i| {
                 let x = (eye.pixel[i] as usize - y * w) as f32;
-                // `tent` > 0, by its own arithmetic (interpolation and coverage use it too).
                 !near.iter().any(|(cx, dy2, reach, test)| {
-                    let dx = x - cx;
-                    1.0 - (dx * dx + dy2).sqrt() / reach > 0.0 && test.accepts(eye, i)
+                    tent_at(x - cx, *dy2, *reach) > 0.0 && test.accepts(eye, i)
                 })
             })
         })
@@ -231,7 +229,7 @@ impl WorldIndex {
                     for &k in ks {
                         let r = &records[k as usize];
                         let d = (p - r.position).length();
-                        if d >= r.radius || !compatible(r, p, n, m) {
+                        if d >= r.radius || !Compatibility::of(r).on_surface(p, n, m) {
                             continue;
                         }
                         let w = 1.0 - d / r.radius;
@@ -272,10 +270,10 @@ fn key(p: Vec3, cell: f32) -> [i64; 3] {
     [q.x as i64, q.y as i64, q.z as i64]
 }
 
-/// Give every pixel (its first eye sample of one kind, [`PixelGeometry::first_of`]) at least
-/// `min` compatible records: the nearest compatible records within MAX_RADIUS_PX not yet covering it grow to
-/// reach it.
-#[allow(clippy::needless_range_loop)] // p addresses the pixel arrays and the image
+/// Give each of the `candidates` (pixels, by their first eye sample of one kind,
+/// [`PixelGeometry::first_of`]) at least `min` compatible records: the nearest compatible
+/// records within MAX_RADIUS_PX not yet covering it grow to reach it. Returns the candidates
+/// still short.
 fn widen_for_coverage(
     cache: &mut Cache,
     eye: &EyeSamples,
@@ -312,7 +310,8 @@ fn widen_for_coverage(
         let i = first[p] as usize;
         let (x, y) = ((p % w) as u32, (p / w) as u32);
         let (ps, ns, ms) = (eye.position[i], eye.normal[i].get(), eye.material[i]);
-        let compatible = |r: &Record| r.primary == primary && compatible(r, ps, ns, ms);
+        let compatible =
+            |r: &Record| r.primary == primary && Compatibility::of(r).on_surface(ps, ns, ms);
         // Records grown for earlier pixels may cover this one now.
         let covering = covering(&cache.records, &rows, p);
         if covering >= min {
@@ -341,7 +340,7 @@ fn widen_for_coverage(
                             // At the image's edge a ring's clamped border repeats cells
                             // of the rings before it: each record counts once.
                             if d < MAX_RADIUS_PX
-                                && within_reach(r, ps, d + 1.0)
+                                && ps.distance(r.position) <= r.reach(d + 1.0)
                                 && !found.iter().any(|f| f.1 == k)
                             {
                                 found.push((d, k));

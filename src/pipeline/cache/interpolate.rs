@@ -1,7 +1,7 @@
 //! Reading the cache (§8.3): records splatted in image space, and record values from the splat
 //! accumulators.
 
-use super::{Cache, Compatibility, PixelGeometry, RecordValue, rows_of, span};
+use super::{Cache, Compatibility, PixelGeometry, RecordValue, rows_of, span, tent_at};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::radiance_map::{Accumulators, Channel, Interpolated};
@@ -79,8 +79,7 @@ pub fn interpolate(
                     continue;
                 }
                 let dx = (eye.pixel[i] as usize - y * w) as f32 - cx;
-                // `super::tent`, to the last bit: the cache's coverage counts use it.
-                let t = 1.0 - (dx * dx + dy2).sqrt() / reach;
+                let t = tent_at(dx, dy2, reach);
                 if t <= 0.0 {
                     continue;
                 }

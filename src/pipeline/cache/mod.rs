@@ -87,12 +87,13 @@ pub struct Record {
     /// Material index; records serve eye samples of the same material only.
     pub material: u32,
     /// Stands at a primary eye sample (seen directly); records serve samples of their own
-    /// kind only, those seen directly or those reached through specular chains.
+    /// kind only, those seen directly or those reached through specular chains and traced
+    /// lobes.
     pub primary: bool,
     /// Distance from the camera.
     pub depth: f32,
     /// World size of one pixel at that distance (m): with the image radius, a chained
-    /// record's reach in world space ([`within_reach`]).
+    /// record's reach in world space ([`Record::reach`]).
     pub pixel_size: f32,
     /// World-space validity radius ε·R (m).
     pub radius: f32,
@@ -116,7 +117,8 @@ pub struct PixelGeometry {
     /// First eye sample of each pixel seen directly from the camera, or u32::MAX where the
     /// pixel has none (only specular chains, or nothing).
     pub first: Vec<u32>,
-    /// First eye sample of each pixel reached through a specular chain, or u32::MAX.
+    /// First eye sample of each pixel reached through a specular chain or a traced lobe, or
+    /// u32::MAX.
     pub first_chained: Vec<u32>,
     /// The eye samples of pixel p are `start[p]..start[p + 1]` (samples are in pixel order).
     pub start: Vec<u32>,
@@ -149,8 +151,8 @@ impl PixelGeometry {
         }
     }
 
-    /// Each pixel's first eye sample of one kind: seen directly (`primary`) or reached
-    /// through a specular chain; u32::MAX where it has none.
+    /// Each pixel's first eye sample of one kind: seen directly (`primary`) or not;
+    /// u32::MAX where it has none.
     pub fn first_of(&self, primary: bool) -> &[u32] {
         if primary {
             &self.first
@@ -175,8 +177,33 @@ pub struct Cache {
     pub from_world: Vec<(u32, RecordValue)>,
 }
 
-/// A record's validity for eye samples ([`compatible`] and [`within_reach`]), its fields in
-/// locals for loops over many samples.
+impl Cache {
+    /// Values nothing: no records, and no sample valued otherwise.
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty() && self.own.is_empty() && self.from_world.is_empty()
+    }
+}
+
+impl Record {
+    /// The world distance within which the record serves points, for an image radius of
+    /// `radius_px`. Unbounded for a record seen directly: on a surface seen directly, image
+    /// distance bounds world distance. A record seen through a specular chain serves points
+    /// within CHAIN_REACH times the world size of its image disc at its depth: through a
+    /// curved mirror or a glass sphere neighbouring pixels can see points far apart on one
+    /// plane (the image is minified), which the plane and normal tests would let through.
+    #[inline]
+    fn reach(&self, radius_px: f32) -> f32 {
+        if self.primary {
+            f32::INFINITY
+        } else {
+            CHAIN_REACH * (radius_px + 0.5) * self.pixel_size
+        }
+    }
+}
+
+/// A record's validity tests, its fields in locals for loops over many samples: same
+/// material, plane distance within COMPAT_PLANE of its depth, normals within Ward's angle for
+/// ε (`cos_min`), and, for eye samples, the same kind within its reach ([`Record::reach`]).
 #[derive(Clone, Copy)]
 struct Compatibility {
     primary: bool,
@@ -191,61 +218,59 @@ struct Compatibility {
 impl Compatibility {
     #[inline]
     fn of(r: &Record) -> Self {
-        let reach = CHAIN_REACH * (r.radius_px + 0.5) * r.pixel_size;
+        let reach = r.reach(r.radius_px);
         Self {
             primary: r.primary,
             material: r.material,
             position: r.position,
             normal: r.normal,
             plane: COMPAT_PLANE * r.depth,
-            reach2: if r.primary {
-                f32::INFINITY
-            } else {
-                reach * reach
-            },
+            reach2: reach * reach,
             cos_min: r.cos_min,
         }
     }
 
-    /// The tests cheapest first: the octahedral normal is decoded last.
+    /// Eye sample `i` is of the record's kind, within its reach and valid.
     #[inline]
     fn accepts(&self, eye: &EyeSamples, i: usize) -> bool {
-        if self.primary != eye.primary(i) || self.material != eye.material[i] {
+        self.primary == eye.primary(i)
+            && self.test(eye.material[i], eye.position[i], self.reach2, || {
+                eye.normal[i].get()
+            })
+    }
+
+    /// A point at (p, n, material) is valid, whatever its kind and distance.
+    #[inline]
+    fn on_surface(&self, p: Vec3, n: Vec3, material: u32) -> bool {
+        self.test(material, p, f32::INFINITY, || n)
+    }
+
+    /// The tests cheapest first: the normal (octahedral in the eye samples) comes last.
+    #[inline]
+    fn test(&self, material: u32, p: Vec3, reach2: f32, normal: impl FnOnce() -> Vec3) -> bool {
+        if material != self.material {
             return false;
         }
-        let d = eye.position[i] - self.position;
+        let d = p - self.position;
         d.dot(self.normal).abs() <= self.plane
-            && d.length_squared() <= self.reach2
-            && eye.normal[i].get().dot(self.normal) >= self.cos_min
+            && d.length_squared() <= reach2
+            && normal().dot(self.normal) >= self.cos_min
     }
-}
-
-/// A record seen through a specular chain serves points within CHAIN_REACH times the world
-/// size of its image disc (`radius_px`) at its depth. On a surface seen directly, image
-/// distance bounds world distance and this always holds; through a curved mirror or a glass
-/// sphere neighbouring pixels can see points far apart on one plane (the image is minified),
-/// which the plane and normal tests would let through.
-#[inline]
-fn within_reach(r: &Record, p: Vec3, radius_px: f32) -> bool {
-    let reach = CHAIN_REACH * (radius_px + 0.5) * r.pixel_size;
-    r.primary || (p - r.position).length_squared() <= reach * reach
-}
-
-/// Is a point at (p, n, material) within the validity of `r`?
-#[inline]
-fn compatible(r: &Record, p: Vec3, n: Vec3, material: u32) -> bool {
-    material == r.material
-        && n.dot(r.normal) >= r.cos_min
-        && ((p - r.position).dot(r.normal)).abs() <= COMPAT_PLANE * r.depth
 }
 
 /// Image-space tent weight of record `r` at pixel (x, y); 0 outside its radius.
 #[inline]
 fn tent(r: &Record, x: u32, y: u32) -> f32 {
-    let dx = x as f32 - r.pixel.0 as f32;
     let dy = y as f32 - r.pixel.1 as f32;
-    let d = (dx * dx + dy * dy).sqrt();
-    (1.0 - d / (r.radius_px + 0.5)).max(0.0)
+    tent_at(x as f32 - r.pixel.0 as f32, dy * dy, r.radius_px + 0.5).max(0.0)
+}
+
+/// The tent at offset (dx, dy) from a record's pixel, `reach` its radius + ½, before the clamp
+/// at 0: positive inside the disc. The one formula of the interpolation, the coverage counts
+/// and the search for uncovered samples, which must agree to the last bit.
+#[inline]
+fn tent_at(dx: f32, dy2: f32, reach: f32) -> f32 {
+    1.0 - (dx * dx + dy2).sqrt() / reach
 }
 
 /// The pixels x of row `y` (inclusive range, within an image `w` wide) where `r`'s tent is
@@ -436,7 +461,7 @@ mod tests {
         let reach = cache
             .records
             .iter()
-            .map(|r| CHAIN_REACH * (r.radius_px + 0.5) * r.pixel_size)
+            .map(|r| r.reach(r.radius_px))
             .fold(0.0f32, f32::max);
         let it = interpolate(&cache, &eye, &geo, DirectionalMode::Diffuse);
         let valued: std::collections::HashSet<u32> = cache
@@ -490,7 +515,8 @@ mod tests {
             cos_min: normal_tolerance(0.5),
             value: RecordValue::default(),
         };
-        let reach = CHAIN_REACH * 2.5 * 0.01;
+        let reach = record(false).reach(2.0);
+        assert!((reach - CHAIN_REACH * 2.5 * 0.01).abs() < 1e-6);
         for (i, d) in [0.5, 0.99, 1.01, 3.0].into_iter().enumerate() {
             eye.position[i] = Vec3::new(d * reach, 0.0, 0.0);
         }
