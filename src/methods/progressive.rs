@@ -23,7 +23,7 @@ use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::filter::filter_samples;
 use crate::pipeline::photon::{Bandwidth, BandwidthParams, PhotonRay, plan_light_pass};
 use crate::pipeline::photon_map::PmStats;
-use crate::pipeline::radiance_map::{RadianceMap, add_radiance};
+use crate::pipeline::radiance_map::{Interpolated, RadianceMap, add_radiance};
 use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, MethodKind, RenderSettings};
@@ -522,15 +522,15 @@ impl Progressive {
         map
     }
 
-    /// Resolve `map` again from per-sample incident light: the cache's interpolation of
-    /// `cache`, or else the accumulators' own values over `batches`, filtered in image space
+    /// Resolve `map` again from per-sample incident light: `cached` (the cache's values,
+    /// [`crate::pipeline::cache::build`]), or else the accumulators' own values over `batches`, filtered in image space
     /// when the filter is on (§8.2), with the splat statistics of `map` when `splat_stats`
     /// (none exist at interpolated samples: the filter then takes its default radius). The
     /// light replaces the map's, or is added to it with `add`.
     pub fn resolve_samples(
         &self,
         map: &mut RadianceMap,
-        cache: Option<&Cache>,
+        cached: Option<Interpolated>,
         batches: u32,
         splat_stats: bool,
         add: bool,
@@ -538,8 +538,8 @@ impl Progressive {
         let side = &self.side;
         let geo = PixelGeometry::new(&side.eye, self.settings.width, self.settings.height);
         let mode = side.acc_indirect.mode;
-        let mut values = match cache {
-            Some(c) => crate::pipeline::cache::interpolate(c, &side.eye, &geo, mode),
+        let mut values = match cached {
+            Some(values) => values,
             None => sample_values(
                 &side.eye,
                 &side.tree.target_slot,

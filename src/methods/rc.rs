@@ -6,7 +6,7 @@
 use crate::film::Film;
 use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
 use crate::pipeline::cache::{self, Cache, PixelGeometry, RecordValue, record_value};
-use crate::pipeline::radiance_map::Accumulators;
+use crate::pipeline::radiance_map::{Accumulators, Interpolated};
 use crate::pipeline::splat::{SplatBatch, SplatCounters, prepare, splat};
 use crate::pipeline::splat_tree::SplatTree;
 use crate::settings::MethodKind;
@@ -31,13 +31,13 @@ impl Resolver for RcFilm {
         let b = core.pass_batches() as u32;
         // The cache pass counts as splatting (T_S), not as resolving.
         let tc = Instant::now();
-        let cache = cache_by_splatting(core);
+        let (cache, values) = cache_by_splatting(core);
         let cache_time = tc.elapsed().as_secs_f64();
         core.timings.t_splat += cache_time;
         // The caustics, splatted onto every target; the interpolated light is added to them.
         let mut map = core.resolve_indirect(b);
         if !cache.is_empty() {
-            core.resolve_samples(&mut map, Some(&cache), b, false, true);
+            core.resolve_samples(&mut map, Some(values), b, false, true);
         }
         self.cache = Some(cache);
         let film = core.compose(map, b, core.splat_direct());
@@ -51,7 +51,8 @@ impl Resolver for RcFilm {
 }
 
 /// Every pass of the cache splats the stored indirect photon rays onto its new records only.
-fn cache_by_splatting(core: &mut Progressive) -> Cache {
+/// Returns the cache and the eye samples' values from it.
+fn cache_by_splatting(core: &mut Progressive) -> (Cache, Interpolated) {
     let (w, h) = (core.settings.width, core.settings.height);
     let geo = PixelGeometry::new(&core.side.eye, w, h);
     let mode = core.settings.radiance_map;
@@ -74,16 +75,17 @@ fn cache_by_splatting(core: &mut Progressive) -> Cache {
     // there is no light to cache: records would all be dark, each as small as the image
     // allows, and their passes cost more than the splatted caustics.
     if batches.iter().all(|b| b.rays.is_empty()) {
-        return Cache::default();
+        return (Cache::default(), Interpolated::default());
     }
     let inv_b = 1.0 / batches.len().max(1) as f32;
     let side = &core.side;
     let mut counters = SplatCounters::default();
-    let cache = cache::build(
+    let built = cache::build(
         &side.eye,
         &geo,
         &core.camera,
         &core.settings.cache,
+        mode,
         |samples| {
             if samples.is_empty() {
                 return Vec::new();
@@ -121,5 +123,5 @@ fn cache_by_splatting(core: &mut Progressive) -> Cache {
         },
     );
     core.counters += counters;
-    cache
+    built
 }

@@ -7,6 +7,7 @@
 use crate::film::Film;
 use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
 use crate::pipeline::cache::{self, Cache, PixelGeometry, record_value};
+use crate::pipeline::radiance_map::Interpolated;
 use crate::settings::MethodKind;
 use std::time::Instant;
 
@@ -34,15 +35,17 @@ impl Resolver for RsFilm {
         self.cache = None;
         // The cache pass counts as splatting (T_S), not as resolving.
         let mut cache_time = 0.0;
+        let mut cached = None;
         if core.settings.cache_on {
             let t = Instant::now();
-            self.cache = Some(cache_from_map(core, b));
+            let (cache, values) = cache_from_map(core, b);
+            (self.cache, cached) = (Some(cache), Some(values));
             cache_time = t.elapsed().as_secs_f64();
             core.timings.t_splat += cache_time;
         }
         let mut map = core.resolve_indirect(b);
-        if self.cache.is_some() || core.settings.filter.enabled {
-            core.resolve_samples(&mut map, self.cache.as_ref(), b, true, false);
+        if cached.is_some() || core.settings.filter.enabled {
+            core.resolve_samples(&mut map, cached, b, true, false);
         }
         let film = core.compose(map, b, core.splat_direct());
         core.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;
@@ -55,8 +58,8 @@ impl Resolver for RsFilm {
 }
 
 /// The cache's record values read from the full radiance map: no splatting, so ε can move
-/// freely (§8.3 in the previewer).
-fn cache_from_map(core: &Progressive, batches: u32) -> Cache {
+/// freely (§8.3 in the previewer). Returns the cache and the eye samples' values from it.
+fn cache_from_map(core: &Progressive, batches: u32) -> (Cache, Interpolated) {
     let side = &core.side;
     let geo = PixelGeometry::new(&side.eye, core.settings.width, core.settings.height);
     let acc = &side.acc_indirect;
@@ -66,6 +69,7 @@ fn cache_from_map(core: &Progressive, batches: u32) -> Cache {
         &geo,
         &core.camera,
         &core.settings.cache,
+        acc.mode,
         |samples| {
             samples
                 .iter()

@@ -1,10 +1,13 @@
 //! Placing the cache's records (§8.3): coarse-to-fine passes, widening, and the fix-up pass.
 
+use super::interpolate::{interpolate_records, set_value};
 use super::{
     Cache, CacheParams, Compatibility, LEVELS, MAX_RADIUS_PX, MIN_RADIUS_PX, PixelGeometry, Record,
-    RecordValue, add_coverage, normal_tolerance, rows_of, tent, tent_at,
+    RecordValue, add_coverage, normal_tolerance, rows_of, tent,
 };
+use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::EyeSamples;
+use crate::pipeline::radiance_map::Interpolated;
 use crate::scene::Camera;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -20,14 +23,16 @@ use std::collections::HashMap;
 /// image space as a wall; a chained record serves only within its world reach), each kind
 /// serving its own. Samples no record covers in image space (a pixel's other chains) are
 /// interpolated from the records around them in world space (`Cache::from_world`), and only
-/// those with none there are valued on their own (`Cache::own`).
+/// those with none there are valued on their own (`Cache::own`). Returns the cache and every
+/// eye sample's value from it (what [`super::interpolate`] gives, made once here).
 pub fn build(
     eye: &EyeSamples,
     geo: &PixelGeometry,
     camera: &Camera,
     params: &CacheParams,
+    mode: DirectionalMode,
     mut evaluate: impl FnMut(&[u32]) -> Vec<RecordValue>,
-) -> Cache {
+) -> (Cache, Interpolated) {
     let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / geo.height as f32;
     let mut cache = Cache::default();
     let eps = params.error.max(1e-3);
@@ -124,12 +129,15 @@ pub fn build(
             widen_for_coverage(&mut cache, eye, geo, primary, params.min_records, px);
         }
     }
-    // Eye samples no image-space record of their kind covers (mostly a pixel's other chains
-    // behind glass, such as its faint reflection; rarely a sample on another surface than its
-    // pixel's first) take the records around them in world space (Ward's test, as a
-    // world-space irradiance cache would), and only those with no record there are valued on
-    // their own (docs/benchmarks.md, "Radiance caching").
-    let uncovered = uncovered_samples(&cache, eye, geo);
+    // The records interpolated in image space; the eye samples none of them covers (mostly a
+    // pixel's other chains behind glass, such as its faint reflection; rarely a sample on
+    // another surface than its pixel's first) take the records around them in world space
+    // (Ward's test, as a world-space irradiance cache would), and only those with no record
+    // there are valued on their own (docs/benchmarks.md, "Radiance caching").
+    let mut values = interpolate_records(&cache.records, eye, geo, mode);
+    let uncovered: Vec<u32> = (0..eye.len() as u32)
+        .filter(|&i| values.coverage[i as usize] == 0)
+        .collect();
     let index = WorldIndex::new(&cache.records);
     let looked_up: Vec<(u32, Option<RecordValue>)> = uncovered
         .par_iter()
@@ -143,43 +151,13 @@ pub fn build(
         }
     }
     if !own.is_empty() {
-        let values = evaluate(&own);
-        cache.own = own.into_iter().zip(values).collect();
+        let evaluated = evaluate(&own);
+        cache.own = own.into_iter().zip(evaluated).collect();
     }
-    cache
-}
-
-/// The eye samples that no compatible record covers in image space.
-fn uncovered_samples(cache: &Cache, eye: &EyeSamples, geo: &PixelGeometry) -> Vec<u32> {
-    let rows = rows_of(&cache.records, geo.height, None);
-    let w = geo.width as usize;
-    (0..geo.height as usize)
-        .into_par_iter()
-        .flat_map_iter(|y| {
-            let (a, b) = (geo.start[y * w] as usize, geo.start[(y + 1) * w] as usize);
-            // The row's records with their tests in locals: (x, dy², radius + ½, test).
-            let near: Vec<(f32, f32, f32, Compatibility)> = rows[y]
-                .iter()
-                .map(|&k| {
-                    let r = &cache.records[k as usize];
-                    let dy = y as f32 - r.pixel.1 as f32;
-                    (
-                        r.pixel.0 as f32,
-                        dy * dy,
-                        r.radius_px + 0.5,
-                        Compatibility::of(r),
-                    )
-                })
-                .collect();
-            (a..b).filter(move |&i| {
-                let x = (eye.pixel[i] as usize - y * w) as f32;
-                !near.iter().any(|(cx, dy2, reach, test)| {
-                    tent_at(x - cx, *dy2, *reach) > 0.0 && test.accepts(eye, i)
-                })
-            })
-        })
-        .map(|i| i as u32)
-        .collect()
+    for (i, v) in cache.own.iter().chain(&cache.from_world) {
+        set_value(&mut values, *i as usize, v);
+    }
+    (cache, values)
 }
 
 /// Records by world-space cell, for the lookup of samples image space leaves uncovered: cells

@@ -1,7 +1,7 @@
 //! Reading the cache (§8.3): records splatted in image space, and record values from the splat
 //! accumulators.
 
-use super::{Cache, Compatibility, PixelGeometry, RecordValue, rows_of, span, tent_at};
+use super::{Cache, Compatibility, PixelGeometry, Record, RecordValue, rows_of, span, tent_at};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::radiance_map::{Accumulators, Channel, Interpolated};
@@ -9,24 +9,49 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 /// Splat the records in image space: per eye sample, the tent- and compatibility-weighted mean
-/// of the covering records' irradiance (and directional floats).
-#[allow(clippy::needless_range_loop)] // indices address several per-sample arrays
+/// of the covering records' irradiance (and directional floats); then the samples valued in
+/// world space or on their own (`Cache::from_world`, `Cache::own`) take those values.
 pub fn interpolate(
     cache: &Cache,
     eye: &EyeSamples,
     geo: &PixelGeometry,
     mode: DirectionalMode,
 ) -> Interpolated {
+    let mut out = interpolate_records(&cache.records, eye, geo, mode);
+    for (i, v) in cache.own.iter().chain(&cache.from_world) {
+        set_value(&mut out, *i as usize, v);
+    }
+    out
+}
+
+/// Eye sample `i` takes value `v` (irradiance, and directional floats where both have them).
+pub(super) fn set_value(out: &mut Interpolated, i: usize, v: &RecordValue) {
+    out.irradiance[i] = v.irradiance;
+    if let Some(d) = out.dir_mut(i)
+        && v.directional.len() == d.len()
+    {
+        d.copy_from_slice(&v.directional);
+    }
+}
+
+/// The image-space half of [`interpolate`]: records only. Eye samples merged onto one splat
+/// target (one pixel, one surface: `eye::assign_targets`) share one interpolation, as they
+/// share one splatted value in rs: the record tests are made at the first of them of each kind
+/// and the others take its value (a quarter of the tests at 4 spp: docs/benchmarks.md,
+/// "Radiance caching").
+#[allow(clippy::needless_range_loop)] // indices address several per-sample arrays
+pub(super) fn interpolate_records(
+    records: &[Record],
+    eye: &EyeSamples,
+    geo: &PixelGeometry,
+    mode: DirectionalMode,
+) -> Interpolated {
     let floats = mode.record_floats();
-    let rows = rows_of(&cache.records, geo.height, None);
+    let rows = rows_of(records, geo.height, None);
     let w = geo.width as usize;
-    // Eye samples are in pixel order: row y's samples are one contiguous range.
-    let row_start: Vec<usize> = (0..=geo.height as usize)
-        .map(|y| eye.pixel.partition_point(|&p| (p as usize) < y * w))
-        .collect();
     let mut out = Interpolated::zeroed(eye, floats);
-    // Each row's samples, and their glossy ones, are contiguous ranges: split the outputs
-    // into per-row slices and fill them in parallel.
+    // Each row's samples, and their glossy ones, are contiguous ranges (samples are in pixel
+    // order): split the outputs into per-row slices and fill them in parallel.
     let glossy_before: Vec<usize> = {
         let mut v = Vec::with_capacity(eye.len() + 1);
         let mut n = 0;
@@ -45,7 +70,7 @@ pub fn interpolate(
             &mut out.coverage[..],
         );
         for y in 0..geo.height as usize {
-            let (a, b) = (row_start[y], row_start[y + 1]);
+            let (a, b) = (geo.start[y * w] as usize, geo.start[(y + 1) * w] as usize);
             let (e, et) = e_rest.split_at_mut(b - a);
             let (c, ct) = c_rest.split_at_mut(b - a);
             let nd = (glossy_before[b] - glossy_before[a]) * floats;
@@ -57,16 +82,40 @@ pub fn interpolate(
     let glossy_index = &out.glossy_index;
     jobs.into_par_iter().for_each(|(y, a, e, d, cov)| {
         let g0 = glossy_before[a];
-        let mut wsum = vec![0.0f32; e.len()];
+        let dir_at = |i: usize| {
+            let g = glossy_index[i];
+            (g != u32::MAX).then(|| (g as usize - g0) * floats)
+        };
+        // The row's leading samples (row-local), each pixel's from lead_start[x]; every
+        // sample's lead, itself where it leads.
+        let key = |i: usize| (eye.target[i], eye.primary(i), eye.lobe_in_map(i));
+        let mut lead_of = vec![0u32; e.len()];
+        let mut leads: Vec<u32> = Vec::with_capacity(e.len());
+        let mut lead_start: Vec<u32> = Vec::with_capacity(w + 1);
+        for x in 0..w {
+            lead_start.push(leads.len() as u32);
+            let p = y * w + x;
+            let (s0, s1) = (geo.start[p] as usize - a, geo.start[p + 1] as usize - a);
+            for j in s0..s1 {
+                let lead = leads[lead_start[x] as usize..]
+                    .iter()
+                    .find(|&&l| key(a + l as usize) == key(a + j));
+                lead_of[j] = match lead {
+                    Some(&l) => l,
+                    None => {
+                        leads.push(j as u32);
+                        j as u32
+                    }
+                };
+            }
+        }
+        lead_start.push(leads.len() as u32);
+        let mut wsum = vec![0.0f32; leads.len()];
         for &k in &rows[y] {
-            let r = &cache.records[k as usize];
+            let r = &records[k as usize];
             let Some((x0, x1)) = span(r, y as u32, w) else {
                 continue;
             };
-            let (s0, s1) = (
-                geo.start[y * w + x0] as usize,
-                geo.start[y * w + x1 + 1] as usize,
-            );
             // The record's fields in locals: the loop below writes only the row's sums.
             let test = Compatibility::of(r);
             let (cx, reach) = (r.pixel.0 as f32, r.radius_px + 0.5);
@@ -74,23 +123,20 @@ pub fn interpolate(
             let dy2 = dy * dy;
             let irradiance = r.value.irradiance;
             let directional = (r.value.directional.len() == floats).then_some(&r.value.directional);
-            for i in s0..s1 {
-                if !test.accepts(eye, i) {
-                    continue;
-                }
-                let dx = (eye.pixel[i] as usize - y * w) as f32 - cx;
-                let t = tent_at(dx, dy2, reach);
+            for x in x0..=x1 {
+                let t = tent_at(x as f32 - cx, dy2, reach);
                 if t <= 0.0 {
                     continue;
                 }
-                let j = i - a;
-                e[j] += t * irradiance;
-                wsum[j] += t;
-                cov[j] += 1;
-                if let Some(dir) = directional {
-                    let g = glossy_index[i];
-                    if g != u32::MAX {
-                        let at = (g as usize - g0) * floats;
+                for l in lead_start[x] as usize..lead_start[x + 1] as usize {
+                    let j = leads[l] as usize;
+                    if !test.accepts(eye, a + j) {
+                        continue;
+                    }
+                    e[j] += t * irradiance;
+                    wsum[l] += t;
+                    cov[j] += 1;
+                    if let (Some(dir), Some(at)) = (directional, dir_at(a + j)) {
                         for (o, v) in d[at..at + floats].iter_mut().zip(dir) {
                             *o += t * v;
                         }
@@ -98,28 +144,30 @@ pub fn interpolate(
                 }
             }
         }
-        for j in 0..e.len() {
-            if wsum[j] > 0.0 {
-                e[j] /= wsum[j];
-                let g = glossy_index[a + j];
-                if g != u32::MAX {
-                    let at = (g as usize - g0) * floats;
+        for (l, &j) in leads.iter().enumerate() {
+            let j = j as usize;
+            if wsum[l] > 0.0 {
+                e[j] /= wsum[l];
+                if let Some(at) = dir_at(a + j) {
                     for v in &mut d[at..at + floats] {
-                        *v /= wsum[j];
+                        *v /= wsum[l];
                     }
                 }
             }
         }
-    });
-    for (i, v) in cache.own.iter().chain(&cache.from_world) {
-        let i = *i as usize;
-        out.irradiance[i] = v.irradiance;
-        if let Some(d) = out.dir_mut(i)
-            && v.directional.len() == d.len()
-        {
-            d.copy_from_slice(&v.directional);
+        // The others take their lead's value (a lead and its samples agree on glossiness:
+        // it is part of the key).
+        for j in 0..e.len() {
+            let l = lead_of[j] as usize;
+            if l != j {
+                e[j] = e[l];
+                cov[j] = cov[l];
+                if let (Some(from), Some(to)) = (dir_at(a + l), dir_at(a + j)) {
+                    d.copy_within(from..from + floats, to);
+                }
+            }
         }
-    }
+    });
     out
 }
 

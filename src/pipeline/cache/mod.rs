@@ -419,7 +419,14 @@ mod tests {
                 error: 0.5,
                 min_records: min,
             };
-            let cache = build(&eye, &geo, &camera, &params, constant(0.5));
+            let (cache, _) = build(
+                &eye,
+                &geo,
+                &camera,
+                &params,
+                DirectionalMode::Diffuse,
+                constant(0.5),
+            );
             let it = interpolate(&cache, &eye, &geo, DirectionalMode::Diffuse);
             assert!(
                 it.coverage.iter().all(|&c| c >= min),
@@ -447,15 +454,22 @@ mod tests {
         // A step in x: a record serving across it from beyond its reach shows at once.
         let light = |p: Vec3| Vec3::splat(if p.x < 0.0 { 1.0 } else { 1000.0 });
         let params = CacheParams::default();
-        let cache = build(&eye, &geo, &camera, &params, |s| {
-            s.iter()
-                .map(|&i| RecordValue {
-                    irradiance: light(eye.position[i as usize]),
-                    harmonic_distance: 0.5,
-                    directional: Vec::new(),
-                })
-                .collect()
-        });
+        let (cache, _) = build(
+            &eye,
+            &geo,
+            &camera,
+            &params,
+            DirectionalMode::Diffuse,
+            |s| {
+                s.iter()
+                    .map(|&i| RecordValue {
+                        irradiance: light(eye.position[i as usize]),
+                        harmonic_distance: 0.5,
+                        directional: Vec::new(),
+                    })
+                    .collect()
+            },
+        );
         assert!(!cache.records.is_empty());
         assert!(cache.records.iter().all(|r| !r.primary));
         let reach = cache
@@ -541,9 +555,17 @@ mod tests {
                 error: eps,
                 min_records: 4,
             };
-            let n = build(&eye, &geo, &camera, &params, constant(1.0))
-                .records
-                .len();
+            let n = build(
+                &eye,
+                &geo,
+                &camera,
+                &params,
+                DirectionalMode::Diffuse,
+                constant(1.0),
+            )
+            .0
+            .records
+            .len();
             assert!(
                 n >= last,
                 "ε = {eps}: {n} records, fewer than {last} at the larger ε"
@@ -551,5 +573,97 @@ mod tests {
             last = n;
         }
         assert!(last > 200);
+    }
+
+    /// Samples merged onto one splat target take its first sample's interpolation (the same
+    /// value, bit for bit); a sample of the same pixel on another target (another material
+    /// here, lit differently) is interpolated on its own; and build's values are what
+    /// `interpolate` gives from the cache it returns.
+    #[test]
+    fn merged_samples_share_their_leads_interpolation() {
+        let (w, h) = (48u32, 32u32);
+        let (one, camera) = plane_samples(w, h);
+        // Per pixel: three samples on the plane sharing a target (slightly apart, as the
+        // eye pass merges them; the third's shading normal 12° off, within the merge's 15°
+        // but beyond what a record of ε = 0.1 accepts), then one of material 1 on a target
+        // of its own.
+        let mut eye = EyeSamples::default();
+        let mut target = 0u32;
+        for i in 0..one.len() {
+            let mut s = EyeSample {
+                position: one.position[i],
+                normal: Vec3::Z,
+                geo_normal: Vec3::Z,
+                offset: 0.0,
+                wo: Vec3::Z,
+                material: 0,
+                pixel: one.pixel[i],
+                weight: Vec3::splat(0.25),
+                albedo: Vec3::splat(0.5),
+                specular: Vec3::ZERO,
+                primary: true,
+                lobe_traced: false,
+            };
+            let tilted = Vec3::new(12f32.to_radians().sin(), 0.0, 12f32.to_radians().cos());
+            for k in 0..3 {
+                s.position.x = one.position[i].x + 1e-4 * k as f32;
+                s.normal = if k == 2 { tilted } else { Vec3::Z };
+                eye.push_sample(&s, target);
+            }
+            s.normal = Vec3::Z;
+            s.material = 1;
+            eye.push_sample(&s, target + 1);
+            target += 2;
+        }
+        let geo = PixelGeometry::new(&eye, w, h);
+        let light = |i: u32| {
+            let x = eye.position[i as usize].x;
+            Vec3::splat(if eye.material[i as usize] == 0 {
+                1.0 + x
+            } else {
+                5.0 - x
+            })
+        };
+        let params = CacheParams {
+            error: 0.1,
+            min_records: 4,
+        };
+        assert!(tilted_cos(12.0) < normal_tolerance(params.error));
+        let (cache, values) = build(
+            &eye,
+            &geo,
+            &camera,
+            &params,
+            DirectionalMode::Diffuse,
+            |s| {
+                s.iter()
+                    .map(|&i| RecordValue {
+                        irradiance: light(i),
+                        harmonic_distance: 0.5,
+                        directional: Vec::new(),
+                    })
+                    .collect()
+            },
+        );
+        let again = interpolate(&cache, &eye, &geo, DirectionalMode::Diffuse);
+        assert_eq!(values.irradiance, again.irradiance);
+        assert_eq!(values.coverage, again.coverage);
+        for p in 0..(w * h) as usize {
+            let a = geo.start[p] as usize;
+            for k in 1..3 {
+                assert_eq!(values.irradiance[a + k], values.irradiance[a]);
+                assert_eq!(values.coverage[a + k], values.coverage[a]);
+            }
+            // Material 1's sample is valued from material 1's records only: near 5 − x,
+            // far from material 0's 1 + x.
+            let own = values.irradiance[a + 3].x;
+            let x = eye.position[a + 3].x;
+            assert!((own - (5.0 - x)).abs() < 0.2, "pixel {p}: {own} at x {x}");
+            assert!((values.irradiance[a].x - (1.0 + x)).abs() < 0.2);
+        }
+    }
+
+    fn tilted_cos(deg: f32) -> f32 {
+        deg.to_radians().cos()
     }
 }

@@ -9,6 +9,7 @@ use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::splat_tree::LANES;
 use crate::scene::Scene;
 use glam::Vec3;
+use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
 
 pub use crate::film::SplatInfo;
@@ -60,43 +61,66 @@ impl RadianceMap {
             return;
         }
         let inv_b = 1.0 / batches as f32;
-        let mut weight_norm = vec![0.0f32; self.radiance.len()];
-        for i in 0..eye.len() {
-            let slot = target_slot[eye.target[i] as usize] as usize;
-            let a = &acc.chunks[slot / LANES].ch;
-            let l = slot % LANES;
-            let get = |c: Channel| a[c as usize][l];
-            let px = eye.pixel[i] as usize;
-            let w = eye.weight[i].get();
-            let out = sample_radiance(scene, eye, i, slot, acc, inv_b);
-            if !out.is_finite() {
-                self.invalid += 1;
-                continue;
-            }
-            self.radiance[px] += out;
-            let info = &mut self.info[px];
-            let share = w.max_element();
-            let wsum = get(Channel::Weight);
-            info.kernel_weight += share * wsum * inv_b;
-            info.splats += share * get(Channel::Count) * inv_b;
-            info.mean_bandwidth += share * get(Channel::WeightedH);
-            info.harmonic_mean_distance += share * get(Channel::WeightedInvDist);
-            weight_norm[px] += share * wsum;
+        let w = self.width as usize;
+        if w == 0 {
+            return;
         }
-        for (info, &norm) in self.info.iter_mut().zip(&weight_norm) {
-            if norm > 0.0 {
-                info.mean_bandwidth /= norm;
-                info.harmonic_mean_distance = if info.harmonic_mean_distance > 0.0 {
-                    norm / info.harmonic_mean_distance
-                } else {
-                    0.0
-                };
-            } else {
-                info.mean_bandwidth = 0.0;
-                info.harmonic_mean_distance = 0.0;
-            }
-        }
+        let rows = sample_rows(eye, w, self.height as usize);
+        // Rows of pixels in parallel: the samples are in pixel order, a row's are one range.
+        self.invalid = self
+            .radiance
+            .par_chunks_mut(w)
+            .zip(self.info.par_chunks_mut(w))
+            .enumerate()
+            .map(|(y, (radiance, info))| {
+                let mut weight_norm = vec![0.0f32; w];
+                let mut invalid = 0;
+                for i in rows[y]..rows[y + 1] {
+                    let slot = target_slot[eye.target[i] as usize] as usize;
+                    let a = &acc.chunks[slot / LANES].ch;
+                    let l = slot % LANES;
+                    let get = |c: Channel| a[c as usize][l];
+                    let px = eye.pixel[i] as usize - y * w;
+                    let out = sample_radiance(scene, eye, i, slot, acc, inv_b);
+                    if !out.is_finite() {
+                        invalid += 1;
+                        continue;
+                    }
+                    radiance[px] += out;
+                    let info = &mut info[px];
+                    let share = eye.weight[i].get().max_element();
+                    let wsum = get(Channel::Weight);
+                    info.kernel_weight += share * wsum * inv_b;
+                    info.splats += share * get(Channel::Count) * inv_b;
+                    info.mean_bandwidth += share * get(Channel::WeightedH);
+                    info.harmonic_mean_distance += share * get(Channel::WeightedInvDist);
+                    weight_norm[px] += share * wsum;
+                }
+                for (info, &norm) in info.iter_mut().zip(&weight_norm) {
+                    if norm > 0.0 {
+                        info.mean_bandwidth /= norm;
+                        info.harmonic_mean_distance = if info.harmonic_mean_distance > 0.0 {
+                            norm / info.harmonic_mean_distance
+                        } else {
+                            0.0
+                        };
+                    } else {
+                        info.mean_bandwidth = 0.0;
+                        info.harmonic_mean_distance = 0.0;
+                    }
+                }
+                invalid
+            })
+            .sum();
     }
+}
+
+/// Where each row of a `width` × `height` image's eye samples begins (samples are in pixel
+/// order), and one past the last row's.
+fn sample_rows(eye: &EyeSamples, width: usize, height: usize) -> Vec<usize> {
+    (0..=height)
+        .map(|y| eye.pixel.partition_point(|&p| (p as usize) < y * width))
+        .collect()
 }
 
 /// Add the radiance of slot accumulators (summed over `batches` light passes) to the pixels
@@ -183,15 +207,30 @@ impl RadianceMap {
             self.radiance.fill(Vec3::ZERO);
             self.invalid = 0;
         }
-        for i in 0..eye.len() {
-            let e = values.irradiance[i];
-            let out = eye.weight[i].get() * shade(scene, eye, i, e, values.dir(i), 1.0, mode);
-            if !out.is_finite() {
-                self.invalid += 1;
-                continue;
-            }
-            self.radiance[eye.pixel[i] as usize] += out;
+        let w = self.width as usize;
+        if w == 0 {
+            return;
         }
+        let rows = sample_rows(eye, w, self.height as usize);
+        self.invalid += self
+            .radiance
+            .par_chunks_mut(w)
+            .enumerate()
+            .map(|(y, radiance)| {
+                let mut invalid = 0;
+                for i in rows[y]..rows[y + 1] {
+                    let e = values.irradiance[i];
+                    let out =
+                        eye.weight[i].get() * shade(scene, eye, i, e, values.dir(i), 1.0, mode);
+                    if !out.is_finite() {
+                        invalid += 1;
+                        continue;
+                    }
+                    radiance[eye.pixel[i] as usize - y * w] += out;
+                }
+                invalid
+            })
+            .sum::<u64>();
     }
 }
 
