@@ -6,6 +6,7 @@
 use crate::film::Film;
 use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
 use crate::pipeline::cache::{self, Cache, PixelGeometry, RecordValue, record_value};
+use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::radiance_map::{Accumulators, Interpolated};
 use crate::pipeline::splat::{SplatBatch, SplatCounters, prepare, splat};
 use crate::pipeline::splat_tree::SplatTree;
@@ -55,7 +56,13 @@ impl Resolver for RcFilm {
 fn cache_by_splatting(core: &mut Progressive) -> (Cache, Interpolated) {
     let (w, h) = (core.settings.width, core.settings.height);
     let geo = PixelGeometry::new(&core.side.eye, w, h);
-    let mode = core.settings.radiance_map;
+    // Photon directions serve the directional records of glossy targets only: without any,
+    // the rays are prepared without them.
+    let mode = if core.side.targets.glossy.iter().any(|&g| g) {
+        core.settings.radiance_map
+    } else {
+        DirectionalMode::Diffuse
+    };
     // Rays are prepared once for every pass.
     let batches: Vec<SplatBatch> = core
         .store

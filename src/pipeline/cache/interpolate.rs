@@ -52,13 +52,22 @@ pub(super) fn interpolate_records(
     let mut out = Interpolated::zeroed(eye, floats);
     // Each row's samples, and their glossy ones, are contiguous ranges (samples are in pixel
     // order): split the outputs into per-row slices and fill them in parallel.
+    // Glossy samples before each row's first (the rows' counts in parallel).
     let glossy_before: Vec<usize> = {
-        let mut v = Vec::with_capacity(eye.len() + 1);
-        let mut n = 0;
+        let counts: Vec<usize> = (0..geo.height as usize)
+            .into_par_iter()
+            .map(|y| {
+                let (a, b) = (geo.start[y * w] as usize, geo.start[(y + 1) * w] as usize);
+                out.glossy_index[a..b]
+                    .iter()
+                    .filter(|&&g| g != u32::MAX)
+                    .count()
+            })
+            .collect();
+        let mut v = Vec::with_capacity(counts.len() + 1);
         v.push(0);
-        for g in &out.glossy_index {
-            n += (*g != u32::MAX) as usize;
-            v.push(n);
+        for c in counts {
+            v.push(v[v.len() - 1] + c);
         }
         v
     };
@@ -73,7 +82,7 @@ pub(super) fn interpolate_records(
             let (a, b) = (geo.start[y * w] as usize, geo.start[(y + 1) * w] as usize);
             let (e, et) = e_rest.split_at_mut(b - a);
             let (c, ct) = c_rest.split_at_mut(b - a);
-            let nd = (glossy_before[b] - glossy_before[a]) * floats;
+            let nd = (glossy_before[y + 1] - glossy_before[y]) * floats;
             let (d, dt) = d_rest.split_at_mut(nd);
             (e_rest, c_rest, d_rest) = (et, ct, dt);
             jobs.push((y, a, e, d, c));
@@ -81,7 +90,7 @@ pub(super) fn interpolate_records(
     }
     let glossy_index = &out.glossy_index;
     jobs.into_par_iter().for_each(|(y, a, e, d, cov)| {
-        let g0 = glossy_before[a];
+        let g0 = glossy_before[y];
         let dir_at = |i: usize| {
             let g = glossy_index[i];
             (g != u32::MAX).then(|| (g as usize - g0) * floats)
@@ -110,6 +119,19 @@ pub(super) fn interpolate_records(
             }
         }
         lead_start.push(leads.len() as u32);
+        // The leads' points, decoded once for all the records over the row.
+        let points: Vec<(bool, u32, Vec3, Vec3)> = leads
+            .iter()
+            .map(|&j| {
+                let i = a + j as usize;
+                (
+                    eye.primary(i),
+                    eye.material[i],
+                    eye.position[i],
+                    eye.normal[i].get(),
+                )
+            })
+            .collect();
         let mut wsum = vec![0.0f32; leads.len()];
         for &k in &rows[y] {
             let r = &records[k as usize];
@@ -129,10 +151,11 @@ pub(super) fn interpolate_records(
                     continue;
                 }
                 for l in lead_start[x] as usize..lead_start[x + 1] as usize {
-                    let j = leads[l] as usize;
-                    if !test.accepts(eye, a + j) {
+                    let (primary, material, p, n) = points[l];
+                    if !test.accepts_point(primary, material, p, n) {
                         continue;
                     }
+                    let j = leads[l] as usize;
                     e[j] += t * irradiance;
                     wsum[l] += t;
                     cov[j] += 1;

@@ -239,6 +239,12 @@ impl Compatibility {
             })
     }
 
+    /// [`Compatibility::accepts`] for a point already read from the eye samples.
+    #[inline]
+    fn accepts_point(&self, primary: bool, material: u32, p: Vec3, n: Vec3) -> bool {
+        self.primary == primary && self.test(material, p, self.reach2, || n)
+    }
+
     /// A point at (p, n, material) is valid, whatever its kind and distance.
     #[inline]
     fn on_surface(&self, p: Vec3, n: Vec3, material: u32) -> bool {

@@ -22,6 +22,7 @@ pub use map::{RadianceMap, SplatInfo, add_radiance, add_radiance_at};
 
 use crate::pipeline::eye::EyeSamples;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Marks a slot without a directional record.
 pub const NO_RECORD: u32 = u32::MAX;
@@ -68,23 +69,31 @@ pub struct Interpolated {
 impl Interpolated {
     /// Zeroed values for `eye`, with directional room for its glossy samples.
     pub fn zeroed(eye: &EyeSamples, floats: usize) -> Self {
-        let mut n = 0u32;
-        let glossy_index = (0..eye.len())
-            .map(|i| {
-                if floats > 0 && eye.lobe_in_map(i) {
-                    n += 1;
-                    n - 1
-                } else {
-                    u32::MAX
+        let n = eye.len();
+        // Filled in parallel: the first touch of fresh pages is most of the cost.
+        let filled = |v: u32| {
+            let mut out = Vec::with_capacity(n);
+            out.par_extend(rayon::iter::repeat_n(v, n));
+            out
+        };
+        let mut glossy_index = filled(u32::MAX);
+        let mut glossy = 0u32;
+        if floats > 0 {
+            for (i, g) in glossy_index.iter_mut().enumerate() {
+                if eye.lobe_in_map(i) {
+                    *g = glossy;
+                    glossy += 1;
                 }
-            })
-            .collect();
+            }
+        }
+        let mut irradiance = Vec::with_capacity(n);
+        irradiance.par_extend(rayon::iter::repeat_n(Vec3::ZERO, n));
         Self {
-            irradiance: vec![Vec3::ZERO; eye.len()],
+            irradiance,
             glossy_index,
-            directional: vec![0.0; n as usize * floats],
+            directional: vec![0.0; glossy as usize * floats],
             floats,
-            coverage: vec![0; eye.len()],
+            coverage: filled(0),
         }
     }
 
