@@ -21,7 +21,9 @@ impl Oct {
             x = (1.0 - oy.abs()) * ox.signum();
             y = (1.0 - ox.abs()) * oy.signum();
         }
-        let q = |c: f32| (((c.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0).round() as u32) & 0xffff;
+        // Rounded by adding ½ before the truncating cast: the argument is never negative, and
+        // `round` is a libm call on baseline x86-64 (1% of an rc render's time).
+        let q = |c: f32| (((c.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0 + 0.5) as u32) & 0xffff;
         Self(q(x) | (q(y) << 16))
     }
 
