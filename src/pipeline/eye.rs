@@ -240,11 +240,7 @@ impl EyeSamples {
 
     /// Append one sample whose splat target is `target`.
     pub fn push_sample(&mut self, s: &EyeSample, target: u32) {
-        self.push_packed(&PackedSample::new(s), target);
-    }
-
-    /// Append a sample already in its stored form.
-    fn push_packed(&mut self, s: &PackedSample, target: u32) {
+        let s = PackedSample::new(s);
         self.target.push(target);
         self.position.push(s.position);
         self.normal.push(s.normal);
@@ -261,8 +257,8 @@ impl EyeSamples {
 }
 
 /// An eye sample in its stored form (quantised normals and colours, flags in one byte): made
-/// in parallel by the eye pass's rows, so that the serial append only copies (the encoding
-/// in the append was 5% of an rc render's time).
+/// in parallel by the eye pass's rows, so that the append only copies (encoding there kept
+/// every other thread idle: docs/benchmarks.md, "Radiance caching").
 #[derive(Clone, Copy, Debug)]
 struct PackedSample {
     position: Vec3,
@@ -455,18 +451,60 @@ fn collect_bands(
                 (packed, em, targets)
             })
             .collect();
-        for (row, em, row_targets) in rows {
-            let offset = pass.targets.len() as u32;
-            for (sample, target) in &row {
-                pass.samples.push_packed(sample, offset + target);
-            }
-            pass.emitted.extend(em);
-            let t = &mut pass.targets;
-            t.position.extend(row_targets.position);
-            t.normal.extend(row_targets.normal);
-            t.geo_normal.extend(row_targets.geo_normal);
-            t.glossy.extend(row_targets.glossy);
+        // Two threads append, each to half of the arrays (the first touch of their reserved
+        // pages is most of the append's cost).
+        let mut offsets = Vec::with_capacity(rows.len());
+        let mut next = pass.targets.len() as u32;
+        for r in &rows {
+            offsets.push(next);
+            next += r.2.len() as u32;
         }
+        let EyeSamples {
+            position,
+            normal,
+            geo_normal,
+            offset,
+            wo,
+            material,
+            pixel,
+            weight,
+            albedo,
+            specular,
+            flags,
+            target,
+        } = &mut pass.samples;
+        let (targets, emitted) = (&mut pass.targets, &mut pass.emitted);
+        rayon::join(
+            || {
+                for (r, &first) in rows.iter().zip(&offsets) {
+                    for (s, t) in &r.0 {
+                        target.push(first + t);
+                        position.push(s.position);
+                        normal.push(s.normal);
+                        geo_normal.push(s.geo_normal);
+                        offset.push(s.offset);
+                        wo.push(s.wo);
+                    }
+                    targets.position.extend_from_slice(&r.2.position);
+                    targets.normal.extend_from_slice(&r.2.normal);
+                }
+            },
+            || {
+                for r in &rows {
+                    for (s, _) in &r.0 {
+                        material.push(s.material);
+                        pixel.push(s.pixel);
+                        weight.push(s.weight);
+                        albedo.push(s.albedo);
+                        specular.push(s.specular);
+                        flags.push(s.flags);
+                    }
+                    targets.geo_normal.extend_from_slice(&r.2.geo_normal);
+                    targets.glossy.extend_from_slice(&r.2.glossy);
+                    emitted.extend_from_slice(&r.1);
+                }
+            },
+        );
         y0 = y1;
     }
     pass
