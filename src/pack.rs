@@ -22,7 +22,8 @@ impl Oct {
             y = (1.0 - ox.abs()) * oy.signum();
         }
         // Rounded by adding ½ before the truncating cast: the argument is never negative, and
-        // `round` is a libm call on baseline x86-64 (1% of an rc render's time).
+        // `round` is a libm call on baseline x86-64 (1% of an rc render's time). It differs
+        // from `round` by one code for 0.5 − 2⁻²⁵ only (the addition rounds up to 1).
         let q = |c: f32| (((c.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0 + 0.5) as u32) & 0xffff;
         Self(q(x) | (q(y) << 16))
     }

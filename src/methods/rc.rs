@@ -56,10 +56,11 @@ impl Resolver for RcFilm {
 fn cache_by_splatting(core: &mut Progressive) -> (Cache, Interpolated) {
     let (w, h) = (core.settings.width, core.settings.height);
     let geo = PixelGeometry::new(&core.side.eye, w, h);
+    let mode = core.side.acc_indirect.mode;
     // Photon directions serve the directional records of glossy targets only: without any,
-    // the rays are prepared without them.
-    let mode = if core.side.targets.glossy.iter().any(|&g| g) {
-        core.settings.radiance_map
+    // the rays are prepared without them (records and values keep the map's layout).
+    let ray_mode = if core.side.targets.glossy.iter().any(|&g| g) {
+        mode
     } else {
         DirectionalMode::Diffuse
     };
@@ -73,7 +74,7 @@ fn cache_by_splatting(core: &mut Progressive) -> (Cache, Interpolated) {
                 &b.rays,
                 &core.bandwidths(b.m),
                 [false, true, false],
-                mode,
+                ray_mode,
                 &core.scene,
             )
         })

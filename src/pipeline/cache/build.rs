@@ -1,6 +1,6 @@
 //! Placing the cache's records (§8.3): coarse-to-fine passes, widening, and the fix-up pass.
 
-use super::interpolate::{interpolate_records, set_value};
+use super::interpolate::{interpolate_records, lead_of, set_value};
 use super::{
     Cache, CacheParams, Compatibility, LEVELS, MAX_RADIUS_PX, MIN_RADIUS_PX, PixelGeometry, Record,
     RecordValue, add_coverage, normal_tolerance, rows_of, tent,
@@ -129,19 +129,24 @@ pub fn build(
             widen_for_coverage(&mut cache, eye, geo, primary, params.min_records, px);
         }
     }
-    // The records interpolated in image space; the eye samples none of them covers (mostly a
-    // pixel's other chains behind glass, such as its faint reflection; rarely a sample on
-    // another surface than its pixel's first) take the records around them in world space
-    // (Ward's test, as a world-space irradiance cache would), and only those with no record
-    // there are valued on their own (docs/benchmarks.md, "Radiance caching").
+    // The records interpolated in image space; the eye samples none of them covers (their
+    // lead's tests found none: mostly a pixel's other chains behind glass, such as its faint
+    // reflection; rarely a sample on another surface than its pixel's first) take the records
+    // around them in world space (Ward's test, as a world-space irradiance cache would), and
+    // only those with no record there are valued on their own (docs/benchmarks.md, "Radiance
+    // caching"). As in image space, a lead's value is its followers'.
     let mut values = interpolate_records(&cache.records, eye, geo, mode);
-    let uncovered: Vec<u32> = (0..eye.len() as u32)
-        .filter(|&i| values.coverage[i as usize] == 0)
-        .collect();
+    // (sample, its lead) of every uncovered sample, leads and followers apart.
+    type Pairs = Vec<(u32, u32)>;
+    let (leads, followers): (Pairs, Pairs) = (0..eye.len())
+        .into_par_iter()
+        .filter(|&i| values.coverage[i] == 0)
+        .map(|i| (i as u32, lead_of(eye, geo, i) as u32))
+        .partition(|&(i, lead)| i == lead);
     let index = WorldIndex::new(&cache.records);
-    let looked_up: Vec<(u32, Option<RecordValue>)> = uncovered
+    let looked_up: Vec<(u32, Option<RecordValue>)> = leads
         .par_iter()
-        .map(|&i| (i, index.value_at(&cache.records, eye, i as usize)))
+        .map(|&(i, _)| (i, index.value_at(&cache.records, eye, i as usize)))
         .collect();
     let mut own = Vec::new();
     for (i, value) in looked_up {
@@ -154,6 +159,22 @@ pub fn build(
         let evaluated = evaluate(&own);
         cache.own = own.into_iter().zip(evaluated).collect();
     }
+    // Both lists are in sample order, as the leads were: each follower finds its lead's value.
+    let of_lead = |list: &[(u32, RecordValue)], followers: &[(u32, u32)]| {
+        followers
+            .iter()
+            .filter_map(|&(i, lead)| {
+                let k = list.binary_search_by_key(&lead, |(j, _)| *j).ok()?;
+                Some((i, list[k].1.clone()))
+            })
+            .collect::<Vec<_>>()
+    };
+    let (world, own) = (
+        of_lead(&cache.from_world, &followers),
+        of_lead(&cache.own, &followers),
+    );
+    cache.from_world.extend(world);
+    cache.own.extend(own);
     for (i, v) in cache.own.iter().chain(&cache.from_world) {
         set_value(&mut values, *i as usize, v);
     }

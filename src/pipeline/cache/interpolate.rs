@@ -34,11 +34,27 @@ pub(super) fn set_value(out: &mut Interpolated, i: usize, v: &RecordValue) {
     }
 }
 
+/// What eye samples share to share one interpolation: their splat target (one pixel, one
+/// surface: `eye::assign_targets`), their kind (seen directly or through a chain) and whether
+/// their lobe goes through the radiance map.
+type LeadKey = (u32, bool, bool);
+
+fn lead_key(eye: &EyeSamples, i: usize) -> LeadKey {
+    (eye.target[i], eye.primary(i), eye.lobe_in_map(i))
+}
+
+/// The lead of eye sample `i`: the first sample of its pixel with its [`LeadKey`] (`i` itself
+/// when none comes before it).
+pub(super) fn lead_of(eye: &EyeSamples, geo: &PixelGeometry, i: usize) -> usize {
+    let first = geo.start[eye.pixel[i] as usize] as usize;
+    let key = lead_key(eye, i);
+    (first..i).find(|&j| lead_key(eye, j) == key).unwrap_or(i)
+}
+
 /// The image-space half of [`interpolate`]: records only. Eye samples merged onto one splat
-/// target (one pixel, one surface: `eye::assign_targets`) share one interpolation, as they
-/// share one splatted value in rs: the record tests are made at the first of them of each kind
-/// and the others take its value (a quarter of the tests at 4 spp: docs/benchmarks.md,
-/// "Radiance caching").
+/// target share one interpolation, as they share one splatted value in rs: the record tests
+/// are made at their lead ([`lead_of`]) and the others take its value, coverage included
+/// (a quarter of the tests at 4 spp; docs/deviations.md §31 says what it changes).
 #[allow(clippy::needless_range_loop)] // indices address several per-sample arrays
 pub(super) fn interpolate_records(
     records: &[Record],
@@ -96,8 +112,8 @@ pub(super) fn interpolate_records(
             (g != u32::MAX).then(|| (g as usize - g0) * floats)
         };
         // The row's leading samples (row-local), each pixel's from lead_start[x]; every
-        // sample's lead, itself where it leads.
-        let key = |i: usize| (eye.target[i], eye.primary(i), eye.lobe_in_map(i));
+        // sample's lead, itself where it leads (the first of its pixel with its key).
+        let keys: Vec<LeadKey> = (a..a + e.len()).map(|i| lead_key(eye, i)).collect();
         let mut lead_of = vec![0u32; e.len()];
         let mut leads: Vec<u32> = Vec::with_capacity(e.len());
         let mut lead_start: Vec<u32> = Vec::with_capacity(w + 1);
@@ -108,7 +124,7 @@ pub(super) fn interpolate_records(
             for j in s0..s1 {
                 let lead = leads[lead_start[x] as usize..]
                     .iter()
-                    .find(|&&l| key(a + l as usize) == key(a + j));
+                    .find(|&&l| keys[l as usize] == keys[j]);
                 lead_of[j] = match lead {
                     Some(&l) => l,
                     None => {

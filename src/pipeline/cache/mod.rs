@@ -171,9 +171,12 @@ pub struct Cache {
     pub per_pass: Vec<usize>,
     /// Eye samples that no record covers in image space and none holds in world space
     /// (`from_world`): each is valued on its own (full splat accuracy), not interpolated.
+    /// Leads first, in sample order, then their followers (`interpolate::lead_of`), which
+    /// take their lead's value.
     pub own: Vec<(u32, RecordValue)>,
-    /// Eye samples no image-space record covers, valued from the records around them in
-    /// world space (within ε·R, Ward's test) instead.
+    /// Eye samples no image-space record covers (their lead's tests found none), valued from
+    /// the records around them in world space (within ε·R, Ward's test) instead; ordered as
+    /// `own`.
     pub from_world: Vec<(u32, RecordValue)>,
 }
 
@@ -273,7 +276,7 @@ fn tent(r: &Record, x: u32, y: u32) -> f32 {
 
 /// The tent at offset (dx, dy) from a record's pixel, `reach` its radius + ½, before the clamp
 /// at 0: positive inside the disc. The one formula of the interpolation, the coverage counts
-/// and the search for uncovered samples, which must agree to the last bit.
+/// and the spans, which must agree to the last bit.
 #[inline]
 fn tent_at(dx: f32, dy2: f32, reach: f32) -> f32 {
     1.0 - (dx * dx + dy2).sqrt() / reach
@@ -581,22 +584,29 @@ mod tests {
         assert!(last > 200);
     }
 
-    /// Samples merged onto one splat target take its first sample's interpolation (the same
-    /// value, bit for bit); a sample of the same pixel on another target (another material
-    /// here, lit differently) is interpolated on its own; and build's values are what
-    /// `interpolate` gives from the cache it returns.
+    /// Samples merged onto one splat target share their lead's value (irradiance, coverage and
+    /// directional floats, bit for bit), whether the lead was interpolated in image space,
+    /// looked up in world space or valued on its own; a sample of another material, or of the
+    /// other kind on the same target, is valued apart. Per pixel: a glossy material-0 group of
+    /// three (the third's shading normal 12° off, within the merge's 15° but beyond what a
+    /// record of ε = 0.1 accepts), a matte material-1 sample, and a chained material-0 sample
+    /// on the group's target (on a plane farther away). In the left half the group comes first (its records cover it);
+    /// in the right half the material-1 sample does, so records there are material 1's and the
+    /// group falls to the world lookup or to its own value. SH records hold (k+1)·E.x, so the
+    /// directional floats must come out as (k+1) times the sample's E.x. `build`'s values are
+    /// `interpolate`'s of its cache (the world and own values written alike). Fails when every
+    /// sample is its own lead (the tilted one's coverage, or its value in the right half).
     #[test]
-    fn merged_samples_share_their_leads_interpolation() {
+    fn merged_samples_share_their_leads_value() {
         let (w, h) = (48u32, 32u32);
         let (one, camera) = plane_samples(w, h);
-        // Per pixel: three samples on the plane sharing a target (slightly apart, as the
-        // eye pass merges them; the third's shading normal 12° off, within the merge's 15°
-        // but beyond what a record of ε = 0.1 accepts), then one of material 1 on a target
-        // of its own.
+        let mode = DirectionalMode::Sh;
+        let floats = mode.record_floats();
+        let tilted = Vec3::new(12f32.to_radians().sin(), 0.0, 12f32.to_radians().cos());
         let mut eye = EyeSamples::default();
         let mut target = 0u32;
         for i in 0..one.len() {
-            let mut s = EyeSample {
+            let base = EyeSample {
                 position: one.position[i],
                 normal: Vec3::Z,
                 geo_normal: Vec3::Z,
@@ -604,72 +614,125 @@ mod tests {
                 wo: Vec3::Z,
                 material: 0,
                 pixel: one.pixel[i],
-                weight: Vec3::splat(0.25),
+                weight: Vec3::splat(0.2),
                 albedo: Vec3::splat(0.5),
-                specular: Vec3::ZERO,
+                specular: Vec3::splat(0.3),
                 primary: true,
                 lobe_traced: false,
             };
-            let tilted = Vec3::new(12f32.to_radians().sin(), 0.0, 12f32.to_radians().cos());
-            for k in 0..3 {
-                s.position.x = one.position[i].x + 1e-4 * k as f32;
+            let group = |k: usize| {
+                let mut s = base;
+                s.position.x += 1e-4 * k as f32;
                 s.normal = if k == 2 { tilted } else { Vec3::Z };
-                eye.push_sample(&s, target);
+                s
+            };
+            let matte = EyeSample {
+                material: 1,
+                specular: Vec3::ZERO,
+                ..base
+            };
+            // Seen through a chain: a plane farther away (irradiance belongs to a point, and
+            // the world lookup rightly mixes the kinds there).
+            let chained = EyeSample {
+                primary: false,
+                position: base.position - Vec3::Z * 10.0,
+                ..base
+            };
+            let (g, m) = (target, target + 1);
+            if one.pixel[i] % w < w / 2 {
+                for k in 0..3 {
+                    eye.push_sample(&group(k), g);
+                }
+                eye.push_sample(&matte, m);
+            } else {
+                eye.push_sample(&matte, m);
+                for k in 0..3 {
+                    eye.push_sample(&group(k), g);
+                }
             }
-            s.normal = Vec3::Z;
-            s.material = 1;
-            eye.push_sample(&s, target + 1);
+            eye.push_sample(&chained, g);
             target += 2;
         }
         let geo = PixelGeometry::new(&eye, w, h);
-        let light = |i: u32| {
-            let x = eye.position[i as usize].x;
-            Vec3::splat(if eye.material[i as usize] == 0 {
+        let light = |i: usize| {
+            let x = eye.position[i].x;
+            if eye.position[i].z < -5.0 {
+                3.0
+            } else if eye.material[i] == 0 {
                 1.0 + x
             } else {
                 5.0 - x
-            })
+            }
         };
         let params = CacheParams {
             error: 0.1,
             min_records: 4,
         };
-        assert!(tilted_cos(12.0) < normal_tolerance(params.error));
-        let (cache, values) = build(
-            &eye,
-            &geo,
-            &camera,
-            &params,
-            DirectionalMode::Diffuse,
-            |s| {
-                s.iter()
-                    .map(|&i| RecordValue {
-                        irradiance: light(i),
+        assert!(12f32.to_radians().cos() < normal_tolerance(params.error));
+        let (cache, values) = build(&eye, &geo, &camera, &params, mode, |s| {
+            s.iter()
+                .map(|&i| {
+                    let e = light(i as usize);
+                    RecordValue {
+                        irradiance: Vec3::splat(e),
                         harmonic_distance: 0.5,
-                        directional: Vec::new(),
-                    })
-                    .collect()
-            },
-        );
-        let again = interpolate(&cache, &eye, &geo, DirectionalMode::Diffuse);
+                        directional: if eye.lobe_in_map(i as usize) {
+                            (0..floats).map(|k| (k + 1) as f32 * e).collect()
+                        } else {
+                            Vec::new()
+                        },
+                    }
+                })
+                .collect()
+        });
+        let again = interpolate(&cache, &eye, &geo, mode);
         assert_eq!(values.irradiance, again.irradiance);
         assert_eq!(values.coverage, again.coverage);
+        assert_eq!(values.directional, again.directional);
+        let mut right_group_by_world_or_own = 0;
         for p in 0..(w * h) as usize {
             let a = geo.start[p] as usize;
+            let left = p as u32 % w < w / 2;
+            let (lead, m1) = if left { (a, a + 3) } else { (a + 1, a) };
             for k in 1..3 {
-                assert_eq!(values.irradiance[a + k], values.irradiance[a]);
-                assert_eq!(values.coverage[a + k], values.coverage[a]);
+                assert_eq!(values.irradiance[lead + k], values.irradiance[lead]);
+                assert_eq!(values.coverage[lead + k], values.coverage[lead]);
+                assert_eq!(values.dir(lead + k), values.dir(lead));
             }
-            // Material 1's sample is valued from material 1's records only: near 5 − x,
-            // far from material 0's 1 + x.
-            let own = values.irradiance[a + 3].x;
-            let x = eye.position[a + 3].x;
-            assert!((own - (5.0 - x)).abs() < 0.2, "pixel {p}: {own} at x {x}");
-            assert!((values.irradiance[a].x - (1.0 + x)).abs() < 0.2);
+            if left {
+                assert!(values.coverage[lead + 2] > 0, "pixel {p}");
+            } else {
+                assert!(values.coverage[m1] > 0, "pixel {p}");
+                right_group_by_world_or_own += (values.coverage[lead] == 0) as usize;
+            }
+            let x = eye.position[a].x;
+            assert!(
+                (values.irradiance[m1].x - (5.0 - x)).abs() < 0.2,
+                "pixel {p}"
+            );
+            assert!(
+                (values.irradiance[lead].x - (1.0 + x)).abs() < 0.2,
+                "pixel {p}"
+            );
+            // The chained sample, on the group's target, takes the chained records' 3.
+            assert!((values.irradiance[a + 4].x - 3.0).abs() < 1e-4, "pixel {p}");
+            for i in a..a + 5 {
+                match values.dir(i) {
+                    Some(d) => {
+                        let e = values.irradiance[i].x;
+                        for (k, v) in d.iter().enumerate() {
+                            let want = (k + 1) as f32 * e;
+                            assert!(
+                                (v - want).abs() <= 1e-4 * want.abs().max(1.0),
+                                "sample {i}: {v} vs {want}"
+                            );
+                        }
+                    }
+                    None => assert!(!eye.lobe_in_map(i)),
+                }
+            }
         }
-    }
-
-    fn tilted_cos(deg: f32) -> f32 {
-        deg.to_radians().cos()
+        // Most of the right half's groups were valued by the world lookup or on their own.
+        assert!(right_group_by_world_or_own > (w * h / 4) as usize);
     }
 }

@@ -45,7 +45,8 @@ impl RadianceMap {
     /// Fold slot accumulators (summed over `batches` light passes) into pixels. Per eye sample,
     /// L = weight · (kd/π · E + L_glossy), E the batch-averaged splatted irradiance (eq. 6) at
     /// its splat target and L_glossy the lobe integrated against the target's directional
-    /// record (§8.1). `target_slot` maps splat targets to slots.
+    /// record (§8.1). `target_slot` maps splat targets to slots. Rows of pixels run in
+    /// parallel: `eye`'s samples must be in pixel order (as every eye pass makes them).
     pub fn resolve_from(
         &mut self,
         scene: &Scene,
@@ -115,12 +116,16 @@ impl RadianceMap {
     }
 }
 
-/// Where each row of a `width` × `height` image's eye samples begins (samples are in pixel
-/// order), and one past the last row's.
+/// Where each row of a `width` × `height` image's eye samples begins, and one past the last
+/// row's. The resolves run row-parallel on this: the samples must be in pixel order and
+/// inside the image, as every eye pass makes them.
 fn sample_rows(eye: &EyeSamples, width: usize, height: usize) -> Vec<usize> {
-    (0..=height)
+    debug_assert!(eye.pixel.is_sorted(), "eye samples out of pixel order");
+    let rows: Vec<usize> = (0..=height)
         .map(|y| eye.pixel.partition_point(|&p| (p as usize) < y * width))
-        .collect()
+        .collect();
+    debug_assert_eq!(rows[height], eye.len(), "eye samples outside the image");
+    rows
 }
 
 /// Add the radiance of slot accumulators (summed over `batches` light passes) to the pixels
@@ -194,7 +199,8 @@ impl RadianceMap {
     /// Fold interpolated cache values (§8.3; already batch-averaged) into pixels, through each
     /// eye sample's BSDF as [`RadianceMap::resolve_from`] does, replacing the map's radiance,
     /// or adding to it with `add` (rc's interpolated light onto its splatted caustics).
-    /// SplatInfo is left as it was.
+    /// SplatInfo is left as it was. `eye`'s samples must be in pixel order, as for
+    /// [`RadianceMap::resolve_from`].
     pub fn resolve_interpolated(
         &mut self,
         scene: &Scene,
