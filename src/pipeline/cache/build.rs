@@ -2,8 +2,9 @@
 
 use super::interpolate::{interpolate_records, lead_of, set_value};
 use super::{
-    Cache, CacheParams, Compatibility, LEVELS, MAX_RADIUS_PX, MIN_RADIUS_PX, PixelGeometry, Record,
-    RecordValue, add_coverage, normal_tolerance, rows_of, tent,
+    Cache, CacheParams, Compatibility, FirstPoint, LEVELS, MAX_RADIUS_PX, MIN_RADIUS_PX,
+    PixelGeometry, Record, RecordValue, add_coverage, first_points, normal_tolerance, rows_of,
+    tent,
 };
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::EyeSamples;
@@ -70,6 +71,10 @@ pub fn build(
         .filter(|&primary| geo.first_of(primary).iter().any(|&s| s != u32::MAX))
         .collect();
     let mut coverage: Vec<Vec<u32>> = kinds.iter().map(|_| vec![0; geo.first.len()]).collect();
+    let points: Vec<Vec<FirstPoint>> = kinds
+        .iter()
+        .map(|&primary| first_points(eye, geo, primary))
+        .collect();
     for (pass, &s) in LEVELS.iter().enumerate() {
         let mut new_samples = Vec::new();
         for (&primary, cov) in kinds.iter().zip(&coverage) {
@@ -90,8 +95,8 @@ pub fn build(
         }
         cache.per_pass.push(new_samples.len());
         // Only the new records' discs are added to the coverage.
-        for (&primary, cov) in kinds.iter().zip(&mut coverage) {
-            add_coverage(&cache.records[from..], eye, geo, primary, cov);
+        for ((&primary, cov), points) in kinds.iter().zip(&mut coverage).zip(&points) {
+            add_coverage(&cache.records[from..], points, geo, primary, cov);
         }
     }
     // The pixels each kind's records leave short grow the nearest records; those still short

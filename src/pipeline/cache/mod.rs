@@ -327,11 +327,27 @@ fn rows_of(records: &[Record], height: u32, kind: Option<bool>) -> Vec<Vec<u32>>
     rows
 }
 
+/// A pixel's first eye sample of one kind, decoded once for the coverage counts: material,
+/// position and normal; None where the pixel has none.
+type FirstPoint = Option<(u32, Vec3, Vec3)>;
+
+/// The [`FirstPoint`] of every pixel for one kind.
+fn first_points(eye: &EyeSamples, geo: &PixelGeometry, primary: bool) -> Vec<FirstPoint> {
+    geo.first_of(primary)
+        .par_iter()
+        .map(|&s| {
+            let i = s as usize;
+            (s != u32::MAX).then(|| (eye.material[i], eye.position[i], eye.normal[i].get()))
+        })
+        .collect()
+}
+
 /// Add to `cov` the count of compatible `records` covering every pixel's first eye sample of
-/// one kind; records of the other kind are skipped without a look at their discs.
+/// one kind (`points`, [`first_points`]); records of the other kind are skipped without a
+/// look at their discs.
 fn add_coverage(
     records: &[Record],
-    eye: &EyeSamples,
+    points: &[FirstPoint],
     geo: &PixelGeometry,
     primary: bool,
     cov: &mut [u32],
@@ -339,7 +355,6 @@ fn add_coverage(
     if records.is_empty() {
         return;
     }
-    let first = geo.first_of(primary);
     let rows = rows_of(records, geo.height, Some(primary));
     let w = geo.width as usize;
     cov.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
@@ -348,10 +363,12 @@ fn add_coverage(
             let Some((x0, x1)) = span(r, y as u32, w) else {
                 continue;
             };
-            let row = &first[y * w..(y + 1) * w];
+            let row = &points[y * w..(y + 1) * w];
             let test = Compatibility::of(r);
-            for (c, &s) in out[x0..=x1].iter_mut().zip(&row[x0..=x1]) {
-                if s != u32::MAX && test.accepts(eye, s as usize) {
+            for (c, point) in out[x0..=x1].iter_mut().zip(&row[x0..=x1]) {
+                if let Some((m, p, n)) = *point
+                    && test.accepts_point(primary, m, p, n)
+                {
                     *c += 1;
                 }
             }
