@@ -8,6 +8,7 @@ use super::{
 };
 use crate::pack::Oct;
 use glam::{Vec3, Vec3A};
+use rayon::prelude::*;
 
 impl SplatTree {
     /// Build over splat-target `positions` and `normals`. Cells stop splitting below
@@ -38,23 +39,45 @@ impl SplatTree {
             subtree_max,
         };
         b.build(0, n, min, max, false, false, 0);
+        // Each leaf's samples grouped into compact chunks of LANES, with the chunks' and the
+        // leaf's bounding spheres, in parallel: the leaves' ranges of `order` are disjoint and
+        // in order (depth first), and they cover it.
+        let mut slices: Vec<&mut [u32]> = Vec::with_capacity(b.leaves.len());
+        let mut rest = &mut b.order[..];
+        let mut at = 0;
+        for leaf in &b.leaves {
+            let lo = leaf.first as usize;
+            debug_assert!(lo >= at, "leaves out of order");
+            let (_, tail) = std::mem::take(&mut rest).split_at_mut(lo - at);
+            let (mine, tail) = tail.split_at_mut(leaf.count as usize);
+            slices.push(mine);
+            rest = tail;
+            at = lo + leaf.count as usize;
+        }
+        let grouped: Vec<(Vec<Chunk>, Chunk)> = slices
+            .into_par_iter()
+            .map(|idx| {
+                median_groups(idx, positions);
+                let chunks = idx
+                    .chunks(LANES)
+                    .map(|g| bounding_sphere(g, positions))
+                    .collect();
+                (chunks, bounding_sphere(idx, positions))
+            })
+            .collect();
         // Lay the leaves out in slots, each padded to a multiple of LANES.
         let mut points = Points::default();
         let mut slot_target = Vec::with_capacity(n + n / 2);
         let mut chunks = Vec::with_capacity(n / LANES + b.leaves.len());
-        for leaf in &mut b.leaves {
+        for (leaf, (leaf_chunks, sphere)) in b.leaves.iter_mut().zip(grouped) {
             let lo = leaf.first as usize;
             let cnt = leaf.count as usize;
-            median_groups(&mut b.order[lo..lo + cnt], positions);
-            for group in b.order[lo..lo + cnt].chunks(LANES) {
-                chunks.push(bounding_sphere(group, positions));
-            }
+            chunks.extend(leaf_chunks);
             leaf.first = slot_target.len() as u32;
             for &i in &b.order[lo..lo + cnt] {
                 points.push(positions[i as usize], normals[i as usize]);
                 slot_target.push(i);
             }
-            let sphere = bounding_sphere(&b.order[lo..lo + cnt], positions);
             leaf.center = sphere.center;
             leaf.radius = sphere.radius;
             let pad_pos = positions[b.order[lo] as usize];
