@@ -436,6 +436,17 @@ mod tests {
         }
     }
 
+    /// The cache `build` makes in diffuse mode (its values set aside).
+    fn diffuse_cache(
+        eye: &EyeSamples,
+        geo: &PixelGeometry,
+        camera: &Camera,
+        params: &CacheParams,
+        evaluate: impl FnMut(&[u32]) -> Vec<RecordValue>,
+    ) -> Cache {
+        build(eye, geo, camera, params, DirectionalMode::Diffuse, evaluate).0
+    }
+
     #[test]
     fn every_pixel_is_covered_and_constant_light_interpolates_exactly() {
         let (eye, camera) = plane_samples(64, 48);
@@ -445,14 +456,7 @@ mod tests {
                 error: 0.5,
                 min_records: min,
             };
-            let (cache, _) = build(
-                &eye,
-                &geo,
-                &camera,
-                &params,
-                DirectionalMode::Diffuse,
-                constant(0.5),
-            );
+            let cache = diffuse_cache(&eye, &geo, &camera, &params, constant(0.5));
             let it = interpolate(&cache, &eye, &geo, DirectionalMode::Diffuse);
             assert!(
                 it.coverage.iter().all(|&c| c >= min),
@@ -480,22 +484,15 @@ mod tests {
         // A step in x: a record serving across it from beyond its reach shows at once.
         let light = |p: Vec3| Vec3::splat(if p.x < 0.0 { 1.0 } else { 1000.0 });
         let params = CacheParams::default();
-        let (cache, _) = build(
-            &eye,
-            &geo,
-            &camera,
-            &params,
-            DirectionalMode::Diffuse,
-            |s| {
-                s.iter()
-                    .map(|&i| RecordValue {
-                        irradiance: light(eye.position[i as usize]),
-                        harmonic_distance: 0.5,
-                        directional: Vec::new(),
-                    })
-                    .collect()
-            },
-        );
+        let cache = diffuse_cache(&eye, &geo, &camera, &params, |s| {
+            s.iter()
+                .map(|&i| RecordValue {
+                    irradiance: light(eye.position[i as usize]),
+                    harmonic_distance: 0.5,
+                    directional: Vec::new(),
+                })
+                .collect()
+        });
         assert!(!cache.records.is_empty());
         assert!(cache.records.iter().all(|r| !r.primary));
         let reach = cache
@@ -581,17 +578,9 @@ mod tests {
                 error: eps,
                 min_records: 4,
             };
-            let n = build(
-                &eye,
-                &geo,
-                &camera,
-                &params,
-                DirectionalMode::Diffuse,
-                constant(1.0),
-            )
-            .0
-            .records
-            .len();
+            let n = diffuse_cache(&eye, &geo, &camera, &params, constant(1.0))
+                .records
+                .len();
             assert!(
                 n >= last,
                 "ε = {eps}: {n} records, fewer than {last} at the larger ε"
