@@ -178,6 +178,9 @@ pub fn build(
         of_lead(&cache.from_world, &followers),
         of_lead(&cache.own, &followers),
     );
+    // A follower is uncovered only with its lead (coverage is shared), so every lead is in
+    // one of the lists.
+    debug_assert_eq!(world.len() + own.len(), followers.len());
     cache.from_world.extend(world);
     cache.own.extend(own);
     for (i, v) in cache.own.iter().chain(&cache.from_world) {

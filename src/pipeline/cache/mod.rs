@@ -596,12 +596,16 @@ mod tests {
     /// other kind on the same target, is valued apart. Per pixel: a glossy material-0 group of
     /// three (the third's shading normal 12° off, within the merge's 15° but beyond what a
     /// record of ε = 0.1 accepts), a matte material-1 sample, and a chained material-0 sample
-    /// on the group's target (on a plane farther away). In the left half the group comes first (its records cover it);
-    /// in the right half the material-1 sample does, so records there are material 1's and the
-    /// group falls to the world lookup or to its own value. SH records hold (k+1)·E.x, so the
-    /// directional floats must come out as (k+1) times the sample's E.x. `build`'s values are
-    /// `interpolate`'s of its cache (the world and own values written alike). Fails when every
-    /// sample is its own lead (the tilted one's coverage, or its value in the right half).
+    /// on the group's target (on a plane farther away). In the left half the group comes first
+    /// (its records cover it), and a chained pair lies on the near plane, where no chained
+    /// record serves it: its lead takes the group's record from the world lookup where its
+    /// pixel has one, and its follower (10⁻³ aside, 12° off: refused by that record on its
+    /// own) takes the lead's value. In the right half the material-1 sample comes first, so
+    /// records there are material 1's and the group falls to the world lookup or to its own
+    /// value. SH records hold (k+1)·E.x, so the directional floats must come out as (k+1)
+    /// times the sample's E.x. `build`'s values are `interpolate`'s of its cache (the world
+    /// and own values written alike). Fails when every sample is its own lead, when the kind
+    /// leaves the key, and when followers are looked up in world space on their own.
     #[test]
     fn merged_samples_share_their_leads_value() {
         let (w, h) = (48u32, 32u32);
@@ -657,7 +661,23 @@ mod tests {
                 }
             }
             eye.push_sample(&chained, g);
-            target += 2;
+            // In the left half, a chained pair on the near plane where the group's first
+            // sample lies: no chained record serves it there (those are on the far plane),
+            // but in the pixels with a record of the group, the world lookup finds it.
+            if one.pixel[i] % w < w / 2 {
+                let near = EyeSample {
+                    primary: false,
+                    ..group(0)
+                };
+                // Its follower 10⁻³ aside and 12° off: valued apart, it would be refused
+                // by the record and splatted on its own (1 + x, not the record's value).
+                let mut follower = near;
+                follower.position.x += 1e-3;
+                follower.normal = tilted;
+                eye.push_sample(&near, target + 2);
+                eye.push_sample(&follower, target + 2);
+            }
+            target += 3;
         }
         let geo = PixelGeometry::new(&eye, w, h);
         let light = |i: usize| {
@@ -696,6 +716,9 @@ mod tests {
         assert_eq!(values.coverage, again.coverage);
         assert_eq!(values.directional, again.directional);
         let mut right_group_by_world_or_own = 0;
+        let from_world: std::collections::HashSet<u32> =
+            cache.from_world.iter().map(|(i, _)| *i).collect();
+        let mut near_pair_from_world = 0;
         for p in 0..(w * h) as usize {
             let a = geo.start[p] as usize;
             let left = p as u32 % w < w / 2;
@@ -707,6 +730,12 @@ mod tests {
             }
             if left {
                 assert!(values.coverage[lead + 2] > 0, "pixel {p}");
+                // The near chained pair: uncovered, the follower as its lead.
+                let (l, f) = (a + 5, a + 6);
+                assert_eq!(values.coverage[l], 0);
+                assert_eq!(values.irradiance[f], values.irradiance[l]);
+                assert_eq!(values.dir(f), values.dir(l));
+                near_pair_from_world += from_world.contains(&(f as u32)) as usize;
             } else {
                 assert!(values.coverage[m1] > 0, "pixel {p}");
                 right_group_by_world_or_own += (values.coverage[lead] == 0) as usize;
@@ -722,7 +751,7 @@ mod tests {
             );
             // The chained sample, on the group's target, takes the chained records' 3.
             assert!((values.irradiance[a + 4].x - 3.0).abs() < 1e-4, "pixel {p}");
-            for i in a..a + 5 {
+            for i in a..geo.start[p + 1] as usize {
                 match values.dir(i) {
                     Some(d) => {
                         let e = values.irradiance[i].x;
@@ -738,7 +767,9 @@ mod tests {
                 }
             }
         }
-        // Most of the right half's groups were valued by the world lookup or on their own.
+        // Most of the right half's groups were valued by the world lookup or on their own, and
+        // some near pairs' followers took their lead's value from the world lookup.
         assert!(right_group_by_world_or_own > (w * h / 4) as usize);
+        assert!(near_pair_from_world > 0);
     }
 }
