@@ -511,18 +511,21 @@ fn collect_bands(
 }
 
 /// Give the samples of one pixel their splat targets: a new target per sample, or, when
-/// merging, the first earlier target of the pixel on the same material with a normal within
+/// merging, the first earlier target of the pixel on the same material, glossy in the map
+/// alike (a target's directional record serves all its samples or none), with a normal within
 /// 15° and a position within a few pixel footprints.
 fn assign_targets(px: &mut [RawSample], targets: &mut SplatTargets, merge: bool, pixel_angle: f32) {
     let base = targets.len();
     for i in 0..px.len() {
         let reach = MERGE_FOOTPRINTS * pixel_angle * px[i].path_length;
         let s = px[i].sample;
+        let glossy = s.specular != Vec3::ZERO && !s.lobe_traced;
         let found = if merge {
             px[..i].iter().find(|o| {
                 let t = o.target as usize;
                 t >= base
                     && o.sample.material == s.material
+                    && targets.glossy[t] == glossy
                     && targets.normal[t].dot(s.normal) >= MERGE_COS
                     && targets.position[t].distance_squared(s.position) <= reach * reach
             })
@@ -535,9 +538,7 @@ fn assign_targets(px: &mut [RawSample], targets: &mut SplatTargets, merge: bool,
                 targets.position.push(s.position);
                 targets.normal.push(s.normal);
                 targets.geo_normal.push(s.geo_normal);
-                targets
-                    .glossy
-                    .push(s.specular != Vec3::ZERO && !s.lobe_traced);
+                targets.glossy.push(glossy);
                 (targets.len() - 1) as u32
             }
         };
@@ -826,4 +827,47 @@ fn sample_traced_lobe(
         return None;
     }
     Some((d, ks * ((exponent + 2.0) / (exponent + 1.0) * cos / p)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A glossy sample on a plane facing +z at the origin, its lobe traced or not.
+    fn raw(lobe_traced: bool) -> RawSample {
+        RawSample {
+            sample: EyeSample {
+                position: Vec3::ZERO,
+                normal: Vec3::Z,
+                geo_normal: Vec3::Z,
+                offset: 0.0,
+                wo: Vec3::Z,
+                material: 0,
+                pixel: 0,
+                weight: Vec3::ONE,
+                albedo: Vec3::splat(0.5),
+                specular: Vec3::splat(0.3),
+                primary: true,
+                lobe_traced,
+            },
+            path_length: 1.0,
+            target: 0,
+        }
+    }
+
+    /// Samples on one spot of one material merge, but not a traced lobe's with an untraced
+    /// one's (a max-depth sample the eye path did not continue): the target's directional
+    /// record must serve all its samples or none.
+    #[test]
+    fn merged_samples_are_glossy_in_the_map_alike() {
+        let mut px = vec![raw(false), raw(true), raw(false), raw(true)];
+        let mut targets = SplatTargets::default();
+        assign_targets(&mut px, &mut targets, true, 0.01);
+        assert_eq!(targets.len(), 2);
+        assert_eq!(px[0].target, px[2].target);
+        assert_eq!(px[1].target, px[3].target);
+        assert_ne!(px[0].target, px[1].target);
+        assert!(targets.glossy[px[0].target as usize]);
+        assert!(!targets.glossy[px[1].target as usize]);
+    }
 }
