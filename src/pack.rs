@@ -153,6 +153,7 @@ impl Bound16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampling::{Rng, uniform_sphere};
 
     #[test]
     fn bounds_round_up_within_one_f16_step() {
@@ -169,7 +170,6 @@ mod tests {
         assert_eq!(Bound16::new(-1.0).get(), 0.0);
         assert_eq!(Bound16::new(1e9).get(), 65504.0);
     }
-    use crate::sampling::{Rng, uniform_sphere};
 
     #[test]
     fn unit_vectors_survive_within_1e_4_rad() {

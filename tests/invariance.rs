@@ -125,8 +125,14 @@ fn radiance_caching_does_not_depend_on_the_unit_of_length() {
     let f = render(&scene, MethodKind::Rc, &settings, 0);
     let (m, d) = (mean(&f), rel_mse(&f.indirect, &film.indirect));
     eprintln!("black ground: mean {m:.5} vs {m0:.5}, indirect relMSE {d:.6}");
-    assert!((m / m0 - 1.0).abs() < 0.01, "black ground: mean {m} against {m0}");
-    assert!(d < 5e-4, "black ground: indirect relMSE {d} against the original's");
+    assert!(
+        (m / m0 - 1.0).abs() < 0.01,
+        "black ground: mean {m} against {m0}"
+    );
+    assert!(
+        d < 5e-4,
+        "black ground: indirect relMSE {d} against the original's"
+    );
 }
 
 /// Irradiance from a Lambertian rectangle of radiance `le`, parallel to the receiver at

@@ -54,10 +54,11 @@ impl TracedLobes {
         }
     }
 
-    /// The sums' entry of `pixel`, if it has a traced lobe.
+    /// The sums' entry of `pixel` among `pixels` (a [`TracedLobes::pixels`]), if it has a
+    /// traced lobe.
     #[inline]
-    fn entry(&self, pixel: u32) -> Option<usize> {
-        self.pixels.binary_search(&pixel).ok()
+    fn entry(pixels: &[u32], pixel: u32) -> Option<usize> {
+        pixels.binary_search(&pixel).ok()
     }
 
     /// Forget the sums (before a re-splat); the next draws are still new directions.
@@ -147,7 +148,7 @@ impl TracedLobes {
         };
         self.invalid += invalid;
         for (i, l) in nee.iter().enumerate() {
-            if let Some(e) = self.entry(samples.pixel[i]) {
+            if let Some(e) = Self::entry(&self.pixels, samples.pixel[i]) {
                 self.direct[e] += samples.weight[i].get() * *l;
             }
         }
@@ -170,7 +171,7 @@ impl TracedLobes {
         let target_slot = &batch.tree.target_slot;
         let pixels = &self.pixels;
         let samples = &batch.samples;
-        let at = |i: usize| pixels.binary_search(&samples.pixel[i]).ok();
+        let at = |i: usize| Self::entry(pixels, samples.pixel[i]);
         for (acc, sums) in [
             (&batch.indirect, &mut self.indirect),
             (&batch.direct, &mut self.direct),

@@ -23,7 +23,7 @@ use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::filter::filter_samples;
 use crate::pipeline::photon::{Bandwidth, BandwidthParams, PhotonRay, plan_light_pass};
 use crate::pipeline::photon_map::PmStats;
-use crate::pipeline::radiance_map::{Interpolated, RadianceMap, add_radiance};
+use crate::pipeline::radiance_map::{Interpolated, RadianceMap, add_radiance_at};
 use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, MethodKind, RenderSettings};
@@ -523,8 +523,8 @@ impl Progressive {
     }
 
     /// Resolve `map` again from per-sample incident light: `cached` (the cache's values,
-    /// [`crate::pipeline::cache::build`]), or else the accumulators' own values over `batches`, filtered in image space
-    /// when the filter is on (§8.2), with the splat statistics of `map` when `splat_stats`
+    /// [`crate::pipeline::cache::build`]), or else the accumulators' own values over
+    /// `batches`, filtered in image space when the filter is on (§8.2), with the splat statistics of `map` when `splat_stats`
     /// (none exist at interpolated samples: the filter then takes its default radius). The
     /// light replaces the map's, or is added to it with `add`.
     pub fn resolve_samples(
@@ -583,13 +583,14 @@ impl Progressive {
             film.direct.copy_from_slice(&side.direct);
         }
         if direct_photons {
-            film.invalid_contributions += add_radiance(
+            film.invalid_contributions += add_radiance_at(
                 &self.scene,
                 &side.eye,
                 &side.tree.target_slot,
                 &side.acc_direct,
                 batches,
                 &mut film.direct,
+                |i| Some(side.eye.pixel[i] as usize),
             );
         }
         film.invalid_contributions +=

@@ -128,26 +128,12 @@ fn sample_rows(eye: &EyeSamples, width: usize, height: usize) -> Vec<usize> {
     rows
 }
 
-/// Add the radiance of slot accumulators (summed over `batches` light passes) to the pixels
-/// `out`, as [`RadianceMap::resolve_from`] folds it, without the splat statistics (for direct
-/// photons, added onto the film's direct light in place); returns the contributions dropped
-/// as NaN or infinite.
-pub fn add_radiance(
-    scene: &Scene,
-    eye: &EyeSamples,
-    target_slot: &[u32],
-    acc: &Accumulators,
-    batches: u32,
-    out: &mut [Vec3],
-) -> u64 {
-    add_radiance_at(scene, eye, target_slot, acc, batches, out, |i| {
-        Some(eye.pixel[i] as usize)
-    })
-}
-
-/// [`add_radiance`] into `out[at(i)]` for eye sample `i` (None: not added), for sums that are
-/// not one per pixel ([`crate::methods::lobes::TracedLobes`] keeps them for the pixels with a
-/// traced lobe only).
+/// Add the radiance of slot accumulators (summed over `batches` light passes) to
+/// `out[at(i)]` for eye sample `i` (None: not added), as [`RadianceMap::resolve_from`] folds
+/// it, without the splat statistics: direct photons added onto the film's direct light in
+/// place (`at` the sample's pixel), or sums that are not one per pixel
+/// ([`crate::methods::lobes::TracedLobes`] keeps them for the pixels with a traced lobe
+/// only). Returns the contributions dropped as NaN or infinite.
 pub fn add_radiance_at(
     scene: &Scene,
     eye: &EyeSamples,

@@ -18,7 +18,7 @@ mod accumulators;
 mod map;
 
 pub use accumulators::{AccView, AccumChunk, Accumulators};
-pub use map::{RadianceMap, SplatInfo, add_radiance, add_radiance_at};
+pub use map::{RadianceMap, SplatInfo, add_radiance_at};
 
 use crate::pipeline::eye::EyeSamples;
 use glam::Vec3;
@@ -70,13 +70,7 @@ impl Interpolated {
     /// Zeroed values for `eye`, with directional room for its glossy samples.
     pub fn zeroed(eye: &EyeSamples, floats: usize) -> Self {
         let n = eye.len();
-        // Filled in parallel: the first touch of fresh pages is most of the cost.
-        let filled = |v: u32| {
-            let mut out = Vec::with_capacity(n);
-            out.par_extend(rayon::iter::repeat_n(v, n));
-            out
-        };
-        let mut glossy_index = filled(u32::MAX);
+        let mut glossy_index = filled(u32::MAX, n);
         let mut glossy = 0u32;
         if floats > 0 {
             for (i, g) in glossy_index.iter_mut().enumerate() {
@@ -86,14 +80,12 @@ impl Interpolated {
                 }
             }
         }
-        let mut irradiance = Vec::with_capacity(n);
-        irradiance.par_extend(rayon::iter::repeat_n(Vec3::ZERO, n));
         Self {
-            irradiance,
+            irradiance: filled(Vec3::ZERO, n),
             glossy_index,
             directional: vec![0.0; glossy as usize * floats],
             floats,
-            coverage: filled(0),
+            coverage: filled(0, n),
         }
     }
 
@@ -111,4 +103,12 @@ impl Interpolated {
         let (g, f) = (self.glossy_index[i], self.floats);
         (g != u32::MAX).then(|| &mut self.directional[g as usize * f..(g as usize + 1) * f])
     }
+}
+
+/// `n` copies of `v`, written in parallel: the first touch of fresh pages is most of the cost
+/// of a per-sample array.
+fn filled<T: Copy + Send + Sync>(v: T, n: usize) -> Vec<T> {
+    let mut out = Vec::with_capacity(n);
+    out.par_extend(rayon::iter::repeat_n(v, n));
+    out
 }
