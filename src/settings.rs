@@ -384,6 +384,11 @@ pub mod limits {
         min: 0.001,
         max: 1e6,
     };
+    /// Batches (or passes) of a headless render with `--batches`.
+    pub const BATCHES: Limit<u64> = Limit {
+        min: 1,
+        max: 1_000_000,
+    };
     /// Worker threads.
     pub const THREADS: Limit<usize> = Limit { min: 1, max: 1024 };
     /// Repetitions of a benchmark row.

@@ -190,6 +190,10 @@ pub struct RunArgs {
     /// Render progressively in batches of --photons until this many seconds are spent.
     #[arg(long, allow_negative_numbers = true)]
     pub time_budget: Option<f64>,
+    /// Render exactly this many batches of --photons (passes of the path tracer, gathering
+    /// passes): a deterministic multi-batch image, where a time budget's count varies.
+    #[arg(long, conflicts_with = "time_budget")]
+    pub batches: Option<u64>,
     /// Camera by name (default: the scene's first).
     #[arg(long)]
     pub camera: Option<String>,
@@ -300,7 +304,7 @@ impl SettingsArgs {
             radiance_map: method.radiance_map,
             // With a time budget the path tracer adds one path per pixel per step, so the
             // budget bounds it; otherwise --spp paths in one step.
-            pt_spp: if self.run.time_budget.is_some() {
+            pt_spp: if self.run.time_budget.is_some() || self.run.batches.is_some() {
                 1
             } else {
                 image.spp
@@ -337,11 +341,12 @@ impl PhotonArgs {
 }
 
 impl RunArgs {
-    /// `--time-budget` seconds, or one fixed batch.
+    /// `--time-budget` seconds, `--batches` units of work, or one fixed batch.
     pub fn budget(&self) -> Budget {
-        match self.time_budget {
-            Some(b) => Budget::Seconds(b),
-            None => Budget::Fixed,
+        match (self.time_budget, self.batches) {
+            (Some(b), _) => Budget::Seconds(b),
+            (None, Some(n)) => Budget::Passes(n),
+            (None, None) => Budget::Fixed,
         }
     }
 }

@@ -155,6 +155,7 @@ fn with_ranges(mut cmd: clap::Command) -> clap::Command {
             let c = ranged(c, "min_records", MIN_RECORDS);
             let c = ranged(c, "filter_strength", FILTER_STRENGTH);
             let c = ranged(c, "time_budget", TIME_BUDGET);
+            let c = ranged(c, "batches", BATCHES);
             let c = ranged(c, "threads", THREADS);
             let c = ranged(c, "runs", RUNS);
             let c = ranged(c, "ref_spp", PT_SPP);
