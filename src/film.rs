@@ -1,6 +1,9 @@
 //! Images: the film (linear RGB plus AOVs), tone mapping, false colour, and EXR/PNG writing.
 //! Every file is written to a temporary name in the same folder and renamed into place, so a
 //! failed or interrupted write never leaves a partial file under the final name.
+//!
+//! What the previewer shows (view modes and tone curves, as RGBA8) is in [`display`], error
+//! measures against a reference in [`error`].
 
 pub mod display;
 pub mod error;
@@ -39,9 +42,9 @@ pub struct Film {
     /// Splat statistics per pixel: mean bandwidth (m), kernel weight, harmonic mean distance
     /// of incident photon rays (m) and splats per batch; zero where nothing splatted.
     pub info: Vec<SplatInfo>,
-    /// Where the pixel's glossy reflection comes from (issue 13): the share of its eye-sample
-    /// weight on glossy samples whose lobe went through the radiance map (`[0]`) and on those
-    /// whose lobe the eye path traced (`[1]`); both 0 where nothing glossy is seen.
+    /// Where the pixel's glossy reflection comes from (docs/deviations.md §38): the share of its
+    /// eye-sample weight on glossy samples whose lobe went through the radiance map (`[0]`) and on
+    /// those whose lobe the eye path traced (`[1]`); both 0 where nothing glossy is seen.
     pub glossy_source: Vec<[f32; 2]>,
     /// Contributions dropped on the way to this film because they were NaN or infinite
     /// (photon rays, light samples, eye-sample resolves, pixels), like Mitsuba's

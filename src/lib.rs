@@ -3,7 +3,7 @@
 //! The crate is layered; each layer imports only the ones above it in this list
 //! (docs/architecture.md has the table, and `tests/layering.rs` enforces it):
 //!
-//! 1. foundation: [`choice`], [`sampling`], [`bsdf`], [`scene`], [`film`]
+//! 1. foundation: [`choice`], [`sampling`], [`pack`], [`bsdf`], [`scene`], [`film`]
 //! 2. [`pipeline`]: the paper's stages (eye pass, splat tree, light pass, splatting, radiance
 //!    map, directional records, cache, filter, direct light, photon maps)
 //! 3. [`settings`]: every render setting and the one table of limits

@@ -1,4 +1,4 @@
-//! Compact storage for the per-eye-sample arrays (issue 16, docs/benchmarks.md "Memory"):
+//! Compact storage for the per-eye-sample arrays (docs/benchmarks.md, "Memory"):
 //! unit vectors in 32 bits (octahedral, 16 bits per coordinate) and RGB in three f16.
 
 use glam::{Vec3, Vec3A};

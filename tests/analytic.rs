@@ -6,7 +6,8 @@ mod common;
 use glam::Vec3;
 use raysplat::choice::Choice;
 use raysplat::methods::Method;
-use raysplat::methods::rs::RaySplatting;
+use raysplat::methods::rs::RsResolver;
+use raysplat::methods::testing::{self, run_batch};
 use raysplat::pipeline::directional::DirectionalMode;
 use raysplat::pipeline::photon::{
     ClassBudgets, D_TILDE_FRACTION, LightPassSettings, PathUnits, PhotonClass, light_pass,
@@ -44,12 +45,12 @@ fn point_light_rings(
         },
         ..RenderSettings::default()
     };
-    let mut r = RaySplatting::open(scene, settings).unwrap();
-    r.run_batch();
-    let e = r.target_irradiance(true);
+    let mut r = testing::open::<RsResolver>(scene, settings).unwrap();
+    run_batch(&mut r);
+    let e = testing::target_irradiance(&r, true);
     let light = Vec3::new(0.0, height, 0.0);
     let mut out = vec![(0.0f64, 0.0f64, 0usize); rings];
-    for (p, e) in r.target_positions().iter().zip(&e) {
+    for (p, e) in testing::target_positions(&r).iter().zip(&e) {
         let ring = ((p.x * p.x + p.z * p.z).sqrt() / ring_width) as usize;
         if ring < rings {
             let d = light - *p;
@@ -63,7 +64,7 @@ fn point_light_rings(
 
 /// Splatted direct photons on a diffuse plane reproduce E = I·cos θ / d² (§4, eq. 5).
 ///
-/// Tolerance 3% (the issue's): with 10⁶ photons each ring below averages well over 10⁴
+/// Tolerance 3%: with 10⁶ photons each ring below averages well over 10⁴
 /// photon splats (statistical error < 1%); the kernel blur of the smooth 1/d³ falloff adds
 /// < 0.5%, in the region tested ("away from the edges", below 22° incidence).
 #[test]
@@ -380,7 +381,7 @@ fn same_seed_same_image_on_any_thread_count() {
             .build()
             .unwrap();
         pool.install(|| {
-            let mut r = RaySplatting::open(
+            let mut r = testing::open::<RsResolver>(
                 scene.clone(),
                 RenderSettings {
                     direct,
@@ -389,8 +390,8 @@ fn same_seed_same_image_on_any_thread_count() {
                 },
             )
             .unwrap();
-            r.run_batch();
-            r.run_batch();
+            run_batch(&mut r);
+            run_batch(&mut r);
             r.film().rgb
         })
     };
@@ -413,12 +414,12 @@ fn same_seed_same_image_on_any_thread_count() {
 #[test]
 fn resplat_uses_stored_rays() {
     let scene = Arc::new(Scene::default_scene());
-    let mut r = RaySplatting::open(scene, small_settings()).unwrap();
-    r.run_batch();
+    let mut r = testing::open::<RsResolver>(scene, small_settings()).unwrap();
+    run_batch(&mut r);
     let before = r.film();
-    let traced = r.core.store.photons_traced;
-    let params = r.core.settings.bandwidth;
-    r.resplat(params);
+    let traced = r.stats().photons_traced;
+    let params = r.settings().bandwidth;
+    testing::resplat(&mut r, params);
     let again = r.film();
     let (mut same, mut lobes) = (0, 0);
     for (i, src) in before.glossy_source.iter().enumerate() {
@@ -434,13 +435,16 @@ fn resplat_uses_stored_rays() {
     }
     assert!(lobes > 0 && same > 10 * lobes, "{lobes} traced, {same} not");
     let before = before.rgb;
-    r.resplat(raysplat::pipeline::photon::BandwidthParams {
-        smoothness_c: 0.5,
-        ..params
-    });
+    testing::resplat(
+        &mut r,
+        raysplat::pipeline::photon::BandwidthParams {
+            smoothness_c: 0.5,
+            ..params
+        },
+    );
     let after = r.film().rgb;
     assert!(after != before);
-    assert_eq!(r.core.store.photons_traced, traced);
+    assert_eq!(r.stats().photons_traced, traced);
 }
 
 /// Progressive batches: each adds its photons to M, so bandwidths shrink (h ∝ M^(−1/6)) and the
@@ -458,7 +462,7 @@ fn progressive_batches_converge() {
         progressive_eye: false,
         ..small_settings()
     };
-    let mut reference = RaySplatting::open(
+    let mut reference = testing::open::<RsResolver>(
         scene.clone(),
         RenderSettings {
             photons: 1_000_000,
@@ -467,17 +471,17 @@ fn progressive_batches_converge() {
     )
     .unwrap();
     for _ in 0..2 {
-        reference.run_batch();
+        run_batch(&mut reference);
     }
     let reference = reference.film();
-    let mut r = RaySplatting::open(scene, small_settings()).unwrap();
-    r.run_batch();
+    let mut r = testing::open::<RsResolver>(scene, small_settings()).unwrap();
+    run_batch(&mut r);
     let one = raysplat::film::rel_mse(&r.film().indirect, &reference.indirect);
     for _ in 0..7 {
-        r.run_batch();
+        run_batch(&mut r);
     }
     let eight = raysplat::film::rel_mse(&r.film().indirect, &reference.indirect);
-    assert_eq!(r.batch_count(), 8);
+    assert_eq!(r.passes(), 8);
     // Measured 0.30 (0.00214 → 0.00064).
     assert!(
         eight < 0.5 * one,
@@ -490,11 +494,11 @@ fn progressive_batches_converge() {
     );
 }
 
-/// Issue 16: with progressive eye passes the whole image converges with the batches — pixel
-/// edges, NEE and the splatted light at new sample positions — where eye samples kept from
-/// the first pass stay at one draw of anti-aliasing and NEE forever. Against 512 paths, after
-/// 24 batches the progressive image's relMSE is at most half the fixed one's; one batch is the
-/// same image either way (the first pass draws from the settings' seed).
+/// docs/deviations.md §41: with progressive eye passes the whole image converges with the batches —
+/// pixel edges, NEE and the splatted light at new sample positions — where eye samples kept from
+/// the first pass stay at one draw of anti-aliasing and NEE forever. Against 512 paths, after 24
+/// batches the progressive image's relMSE is at most half the fixed one's; one batch is the same
+/// image either way (the first pass draws from the settings' seed).
 #[test]
 fn eye_passes_make_the_whole_image_converge() {
     let scene = Arc::new(Scene::default_scene());
@@ -508,7 +512,7 @@ fn eye_passes_make_the_whole_image_converge() {
     };
     let reference = common::path_traced(&scene, &base, 512).rgb;
     let run = |progressive_eye: bool, batches: usize| {
-        let mut r = RaySplatting::open(
+        let mut r = testing::open::<RsResolver>(
             scene.clone(),
             RenderSettings {
                 progressive_eye,
@@ -517,9 +521,9 @@ fn eye_passes_make_the_whole_image_converge() {
         )
         .unwrap();
         for _ in 0..batches {
-            r.run_batch();
+            run_batch(&mut r);
         }
-        (r.film().rgb, r.core.eye_passes())
+        (r.film().rgb, r.stats().eye_passes)
     };
     let (one_fixed, _) = run(false, 1);
     let (one_prog, passes) = run(true, 1);

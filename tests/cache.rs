@@ -1,7 +1,8 @@
 //! Radiance caching (§8.3) and image-space filtering (§8.2) on whole renders.
 
 use raysplat::film::rel_mse;
-use raysplat::methods::rc::RadianceCaching;
+use raysplat::methods::rc::RcResolver;
+use raysplat::methods::testing;
 use raysplat::methods::{self, Method};
 use raysplat::pipeline::cache::{self, CacheParams, PixelGeometry};
 use raysplat::pipeline::filter::FilterParams;
@@ -68,13 +69,13 @@ fn records_grow_as_epsilon_falls_and_cover_every_sample() {
                 },
                 ..settings(MethodKind::Rc)
             };
-            let mut r = RadianceCaching::open(scene.clone(), s).unwrap();
-            r.core.run_batch();
+            let mut r = testing::open::<RcResolver>(scene.clone(), s).unwrap();
+            testing::run_batch(&mut r);
             r.film();
             let c = r.cache().expect("rc builds a cache");
-            let eye = &r.core.side.eye;
+            let eye = testing::eye_samples(&r);
             let geo = PixelGeometry::new(eye, 96, 96);
-            let values = cache::interpolate(c, eye, &geo, r.core.settings.radiance_map);
+            let values = cache::interpolate(c, eye, &geo, r.settings().radiance_map);
             let worst = geo
                 .first
                 .iter()

@@ -203,7 +203,8 @@ fn render_writes_images_and_stats() {
     let img = image::open(&png).unwrap();
     assert_eq!((img.width(), img.height()), (48, 40));
     let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
-    // The memory breakdown (issue 16): every part present, the total their sum.
+    // The memory breakdown (docs/benchmarks.md, "Memory"): every part present, the total their
+    // sum.
     let mem = &j["memory"];
     let parts = [
         "eye_samples",
@@ -363,10 +364,10 @@ fn fractions_take_three_comma_separated_numbers() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("three numbers"));
 }
 
-/// `bench`'s quality-over-time rows (issue 16): without references `--only quality` is one
-/// clean line, a missing reference says how to make it, and with three (here constant)
-/// 500×500 references a one-second run writes one row per scene and view (window and
-/// path-traced view, each with a relMSE at 1 s) and the plot as a PNG.
+/// `bench`'s quality-over-time rows (docs/benchmarks.md): without references `--only quality` is
+/// one clean line, a missing reference says how to make it, and with three (here constant) 500×500
+/// references a one-second run writes one row per scene and view (window and path-traced view, each
+/// with a relMSE at 1 s) and the plot as a PNG.
 #[test]
 fn bench_quality_rows_and_plot() {
     let dir = tmp("bench_quality");

@@ -1,4 +1,4 @@
-//! The command line a user can trust (issue 15): one test per row of the issue's table. Each
+//! The command line a user can trust: one test per promise (docs/testing.md, `cli_trust::*`). Each
 //! asserts the exit status, the one-line message, and that no input or unrelated file changed.
 
 use std::path::{Path, PathBuf};

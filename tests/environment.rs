@@ -1,5 +1,5 @@
-//! The environment light (issue 14): the open furnace, a map with one bright texel, rotation,
-//! and files without lights of their own.
+//! The environment light (docs/deviations.md, "Light from afar"): the open furnace, a map with one
+//! bright texel, rotation, and files without lights of their own.
 
 mod common;
 

@@ -75,7 +75,7 @@ fn glossy_plate_matches_the_path_tracer_in_both_directional_modes() {
     // Measured (48×48×4, 400k direct photons, 1,024-path reference): diffuse 1.22, SH 0.0127,
     // histogram 0.0070. SH's 16 coefficients carry this e ≈ 4 lobe (below its limit, e ≈ 11);
     // for 20 strata 42° apart it is too sharp (limit e ≈ 2.5), so the histogram mode traces it
-    // (before issue 13 it went through the strata: 0.116). Shading the plate as matte is a
+    // (before the traced lobes it went through the strata: 0.116). Shading the plate as matte is a
     // hundred times worse than either.
     println!("relMSE: diffuse {diffuse:.4}, sh {sh:.4}, histogram {hist:.4}");
     assert!(sh < 0.02, "SH relMSE {sh}");
@@ -107,11 +107,11 @@ fn rs_error(
     rel_mse(&r.film.rgb, reference)
 }
 
-/// Issue 13: from mirror to matte, metal and plastic, no directional mode is worse than shading
-/// the plate matte (diffuse mode) against the path tracer, and SH, within its resolution
-/// limit, is not much worse than tracing the lobe. Lobes sharper than a mode's
-/// resolution limit are traced by the eye path, the others go through its records. Direct
-/// photons, so that the light's reflection is the glossy part under test.
+/// docs/deviations.md §37: from mirror to matte, metal and plastic, no directional mode is worse
+/// than shading the plate matte (diffuse mode) against the path tracer, and SH, within its
+/// resolution limit, is not much worse than tracing the lobe. Lobes sharper than a mode's
+/// resolution limit are traced by the eye path, the others go through its records. Direct photons,
+/// so that the light's reflection is the glossy part under test.
 #[test]
 fn no_mode_is_worse_than_matte_at_any_roughness() {
     let base = RenderSettings {
@@ -217,11 +217,11 @@ fn isolated_highlights(image: &[Vec3], reference: &[Vec3], w: usize, h: usize) -
     n
 }
 
-/// Issue 13: the histogram never shows its strata as dots. Point evaluation of a sharp lobe at
-/// the 20 strata lit the sphere at one spot per stratum whose direction carried light; now
-/// such a lobe is traced (and any lobe the histogram does carry is integrated over the strata's
-/// footprints). The sphere's image has no isolated highlight, and is closer to the path tracer
-/// than the matte sphere of diffuse mode.
+/// docs/deviations.md §27: the histogram never shows its strata as dots. Point evaluation of a
+/// sharp lobe at the 20 strata lit the sphere at one spot per stratum whose direction carried
+/// light; now such a lobe is traced (and any lobe the histogram does carry is integrated over the
+/// strata's footprints). The sphere's image has no isolated highlight, and is closer to the path
+/// tracer than the matte sphere of diffuse mode.
 #[test]
 fn a_smooth_metal_sphere_shows_no_dot_per_stratum() {
     let scene = Arc::new(smooth_metal_sphere());
@@ -254,12 +254,12 @@ fn a_smooth_metal_sphere_shows_no_dot_per_stratum() {
     assert!(hist < matte, "histogram relMSE {hist} ≥ matte {matte}");
 }
 
-/// Issue 13: rs draws new directions for the traced lobes with every photon batch, so a
-/// traced reflection converges with the batches as the previewer runs. NEE and no photon light
-/// splatted (all photons direct, not splatted with NEE), so the image changes between batches
-/// only through the lobes' directions: its squared distance to a 32-batch render falls as
-/// 1/B − 1/32 (theory: 0.097 of the one-batch distance at 8 batches). Directions drawn once
-/// per view would leave every batch's image the same (distance 0).
+/// docs/deviations.md §38: rs draws new directions for the traced lobes with every photon batch, so
+/// a traced reflection converges with the batches as the previewer runs. NEE and no photon light
+/// splatted (all photons direct, not splatted with NEE), so the image changes between batches only
+/// through the lobes' directions: its squared distance to a 32-batch render falls as 1/B − 1/32
+/// (theory: 0.097 of the one-batch distance at 8 batches). Directions drawn once per view would
+/// leave every batch's image the same (distance 0).
 #[test]
 fn traced_reflections_converge_with_the_batches() {
     let scene = Arc::new(smooth_metal_sphere());
@@ -271,16 +271,19 @@ fn traced_reflections_converge_with_the_batches() {
         fractions: [1.0, 0.0, 0.0],
         direct: DirectMode::Nee,
         seed: 9,
-        // The first eye pass for every batch: only the lobes' directions change (issue 16's
-        // eye passes would redraw sample positions and NEE too).
+        // The first eye pass for every batch: only the lobes' directions change (the eye
+        // passes of docs/deviations.md §41 would redraw sample positions and NEE too).
         progressive_eye: false,
         ..RenderSettings::default()
     };
     let film_after = |batches: usize| {
-        let mut r =
-            raysplat::methods::rs::RaySplatting::open(scene.clone(), settings.clone()).unwrap();
+        let mut r = raysplat::methods::testing::open::<raysplat::methods::rs::RsResolver>(
+            scene.clone(),
+            settings.clone(),
+        )
+        .unwrap();
         for _ in 0..batches {
-            r.run_batch();
+            raysplat::methods::testing::run_batch(&mut r);
         }
         raysplat::methods::Method::film(&mut r).rgb
     };

@@ -4,7 +4,7 @@
 use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use raysplat::app::snapshot::SnapshotMeta;
+use raysplat::app::snapshot_writer::SnapshotMeta;
 use raysplat::app::{App, AppOptions, UiSettings};
 use raysplat::scene::BuiltinScene;
 use raysplat::settings::RenderSettings;
@@ -97,7 +97,7 @@ fn pause(h: &mut Harness<'static, App>) {
 fn moving_the_c_slider_reaches_the_worker_and_changes_the_image() {
     let mut h = harness(tmp("slider"));
     run_until(&mut h, 60, "the first image", |a| {
-        a.frame().is_some_and(|f| f.stats.batches >= 2) && a.shown().is_some()
+        a.frame().is_some_and(|f| f.stats.method.passes >= 2) && a.shown().is_some()
     });
     pause(&mut h);
     h.step();
@@ -212,7 +212,7 @@ fn a_malformed_glb_shows_an_error_and_keeps_the_scene() {
 fn bandwidth_view_shows_a_legend() {
     let mut h = harness(tmp("legend"));
     run_until(&mut h, 60, "the first image", |a| {
-        a.frame().is_some_and(|f| f.stats.batches >= 1)
+        a.frame().is_some_and(|f| f.stats.method.passes >= 1)
     });
     h.get_by_role_and_label(Role::ComboBox, "View").click();
     h.run_steps(3);
@@ -230,7 +230,7 @@ fn bandwidth_view_shows_a_legend() {
 fn window_renders_through_wgpu() {
     let mut h = harness(tmp("wgpu"));
     run_until(&mut h, 60, "the first image", |a| {
-        a.frame().is_some_and(|f| f.stats.batches >= 2)
+        a.frame().is_some_and(|f| f.stats.method.passes >= 2)
     });
     h.get_by_role_and_label(Role::ComboBox, "View").click();
     h.run_steps(3);
@@ -290,7 +290,7 @@ fn dropping_a_scene_opens_it() {
         .push(std::sync::Arc::new(Dropped(good)));
     run_until(&mut h, 60, "the dropped scene", |a| {
         a.frame()
-            .is_some_and(|f| f.scene_name == "cornell_box_2" && f.stats.batches >= 1)
+            .is_some_and(|f| f.scene_name == "cornell_box_2" && f.stats.method.passes >= 1)
     });
     assert!(
         h.state()
@@ -345,7 +345,7 @@ fn reference_view_mode_path_traces_the_view() {
     let mut h = harness(tmp("reference"));
     run_until(&mut h, 60, "the first image", |a| {
         a.frame()
-            .is_some_and(|f| f.stats.batches >= 1 && !f.interactive)
+            .is_some_and(|f| f.stats.method.passes >= 1 && !f.interactive)
     });
     h.get_by_role_and_label(Role::ComboBox, "View").click();
     h.run_steps(3);
@@ -379,18 +379,18 @@ fn radiance_map_mode_switches_and_reports_memory() {
     std::fs::write(&scene, BuiltinScene::CornellGlossy.to_glb()).unwrap();
     let mut h = harness_on(Some(scene), dir);
     run_until(&mut h, 60, "the first image", |a| {
-        a.frame().is_some_and(|f| f.stats.batches >= 2) && a.shown().is_some()
+        a.frame().is_some_and(|f| f.stats.method.passes >= 2) && a.shown().is_some()
     });
     pause(&mut h);
     h.step();
     let f = h.state().frame().unwrap().clone();
     assert!(
-        f.stats.glossy_targets > 0,
+        f.stats.method.glossy_targets > 0,
         "the copper sphere has SH records"
     );
-    assert!(f.stats.directional_bytes >= f.stats.glossy_targets * 48 * 4);
+    assert!(f.stats.method.directional_bytes >= f.stats.method.glossy_targets * 48 * 4);
     let before = h.state().shown().unwrap().rgba.clone();
-    let photons = f.stats.photons_traced;
+    let photons = f.stats.method.photons_traced;
     for (label, mode, floats) in [
         (
             "histogram (20 strata)",
@@ -417,11 +417,14 @@ fn radiance_map_mode_switches_and_reports_memory() {
         });
         h.step();
         let f = h.state().frame().unwrap();
-        assert_eq!(f.stats.photons_traced, photons, "switching must not trace");
+        assert_eq!(
+            f.stats.method.photons_traced, photons,
+            "switching must not trace"
+        );
         if floats == 0 {
-            assert_eq!(f.stats.directional_bytes, 0);
+            assert_eq!(f.stats.method.directional_bytes, 0);
         } else {
-            assert!(f.stats.directional_bytes >= f.stats.glossy_targets * floats * 4);
+            assert!(f.stats.method.directional_bytes >= f.stats.method.glossy_targets * floats * 4);
         }
     }
     let after = &h.state().shown().unwrap().rgba;
@@ -439,31 +442,45 @@ fn radiance_map_mode_switches_and_reports_memory() {
 fn epsilon_slider_reruns_the_cache_live() {
     let mut h = harness(tmp("cache"));
     run_until(&mut h, 60, "the first image", |a| {
-        a.frame().is_some_and(|f| f.stats.batches >= 2) && a.shown().is_some()
+        a.frame().is_some_and(|f| f.stats.method.passes >= 2) && a.shown().is_some()
     });
     pause(&mut h);
-    let photons = h.state().frame().unwrap().stats.photons_traced;
+    let photons = h.state().frame().unwrap().stats.method.photons_traced;
     h.get_by_label("Resolve through the radiance cache").click();
     run_until(&mut h, 60, "a cached frame", |a| {
         a.frame()
-            .is_some_and(|f| f.settings.cache_on && f.stats.cache_records > 0)
+            .is_some_and(|f| f.settings.cache_on && f.stats.method.cache_records.unwrap_or(0) > 0)
     });
-    let coarse = h.state().frame().unwrap().stats.cache_records;
+    let coarse = h
+        .state()
+        .frame()
+        .unwrap()
+        .stats
+        .method
+        .cache_records
+        .unwrap_or(0);
     h.get_by_role_and_label(Role::Slider, "ε")
         .set_value_accesskit(0.1);
     run_until(&mut h, 60, "a frame with ε = 0.1", |a| {
         a.frame().is_some_and(|f| {
-            (f.settings.cache.error - 0.1).abs() < 1e-6 && f.stats.cache_records > 0
+            (f.settings.cache.error - 0.1).abs() < 1e-6
+                && f.stats.method.cache_records.unwrap_or(0) > 0
         })
     });
     let f = h.state().frame().unwrap().clone();
     assert!(
-        f.stats.cache_records > coarse,
+        f.stats.method.cache_records.unwrap_or(0) > coarse,
         "{} records at ε 0.1, {coarse} at 0.5",
-        f.stats.cache_records
+        f.stats.method.cache_records.unwrap_or(0)
     );
-    assert_eq!(f.stats.photons_traced, photons, "moving ε must not trace");
-    assert_eq!(f.cache_records.len(), f.stats.cache_records);
+    assert_eq!(
+        f.stats.method.photons_traced, photons,
+        "moving ε must not trace"
+    );
+    assert_eq!(
+        f.cache_records.len(),
+        f.stats.method.cache_records.unwrap_or(0)
+    );
     // The records view mode draws the records over the image.
     h.run_steps(2);
     let count_white = |rgba: &[u8]| {
@@ -478,7 +495,7 @@ fn epsilon_slider_reruns_the_cache_live() {
     h.run_steps(3);
     let white = count_white(&h.state().shown().unwrap().rgba);
     assert!(
-        white > before + f.stats.cache_records.min(200) / 2,
+        white > before + f.stats.method.cache_records.unwrap_or(0).min(200) / 2,
         "record centres not drawn: {white} white pixels, {before} before"
     );
     h.get_by_label("Filter the indirect light").click();
@@ -487,10 +504,10 @@ fn epsilon_slider_reruns_the_cache_live() {
     });
 }
 
-/// Issue 13: hovering a pixel tells whether its glossy part came from the radiance map or from
-/// reflections traced by the eye path, and the stats count both kinds of glossy eye sample.
-/// On the mirror-to-matte box with SH records, the floor (roughness 0.25, e ≈ 510) is traced
-/// and the copper sphere (roughness 0.8, e ≈ 2.9) goes through the map.
+/// docs/deviations.md §38: hovering a pixel tells whether its glossy part came from the radiance
+/// map or from reflections traced by the eye path, and the stats count both kinds of glossy eye
+/// sample. On the mirror-to-matte box with SH records, the floor (roughness 0.25, e ≈ 510) is
+/// traced and the copper sphere (roughness 0.8, e ≈ 2.9) goes through the map.
 #[test]
 fn the_probe_shows_where_the_glossy_part_came_from() {
     let dir = tmp("glossy_probe");
@@ -499,17 +516,17 @@ fn the_probe_shows_where_the_glossy_part_came_from() {
     let mut h = harness_on(Some(scene), dir);
     run_until(&mut h, 60, "the first full-size image", |a| {
         a.frame()
-            .is_some_and(|f| f.stats.batches >= 1 && f.film.width == 64)
+            .is_some_and(|f| f.stats.method.passes >= 1 && f.film.width == 64)
             && a.shown().is_some()
     });
     pause(&mut h);
     h.step();
     let f = h.state().frame().unwrap().clone();
     assert!(
-        f.stats.glossy_map_samples > 0 && f.stats.glossy_traced_samples > 0,
+        f.stats.method.glossy_map_samples > 0 && f.stats.method.glossy_traced_samples > 0,
         "map {} traced {}",
-        f.stats.glossy_map_samples,
-        f.stats.glossy_traced_samples
+        f.stats.method.glossy_map_samples,
+        f.stats.method.glossy_traced_samples
     );
     let src = &f.film.glossy_source;
     let traced = src.iter().position(|s| s[0] == 0.0 && s[1] > 0.9).unwrap();
@@ -544,32 +561,35 @@ fn the_probe_shows_where_the_glossy_part_came_from() {
 fn visibility_checkbox_restarts_with_shadow_rays() {
     let mut h = harness(tmp("visibility"));
     run_until(&mut h, 60, "the first image", |a| {
-        a.frame().is_some_and(|f| f.stats.batches >= 1)
+        a.frame().is_some_and(|f| f.stats.method.passes >= 1)
     });
-    assert_eq!(h.state().frame().unwrap().stats.shadow_tests, 0);
+    assert_eq!(h.state().frame().unwrap().stats.method.shadow_tests, 0);
     h.get_by_label("Visibility in the splat footprint").click();
     run_until(&mut h, 60, "a frame with shadow rays", |a| {
         a.frame().is_some_and(|f| {
-            f.settings.splat_visibility && f.stats.batches >= 1 && f.stats.shadow_tests > 0
+            f.settings.splat_visibility
+                && f.stats.method.passes >= 1
+                && f.stats.method.shadow_tests > 0
         })
     });
     h.get_by_label_contains("shadow rays");
 }
 
-/// Issue 16 in the window: the worker draws new eye passes as batches go on, and the stats
-/// line says which pass the image has reached and how much memory the render holds.
+/// docs/deviations.md §41 in the window: the worker draws new eye passes as batches go on, and the
+/// stats line says which pass the image has reached and how much memory the render holds.
 #[test]
 fn the_stats_line_counts_eye_passes() {
     let mut h = harness(tmp("eye_passes"));
     run_until(&mut h, 60, "a second eye pass", |a| {
-        a.frame().is_some_and(|f| f.stats.eye_passes >= 2)
+        a.frame().is_some_and(|f| f.stats.method.eye_passes >= 2)
     });
     pause(&mut h);
     h.step();
     let f = h.state().frame().unwrap().clone();
-    h.get_by_label_contains(&format!("eye pass {}", f.stats.eye_passes));
-    // The memory breakdown (issue 16) reaches the window: every part the view has.
-    let m = f.stats.memory;
+    h.get_by_label_contains(&format!("eye pass {}", f.stats.method.eye_passes));
+    // The memory breakdown (docs/benchmarks.md, "Memory") reaches the window: every part the
+    // view has.
+    let m = f.stats.method.memory;
     assert!(m.eye_samples > 0 && m.splat_tree > 0 && m.photon_rays > 0 && m.film > 0);
     assert!(m.scene > 0 && m.accumulators > 0 && m.pixel_sums > 0);
     h.get_by_label(&format!("memory {:.0} MB", m.total() as f64 / 1e6));

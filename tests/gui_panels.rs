@@ -18,6 +18,7 @@ use raysplat::app::stats::{Messages, StatsPanel};
 use raysplat::app::widgets::Commands;
 use raysplat::film::Film;
 use raysplat::film::display::{ToneMap, ViewMode};
+use raysplat::methods::MethodStats;
 use raysplat::pipeline::directional::DirectionalMode;
 use raysplat::scene::{Camera, EnvironmentKind, EnvironmentSettings};
 use raysplat::session::{Command, Frame, SessionStats};
@@ -120,8 +121,11 @@ fn bandwidth_panel_emits_set_bandwidth() {
 #[test]
 fn bandwidth_panel_warns_when_the_ray_store_is_full() {
     let stats = SessionStats {
-        folded_batches: 3,
-        photon_rays: 1234,
+        method: MethodStats {
+            folded_batches: 3,
+            photon_rays: 1234,
+            ..MethodStats::default()
+        },
         ..SessionStats::default()
     };
     let mut h = bandwidth_harness(Some(stats));
@@ -131,7 +135,10 @@ fn bandwidth_panel_warns_when_the_ray_store_is_full() {
 
 fn cache_filter_harness() -> Harness<'static, State<CacheFilterPanel>> {
     let stats = SessionStats {
-        cache_records: 77,
+        method: MethodStats {
+            cache_records: Some(77),
+            ..MethodStats::default()
+        },
         ..SessionStats::default()
     };
     harness(CacheFilterPanel, settings(), move |ui, s| {
@@ -452,7 +459,10 @@ fn stats_panel_shows_the_frame() {
         interactive: false,
         cache_records: Vec::new(),
         stats: SessionStats {
-            photons_traced: 1234,
+            method: MethodStats {
+                photons_traced: 1234,
+                ..MethodStats::default()
+            },
             paused: true,
             ..SessionStats::default()
         },

@@ -42,7 +42,7 @@ fn mean(f: &Film) -> f32 {
 /// original's path-traced reference as the original is (relMSE within 1.25×).
 ///
 /// Before offsets and bandwidths were freed of the bounding box, the black plane alone
-/// darkened this image by 10% (issue 11, finding 4).
+/// darkened this image by 10%.
 #[test]
 fn scale_and_far_black_geometry_do_not_change_the_image() {
     let base = BuiltinScene::CornellClassic.to_glb();
@@ -222,7 +222,7 @@ fn ceiling_sample(hit: &Hit, albedo: f32, pixel: u32) -> EyeSample {
     }
 }
 
-/// Finding 1 of issue 11: shadow rays toward a panel just below a ceiling must not be stopped
+/// docs/deviations.md §35: shadow rays toward a panel just below a ceiling must not be stopped
 /// by the panel itself, however large the scene. NEE at points of the ceiling and the path
 /// tracer's image of it both give the analytic irradiance within 1%.
 #[test]

@@ -1,4 +1,4 @@
-//! Hand-made glTF files for each case of issue 14's loader part: files the specification allows
+//! Hand-made glTF files for each case the loader must handle: files the specification allows
 //! (accessors without a buffer view, sparse accessors, integers written as `1.0`, images from
 //! extensions, KHR_mesh_quantization, KHR_texture_transform, scenes without nodes) load with
 //! the geometry and colours the specification gives them and render without NaN; malformed

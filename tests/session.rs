@@ -92,10 +92,10 @@ fn check_frame(f: &Frame) {
         f.seq
     );
     assert!(
-        f.stats.photon_rays <= STORM_RAY_LIMIT,
+        f.stats.method.photon_rays <= STORM_RAY_LIMIT,
         "frame {}: {} stored rays over the budget",
         f.seq,
-        f.stats.photon_rays
+        f.stats.method.photon_rays
     );
 }
 
@@ -106,7 +106,7 @@ fn check_frame(f: &Frame) {
 /// the ray store within its budget, every snapshot either complete or refused with a message.
 #[test]
 fn thousands_of_random_commands_neither_panic_nor_deadlock() {
-    use raysplat::app::snapshot::{SnapshotMeta, write_snapshot};
+    use raysplat::app::snapshot_writer::{SnapshotMeta, write_snapshot};
     use raysplat::film::display::{ToneMap, ViewMode, display};
     let _watchdog = Watchdog::new(400);
     let (good, bad) = scene_files();
@@ -120,7 +120,7 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
         ..small_config()
     };
     let session = Session::spawn(scene, None, config, None);
-    wait(&session, 30, |f| f.stats.batches >= 1);
+    wait(&session, 30, |f| f.stats.method.passes >= 1);
     let mut rng = Rng::new(2024, 0);
     let (mut frames_seen, mut snapshots) = (0u64, 0u32);
     let mut last_seq = 0;
@@ -145,9 +145,9 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
                     scene_path: f.scene_path.clone(),
                     camera: f.camera.clone(),
                     settings: f.settings.clone(),
-                    photons_traced: f.stats.photons_traced,
-                    photon_rays: f.stats.photon_rays,
-                    batches: f.stats.batches,
+                    photons_traced: f.stats.method.photons_traced,
+                    photon_rays: f.stats.method.photon_rays,
+                    batches: f.stats.method.passes as usize,
                     elapsed_s: f.stats.elapsed_s,
                     view_mode: ViewMode::Final,
                     exposure: 0.0,
@@ -227,7 +227,9 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
     session.send(Command::Resume);
     // The worker keeps publishing after the storm, with new batches.
     let f = wait(&session, 120, |_| true);
-    let g = wait(&session, 60, |g| g.seq > f.seq + 2 && g.stats.batches > 0);
+    let g = wait(&session, 60, |g| {
+        g.seq > f.seq + 2 && g.stats.method.passes > 0
+    });
     check_frame(&g);
     assert!(session.is_alive());
     assert!(
@@ -267,8 +269,8 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
 fn progressive_image_converges_to_a_long_render() {
     let _watchdog = Watchdog::new(240);
     let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
-    // Both keep their first eye pass, so that they share eye samples (the eye passes of issue
-    // 16 have `analytic::eye_passes_make_the_whole_image_converge`).
+    // Both keep their first eye pass, so that they share eye samples (the eye passes of
+    // docs/deviations.md §41 have `analytic::eye_passes_make_the_whole_image_converge`).
     let mut config = small_config();
     config.settings.progressive_eye = false;
     let mut long = methods::build(
@@ -292,9 +294,9 @@ fn progressive_image_converges_to_a_long_render() {
     let errors: Vec<(usize, f64)> = [2usize, 16, 64]
         .iter()
         .map(|&b| {
-            let f = wait(&session, 120, |f| f.stats.batches >= b);
+            let f = wait(&session, 120, |f| f.stats.method.passes as usize >= b);
             (
-                f.stats.batches,
+                f.stats.method.passes as usize,
                 rel_mse(&f.film.indirect, &reference.indirect),
             )
         })
@@ -318,22 +320,22 @@ fn ray_budget_folds_old_batches() {
         ..small_config()
     };
     let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
-    let f = wait(&session, 60, |f| f.stats.folded_batches >= 3);
+    let f = wait(&session, 60, |f| f.stats.method.folded_batches >= 3);
     // At most one batch beyond the budget is ever kept.
     assert!(
-        f.stats.photon_rays <= 5_000 + 3_000,
+        f.stats.method.photon_rays <= 5_000 + 3_000,
         "{} rays",
-        f.stats.photon_rays
+        f.stats.method.photon_rays
     );
-    assert!(f.stats.batches > f.stats.folded_batches);
+    assert!(f.stats.method.passes as usize > f.stats.method.folded_batches);
     // Every batch whose light the image holds is either stored or folded.
     if !f.stats.resplat_pending {
         assert_eq!(
-            f.stats.stored_batches + f.stats.folded_batches,
-            f.stats.batches
+            f.stats.method.stored_batches + f.stats.method.folded_batches,
+            f.stats.method.passes as usize
         );
     }
-    assert!(f.stats.splat_bytes > 0);
+    assert!(f.stats.method.splat_bytes > 0);
     session.send(Command::Pause);
     let p = wait(&session, 30, |g| g.stats.paused);
     session.send(Command::SetBandwidth(BandwidthParams {
@@ -343,8 +345,8 @@ fn ray_budget_folds_old_batches() {
     let g = wait(&session, 30, |g| {
         g.generation > p.generation && !g.stats.resplat_pending
     });
-    assert_eq!(g.stats.folded_batches, 0);
-    assert!(g.stats.batches >= 1 && g.stats.photon_rays <= 8_000);
+    assert_eq!(g.stats.method.folded_batches, 0);
+    assert!(g.stats.method.passes >= 1 && g.stats.method.photon_rays <= 8_000);
 }
 
 /// A view too large for the machine's memory (4096×4096×64 eye samples, hundreds of GB) is
@@ -355,7 +357,7 @@ fn a_view_too_large_for_memory_is_refused_and_the_old_one_stays() {
     let _watchdog = Watchdog::new(120);
     let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
     let session = Session::spawn(scene, None, small_config(), None);
-    let first = wait(&session, 60, |f| f.stats.batches >= 1);
+    let first = wait(&session, 60, |f| f.stats.method.passes >= 1);
     session.send(Command::SetResolution {
         width: 4096,
         height: 4096,
@@ -390,7 +392,7 @@ fn the_worker_clamps_commands_to_the_limits_table() {
     let _watchdog = Watchdog::new(120);
     let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
     let session = Session::spawn(scene, None, small_config(), None);
-    let first = wait(&session, 60, |f| f.stats.batches >= 1);
+    let first = wait(&session, 60, |f| f.stats.method.passes >= 1);
     session.send(Command::SetSamplesPerPixel(1000));
     session.send(Command::SetBandwidth(BandwidthParams {
         smoothness_c: 100.0,
@@ -440,7 +442,7 @@ fn the_environment_changes_under_the_worker() {
     });
     assert_eq!(env.kind, EnvironmentKind::Uniform);
     assert!(notice.expect("a notice").contains("no light of its own"));
-    let first = wait(&session, 60, |f| f.stats.batches >= 1);
+    let first = wait(&session, 60, |f| f.stats.method.passes >= 1);
     let sky = EnvironmentSettings {
         kind: EnvironmentKind::Sky,
         strength: 3.0,
@@ -453,7 +455,7 @@ fn the_environment_changes_under_the_worker() {
     });
     assert_eq!(changed, sky);
     let after = wait(&session, 60, |f| {
-        f.generation > first.generation && f.stats.batches >= 1
+        f.generation > first.generation && f.stats.method.passes >= 1
     });
     assert!(
         (after.film.mean() - first.film.mean()).length() > 0.1 * first.film.mean().length(),
@@ -492,7 +494,7 @@ fn the_reference_mode_from_the_start_renders_at_full_size() {
             && f.stats.reference_spp >= 2
     });
     assert_eq!(
-        f.stats.batches, 0,
+        f.stats.method.passes, 0,
         "no photon batch is traced in the reference mode"
     );
 }
@@ -505,14 +507,14 @@ fn the_first_coarse_image_traces_half_a_batch_and_the_next_ones_a_whole() {
     let config = small_config();
     let (w, m) = (config.settings.width, config.settings.photons);
     let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
-    let first = wait(&session, 60, |f| f.stats.batches >= 1);
+    let first = wait(&session, 60, |f| f.stats.method.passes >= 1);
     assert!(
         first.interactive && first.settings.width < w,
         "the first image is coarse"
     );
     assert_eq!(first.settings.photons, m / 2);
     let later = wait(&session, 60, |f| {
-        f.settings.width == w && f.stats.batches >= 3
+        f.settings.width == w && f.stats.method.passes >= 3
     });
     assert_eq!(later.settings.photons, m);
 }

@@ -76,7 +76,8 @@ if [ -f $S/living_room.glb ]; then
         --photons 500000 --fractions 0.0,0.9,0.1 --c 0.9 --s 0.4 --r 0.2 --exposure 1
 fi
 # OUTDOOR (builtin:outdoor, no light of its own) under the uniform environment and under the
-# CIE clear sky with a sun (issue 14), 320×240×4, M = 200,000, 4 NEE samples per eye sample.
+# CIE clear sky with a sun (docs/deviations.md, "Light from afar"), 320×240×4, M = 200,000,
+# 4 NEE samples per eye sample.
 run outdoor_uniform 1024 4 400 "" builtin:outdoor --width 320 --height 240 --photons 200000 \
     --nee-samples 4 --environment uniform
 run outdoor_sky 1024 4 400 "" builtin:outdoor --width 320 --height 240 --photons 200000 \

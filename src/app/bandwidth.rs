@@ -56,7 +56,7 @@ impl BandwidthPanel {
             |&b| Command::SetBandwidth(b),
         );
         if let Some(s) = stats
-            && s.folded_batches > 0
+            && s.method.folded_batches > 0
         {
             ui.colored_label(
                 Color32::from_rgb(230, 170, 60),
@@ -64,7 +64,7 @@ impl BandwidthPanel {
                     "Ray store full: {} older batches are folded into the image. Slider and camera \
                      changes re-splat the stored {} rays only: the folded light leaves the image and \
                      new batches replace it.",
-                    s.folded_batches, s.photon_rays
+                    s.method.folded_batches, s.method.photon_rays
                 ),
             );
         }

@@ -61,10 +61,10 @@ impl CacheFilterPanel {
             |&(on, params)| Command::SetCache { on, params },
         );
         (r.cache_on, r.cache) = cache;
-        if let Some(s) = stats
-            && s.cache_records > 0
+        if let Some(n) = stats.and_then(|s| s.method.cache_records)
+            && n > 0
         {
-            ui.label(format!("{} cache records", s.cache_records));
+            ui.label(format!("{n} cache records"));
         }
 
         ui.heading("Image filter (§8.2)");

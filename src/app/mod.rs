@@ -9,6 +9,7 @@
 //! | [`bandwidth`] | C, S, R of eq. 8 | `SetBandwidth` |
 //! | [`cache_filter`] | radiance cache ε, records per pixel; image filter | `SetCache`, `SetFilter` |
 //! | [`rendering`] | photons per batch, spp, resolution, direct light, glossy radiance map, ray budget, pause, restart, reference | one command per widget |
+//! | [`environment`] | none, uniform, sky or a map file; strength, rotation, sun | `SetEnvironment` (a map file once the window's dialog has chosen one) |
 //! | [`camera`] | the scene's cameras | `SetCamera` |
 //! | [`display`] | view mode, exposure, tone mapping | `SetReference`, `SetCache` (two view modes) |
 //! | [`snapshots`] | snapshot folder, save | nothing (asks the window) |
@@ -16,8 +17,8 @@
 //!
 //! [`widgets`] holds [`Commands::on_change`], the one helper that turns a changed widget into
 //! a command; `window.rs` holds [`App`] (session, frames, panels, menu, shortcuts), `viewport.rs`
-//! the image, the orbit camera and mouse input; [`snapshot`] writes snapshot files and
-//! [`UiSettings`] is what the window persists.
+//! the image, the orbit camera and mouse input; [`snapshot_writer`] writes snapshot files and
+//! [`UiSettings`] (`ui_settings.rs`) is what the window persists.
 
 pub mod bandwidth;
 pub mod cache_filter;
@@ -25,7 +26,7 @@ pub mod camera;
 pub mod display;
 pub mod environment;
 pub mod rendering;
-pub mod snapshot;
+pub mod snapshot_writer;
 pub mod snapshots;
 pub mod stats;
 mod ui_settings;

@@ -1,6 +1,6 @@
 //! The snapshots panel: the snapshot folder and the save button. Snapshots are the window's
 //! business, not the worker's, so this panel emits no worker command; it returns what it asks
-//! of the window, which writes the files with [`crate::app::snapshot`].
+//! of the window, which writes the files with [`crate::app::snapshot_writer`].
 
 use crate::app::UiSettings;
 use std::path::PathBuf;

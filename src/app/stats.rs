@@ -17,18 +17,19 @@ impl StatsPanel {
             return;
         };
         let s = &f.stats;
+        let m = &s.method;
         ui.horizontal_wrapped(|ui| {
-            ui.label(format!("photons traced {}", s.photons_traced));
+            ui.label(format!("photons traced {}", m.photons_traced));
             ui.separator();
             ui.label(format!(
                 "photon rays {} ({:.1} MB)",
-                s.photon_rays,
-                s.photon_ray_bytes as f64 / 1e6
+                m.photon_rays,
+                m.photon_ray_bytes as f64 / 1e6
             ));
             ui.separator();
             ui.label(format!(
                 "batches {} ({} stored)",
-                s.batches, s.stored_batches
+                m.passes, m.stored_batches
             ));
             ui.separator();
             ui.label(format!("{:.0} photons/s", s.photons_per_second));
@@ -45,16 +46,16 @@ impl StatsPanel {
             ui.label(format!(
                 "eye samples {} ({} splat targets, {:.1} MB with tree and accumulators), \
                  eye pass {}",
-                s.eye_samples,
-                s.splat_targets,
-                s.splat_bytes as f64 / 1e6,
-                s.eye_passes
+                m.eye_samples,
+                m.splat_targets,
+                m.splat_bytes as f64 / 1e6,
+                m.eye_passes
             ))
             .on_hover_text(
                 "the eye samples are drawn anew every few batches, and the image averages over \
-                 every eye pass (issue 16)",
+                 every eye pass (docs/deviations.md §41)",
             );
-            let mem = &s.memory;
+            let mem = &m.memory;
             if mem.total() > 0 {
                 ui.separator();
                 let mb = |b: usize| b as f64 / 1e6;
@@ -75,31 +76,31 @@ impl StatsPanel {
                         mb(mem.scene)
                     ));
             }
-            if s.glossy_targets > 0 {
+            if m.glossy_targets > 0 {
                 ui.separator();
                 ui.label(format!(
                     "glossy targets {} ({:.1} MB directional, {:.0} B each)",
-                    s.glossy_targets,
-                    s.directional_bytes as f64 / 1e6,
-                    s.directional_bytes as f64 / s.glossy_targets as f64
+                    m.glossy_targets,
+                    m.directional_bytes as f64 / 1e6,
+                    m.directional_bytes as f64 / m.glossy_targets as f64
                 ));
             }
-            if s.glossy_map_samples + s.glossy_traced_samples > 0 {
+            if m.glossy_map_samples + m.glossy_traced_samples > 0 {
                 ui.separator();
                 ui.label(format!(
                     "glossy eye samples: {} radiance map, {} traced",
-                    s.glossy_map_samples, s.glossy_traced_samples
+                    m.glossy_map_samples, m.glossy_traced_samples
                 ))
                 .on_hover_text(
                     "lobes sharper than the directional mode resolves are traced by the eye path",
                 );
             }
-            if s.shadow_tests > 0 {
+            if m.shadow_tests > 0 {
                 ui.separator();
                 ui.label(format!(
                     "visibility: {} shadow rays, {:.1}% blocked",
-                    s.shadow_tests,
-                    100.0 * s.occluded_pairs as f64 / s.shadow_tests as f64
+                    m.shadow_tests,
+                    100.0 * m.occluded_pairs as f64 / m.shadow_tests as f64
                 ))
                 .on_hover_text(
                     "splatted pairs behind a nearby wall, tested with a shadow ray (§40)",

@@ -9,7 +9,7 @@ use crate::app::camera::CameraPanel;
 use crate::app::display::{DisplayPanel, set_view_mode};
 use crate::app::environment::{EnvironmentPanel, EnvironmentRequest};
 use crate::app::rendering::{RenderingPanel, toggle_pause};
-use crate::app::snapshot::{SnapshotFiles, SnapshotMeta, write_snapshot_in_background};
+use crate::app::snapshot_writer::{SnapshotFiles, SnapshotMeta, write_snapshot_in_background};
 use crate::app::snapshots::{SnapshotPanel, SnapshotRequest};
 use crate::app::stats::{Messages, StatsPanel};
 use crate::app::viewport::Viewport;

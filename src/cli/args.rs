@@ -224,12 +224,12 @@ pub struct MethodArgs {
     #[arg(long)]
     pub splat_visibility: bool,
     /// rs: keep the eye samples of the first eye pass for every batch instead of drawing
-    /// them anew as batches go on (issue 16; the behaviour before it).
+    /// them anew as batches go on (the paper's one eye pass per view; docs/deviations.md §41).
     #[arg(long)]
     pub fixed_eye_samples: bool,
     /// rs, rc: every photon batch keeps eq. 8's bandwidth for the total M (h ∝ M^(−1/6)), as
-    /// in the paper, instead of shrinking it as M^(−1/3) beyond the first batch (issue 16;
-    /// docs/deviations.md §43)
+    /// in the paper, instead of shrinking it as M^(−1/3) beyond the first batch
+    /// (docs/deviations.md §43)
     #[arg(long)]
     pub paper_bandwidth_rate: bool,
     /// Directional storage at glossy surfaces (§8.1): diffuse (irradiance only), sh

@@ -51,7 +51,7 @@ pub struct BenchArgs {
     #[arg(long)]
     quality_plot: Option<PathBuf>,
     /// Quality and previewer rows with the eye samples of the first eye pass kept for every
-    /// batch (the window before issue 16), for comparison.
+    /// batch (as the window did before its eye passes, docs/deviations.md §41), for comparison.
     #[arg(long)]
     fixed_eye_samples: bool,
     /// Run only these groups of rows (default: every group; quality needs its references).
@@ -424,10 +424,10 @@ fn preview_bench(progressive_eye: bool) -> Result<PreviewLatencies, String> {
     config.settings.progressive_eye = progressive_eye;
     let t = Instant::now();
     let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
-    wait(&session, &|f| f.stats.batches >= 1)?;
+    wait(&session, &|f| f.stats.method.passes >= 1)?;
     let first_image = t.elapsed().as_secs_f64() * 1e3;
     // Store about 200k rays (with NEE, 70% of each batch's M is stored), then stop tracing.
-    let f = wait(&session, &|f| f.stats.photon_rays >= 200_000)?;
+    let f = wait(&session, &|f| f.stats.method.photon_rays >= 200_000)?;
     session.send(C::Pause);
     let f = wait(&session, &|g| g.stats.paused && g.seq > f.seq)?;
     let mut params = f.settings.bandwidth;
@@ -448,7 +448,7 @@ fn preview_bench(progressive_eye: bool) -> Result<PreviewLatencies, String> {
         interactive: true,
     });
     wait(&session, &|h| {
-        h.generation > g.generation && h.stats.batches >= 1
+        h.generation > g.generation && h.stats.method.passes >= 1
     })?;
     let camera = t.elapsed().as_secs_f64() * 1e3;
     Ok(PreviewLatencies {

@@ -1,6 +1,7 @@
 //! Command-line entry points, one file per command: `view` (the default: the interactive
-//! previewer), `render`, `compare`, `bench`, `tonemap`, `scenes`. The argument groups that
-//! `render` and `compare` share live in [`args`]; this file holds the command enum and the
+//! previewer), `render`, `compare`, `bench` (with `quality`, its quality-over-time rows),
+//! `tonemap`, `scenes`. The argument groups that `render` and `compare` share live in [`args`],
+//! output formats and their checks in `output`; this file holds the command enum and the
 //! helpers every command uses.
 
 mod args;

@@ -1,4 +1,5 @@
-//! `bench --quality-references DIR`: quality over time (issue 16). The session worker is driven
+//! `bench --quality-references DIR`: quality over time (docs/benchmarks.md, "Quality over
+//! time"). The session worker is driven
 //! exactly as the window drives it (its default settings: 500×500, one eye sample per pixel,
 //! 20,000 photons per batch), and the relMSE of the newest full-size frame against a long
 //! path-traced reference is read after 1, 2, 5, 10 and 30 s of wall time; the same for the

@@ -4,7 +4,7 @@
 //! photon rays are splatted into. Photon rays do not depend on it, so a new view builds a new
 //! eye side and re-splats the stored rays.
 
-use crate::methods::Timings;
+use crate::methods::{MethodError, Timings};
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
 use crate::pipeline::radiance_map::{Accumulators, Channel};
@@ -13,6 +13,39 @@ use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, RenderSettings};
 use glam::Vec3;
 use std::time::Instant;
+
+/// When traced glossy lobes (too sharp for the radiance map, §8.1) get their directions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LobeDraws {
+    /// Once, in the eye pass: the eye path follows the lobe.
+    InEyePass,
+    /// Anew for every photon batch ([`crate::methods::lobes::TracedLobes`]); the eye pass only
+    /// marks them.
+    PerBatch,
+}
+
+/// Whether the splat targets' positions and normals outlive the splat tree's build (which
+/// holds its own copy).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TargetGeometry {
+    /// Kept: the film reads them (pm's density estimate, rc's records).
+    Kept,
+    /// Freed once the tree is built.
+    Freed,
+}
+
+/// How to build an eye side.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EyeSideOptions {
+    /// When traced glossy lobes get their directions.
+    pub lobes: LobeDraws,
+    /// Which eye pass of the view (0 first): pass 0 draws from the settings' seed, every
+    /// later one from its own streams (new sub-pixel positions, NEE samples and branch
+    /// choices; docs/deviations.md §41).
+    pub pass: u32,
+    /// Whether the targets' geometry is kept.
+    pub targets: TargetGeometry,
+}
 
 /// Eye samples, splat targets, splat tree, direct light and accumulators of one view.
 pub struct EyeSide {
@@ -38,25 +71,18 @@ pub struct EyeSide {
 
 impl EyeSide {
     /// Eye pass, splat tree and explicit direct light for one view (`settings`' width,
-    /// height and spp), timed into `timings` (T_E and T_D). Glossy lobes too sharp for the
-    /// radiance map are traced in the eye pass when `follow_lobes`, otherwise only marked (the
-    /// caller draws their directions per batch, [`crate::methods::lobes::TracedLobes`]).
-    /// `pass` numbers the eye passes of one view (issue 16): pass 0 draws from the settings'
-    /// seed, every later one from its own streams (new sub-pixel positions, NEE samples and
-    /// branch choices). Without `keep_targets` the targets' positions and normals are freed
-    /// once the tree (which holds its own copy) is built.
+    /// height and spp), built as `options` say, timed into `timings` (T_E and T_D).
     pub fn new(
         scene: &Scene,
         camera: &Camera,
         settings: &RenderSettings,
-        follow_lobes: bool,
-        pass: u32,
-        keep_targets: bool,
+        options: EyeSideOptions,
         timings: &mut Timings,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, MethodError> {
         if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
-            return Err("width, height and samples per pixel must be positive".into());
+            return Err(MethodError::EmptyView);
         }
+        let pass = options.pass;
         let t = Instant::now();
         let seed = if pass == 0 {
             settings.seed
@@ -71,7 +97,7 @@ impl EyeSide {
             seed,
             merge_targets: settings.merge_targets,
             lobe_limit: settings.radiance_map.lobe_limit(),
-            follow_lobes,
+            follow_lobes: options.lobes == LobeDraws::InEyePass,
         };
         let EyePass {
             samples: eye,
@@ -83,7 +109,7 @@ impl EyeSide {
             tree.find_blockers(scene, &targets.geo_normal);
         }
         let mut targets = targets;
-        if !keep_targets {
+        if options.targets == TargetGeometry::Freed {
             targets.drop_geometry();
         }
         timings.t_eye += t.elapsed().as_secs_f64();

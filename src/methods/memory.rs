@@ -2,6 +2,7 @@
 //! allocated, so that an image size or sample count that cannot fit is refused with one line
 //! instead of aborting the process.
 
+use crate::methods::MethodError;
 use crate::pipeline::eye::EYE_SAMPLE_BYTES;
 use crate::pipeline::photon::PhotonRay;
 use crate::settings::{MethodKind, RenderSettings};
@@ -12,11 +13,11 @@ const PER_PIXEL: u64 = 256;
 /// Glossy samples' directional records (up to 48 floats) are counted for every sample, an
 /// upper bound for scenes full of glossy surfaces.
 const PER_EYE_SAMPLE: u64 = EYE_SAMPLE_BYTES as u64 + 32 + 16 + 2 * 28 + 48 * 4;
-/// Per pixel for glossy lobes traced by the eye path (issue 13): the film's glossy-source AOV
+/// Per pixel for glossy lobes traced by the eye path (docs/deviations.md §38): the film's glossy-source AOV
 /// (8 bytes) and rs's per-batch lobe sums (24); the eye samples its lobe paths reach (one per
 /// second eye sample, `eye::trace_lobes`) are counted with the eye samples.
 const TRACED_LOBES_PER_PIXEL: u64 = 8 + 24;
-/// Per pixel for rs's finished eye passes (issue 16): rgb, direct and indirect sums.
+/// Per pixel for rs's finished eye passes (docs/deviations.md §41): rgb, direct and indirect sums.
 const EARLIER_PASSES_PER_PIXEL: u64 = 3 * 12;
 /// Gather hits a final-gathering band holds at once (`fg::FgSettings::max_band_samples`) and
 /// their bytes each.
@@ -72,25 +73,19 @@ pub fn available_bytes() -> Option<u64> {
 
 /// An error with the estimate when a render with `settings` would not fit in `available`
 /// bytes.
-pub fn check(settings: &RenderSettings, available: Option<u64>) -> Result<(), String> {
-    let need = estimate_bytes(settings);
+pub fn check(settings: &RenderSettings, available: Option<u64>) -> Result<(), MethodError> {
+    let needed = estimate_bytes(settings);
     match available {
-        Some(have) if need > have => Err(format!(
-            "this render needs about {} ({}×{} pixels × {} samples, {} photons per batch) but \
-             {} are available; lower the size, samples or photons",
-            gib(need),
-            settings.width,
-            settings.height,
-            settings.spp,
-            settings.photons,
-            gib(have)
-        )),
+        Some(available) if needed > available => Err(MethodError::TooLarge {
+            needed,
+            available,
+            width: settings.width,
+            height: settings.height,
+            spp: settings.spp,
+            photons: settings.photons,
+        }),
         _ => Ok(()),
     }
-}
-
-fn gib(bytes: u64) -> String {
-    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
 }
 
 #[cfg(test)]
@@ -110,7 +105,7 @@ mod tests {
             spp: 64,
             ..s
         };
-        let e = check(&huge, Some(8 << 30)).unwrap_err();
+        let e = check(&huge, Some(8 << 30)).unwrap_err().to_string();
         assert!(
             e.contains("4096×4096") && e.contains("8.0 GiB are available"),
             "{e}"

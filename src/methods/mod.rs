@@ -9,9 +9,11 @@
 //! | `pt` | [`pt`] | the unbiased path tracer (NEE + MIS), the reference |
 //! | `rs-fg`, `pm-fg` | [`fg`] | final gathering (§8.4) over splatted rays or photon maps |
 //!
-//! rs, rc and pm share the eye side ([`eye_side::EyeSide`]), the stored photon rays
-//! ([`photon_store::PhotonStore`]) and the progressive batch loop
-//! ([`progressive::Progressive`]); each adds only how its film is resolved. The headless
+//! rs, rc and pm share the photon core ([`photon_core::PhotonCore`]: the eye side
+//! [`eye_side::EyeSide`], the stored photon rays [`photon_store::PhotonStore`] and the batch
+//! loop) as a [`photon_method::PhotonMethod`]; each adds only how its film is resolved (a
+//! [`photon_method::Resolver`]) and how it uses the core (a
+//! [`photon_core::CoreConfig`]). The headless
 //! budget loop ([`render_method`]), `compare`, `bench` and the previewer's worker drive a
 //! `dyn Method` and never branch on which one it is. To add a method, write one file with a
 //! type implementing [`Method`] and add one line to [`build`].
@@ -20,22 +22,74 @@ pub mod eye_side;
 pub mod fg;
 pub mod lobes;
 pub mod memory;
+pub mod photon_core;
+pub mod photon_method;
 pub mod photon_store;
 pub mod pm;
-pub mod progressive;
 pub mod pt;
 pub mod rc;
 pub mod rs;
+pub mod testing;
 
 use crate::film::Film;
 use crate::pipeline::cache::Cache;
 use crate::pipeline::photon::ClampCounts;
 use crate::pipeline::photon_map::PmStats;
 use crate::scene::{Camera, Scene};
-use crate::settings::{MethodKind, RenderSettings};
+use crate::settings::{Changes, Effect, MethodKind, RenderSettings, SettingsError};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::time::Instant;
+
+/// Why a method cannot be built or cannot take a change; the caller keeps what it had.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MethodError {
+    /// A setting outside the limits table.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    /// The render would not fit in the machine's memory ([`memory::check`]).
+    #[error(
+        "this render needs about {} ({width}×{height} pixels × {spp} samples, {photons} photons \
+         per batch) but {} are available; lower the size, samples or photons",
+        gib(*needed),
+        gib(*available)
+    )]
+    TooLarge {
+        /// Bytes the render would need.
+        needed: u64,
+        /// Bytes available.
+        available: u64,
+        /// Its width.
+        width: u32,
+        /// Its height.
+        height: u32,
+        /// Its eye samples per pixel.
+        spp: u32,
+        /// Its photons per batch.
+        photons: u64,
+    },
+    /// The scene has no camera of that name.
+    #[error("{0}")]
+    NoCamera(String),
+    /// A view with no pixels or no samples.
+    #[error("width, height and samples per pixel must be positive")]
+    EmptyView,
+    /// The settings name another method than the one asked for.
+    #[error("{0:?} is not a final-gathering method")]
+    NotFinalGathering(MethodKind),
+}
+
+/// `bytes` in GiB with one decimal.
+fn gib(bytes: u64) -> String {
+    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+}
+
+/// For callers that report the message only (the command line).
+impl From<MethodError> for String {
+    fn from(e: MethodError) -> Self {
+        e.to_string()
+    }
+}
 
 /// What one [`Method::step`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -80,7 +134,7 @@ impl std::ops::AddAssign for Timings {
     }
 }
 
-/// Bytes held by each part of a render (issue 16's memory breakdown). Zero where a method
+/// Bytes held by each part of a render (the stats' memory breakdown). Zero where a method
 /// has no such part.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct MemoryBreakdown {
@@ -136,7 +190,7 @@ pub struct MethodStats {
     pub passes: u64,
     /// Batches dropped from the ray store (over budget) whose light the image still holds.
     pub folded_batches: usize,
-    /// Where the render's memory is (bytes), for the stats JSON and the window (issue 16).
+    /// Where the render's memory is (bytes), for the stats JSON and the window.
     pub memory: MemoryBreakdown,
     /// Eye passes the image averages over (rs with `progressive_eye`; 1 otherwise, 0 for
     /// methods without eye samples of their own).
@@ -201,14 +255,19 @@ pub trait Method: Send {
 
     /// A new camera, resolution or sample count. Methods with view-independent stored work
     /// (photon rays) keep it and re-use it; the others start again.
-    fn set_view(&mut self, camera: Camera, width: u32, height: u32, spp: u32)
-    -> Result<(), String>;
+    fn set_view(
+        &mut self,
+        camera: Camera,
+        width: u32,
+        height: u32,
+        spp: u32,
+    ) -> Result<(), MethodError>;
 
     /// Apply settings that need no re-trace: photons per batch, bandwidth (a re-splat), the
     /// radiance map's directional mode, cache and filter parameters. The view fields are
-    /// ignored ([`Method::set_view`]); a change of method, direct light, fractions, seed or
-    /// specular depth needs a new method from [`build`] ([`needs_rebuild`]).
-    fn update(&mut self, settings: &RenderSettings) -> Result<(), String>;
+    /// ignored ([`Method::set_view`]); what needs a new method from [`build`] is
+    /// [`Effect::Retrace`] in the settings table ([`needs_rebuild`]).
+    fn update(&mut self, settings: &RenderSettings) -> Result<(), MethodError>;
 
     /// Keep at most this many photon rays for re-splatting (older batches are folded).
     fn set_ray_budget(&mut self, _rays: usize) {}
@@ -245,8 +304,10 @@ pub trait Method: Send {
 
 /// Build the method `settings.method` for `scene` seen by the settings' named camera (the
 /// scene's first when none is named).
-pub fn build(scene: Arc<Scene>, settings: RenderSettings) -> Result<Box<dyn Method>, String> {
-    let camera = scene.camera_or_error(settings.camera.as_deref())?;
+pub fn build(scene: Arc<Scene>, settings: RenderSettings) -> Result<Box<dyn Method>, MethodError> {
+    let camera = scene
+        .camera_or_error(settings.camera.as_deref())
+        .map_err(MethodError::NoCamera)?;
     build_for(scene, settings, camera)
 }
 
@@ -257,7 +318,7 @@ pub fn build_for(
     scene: Arc<Scene>,
     settings: RenderSettings,
     camera: Camera,
-) -> Result<Box<dyn Method>, String> {
+) -> Result<Box<dyn Method>, MethodError> {
     check(&settings)?;
     Ok(match settings.method {
         MethodKind::Rs => Box::new(rs::RaySplatting::new(scene, settings, camera)?),
@@ -272,27 +333,15 @@ pub fn build_for(
 
 /// Settings within the limits table and a render that fits in the machine's memory: checked
 /// by the factory and by every method's `set_view`, before anything is allocated.
-pub fn check(settings: &RenderSettings) -> Result<(), String> {
+pub fn check(settings: &RenderSettings) -> Result<(), MethodError> {
     settings.validate()?;
     memory::check(settings, memory::available_bytes())
 }
 
-/// True when going from `old` to `new` changes what is traced, so the method must be built
-/// again rather than updated.
+/// True when going from `old` to `new` changes what is traced ([`Effect::Retrace`] in the
+/// settings table), so the method must be built again rather than updated.
 pub fn needs_rebuild(old: &RenderSettings, new: &RenderSettings) -> bool {
-    old.method != new.method
-        || old.direct != new.direct
-        || old.fractions != new.fractions
-        || old.seed != new.seed
-        || old.max_specular_depth != new.max_specular_depth
-        || old.nee_samples != new.nee_samples
-        || old.merge_targets != new.merge_targets
-        || old.splat_visibility != new.splat_visibility
-        || old.max_emitted_factor != new.max_emitted_factor
-        || old.pm_k != new.pm_k
-        || old.pm_caustic_k != new.pm_caustic_k
-        || old.fg_rays != new.fg_rays
-        || old.pt_spp != new.pt_spp
+    Changes::between(old, new).any(Effect::Retrace)
 }
 
 /// How long a headless render runs.
@@ -358,7 +407,7 @@ pub fn render_method(
     kind: MethodKind,
     settings: &RenderSettings,
     budget: Budget,
-) -> Result<Rendered, String> {
+) -> Result<Rendered, MethodError> {
     let settings = RenderSettings {
         method: kind,
         ..settings.clone()

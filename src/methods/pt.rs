@@ -3,7 +3,7 @@
 //! Progressive: each call adds samples per pixel; every sample has its own random stream.
 
 use crate::film::Film;
-use crate::methods::{Method, MethodStats, Step, Timings};
+use crate::methods::{Method, MethodError, MethodStats, Step, Timings};
 use crate::pipeline::direct::{bsdf_emission_weight, escaped_weight, power_heuristic};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
@@ -123,11 +123,6 @@ impl PathTracer {
         }
     }
 
-    /// Paths traced through every pixel so far.
-    pub fn samples_per_pixel(&self) -> u32 {
-        self.spp
-    }
-
     /// Trace `n` more paths through every pixel.
     pub fn add_samples(&mut self, n: u32) {
         let s = self.settings;
@@ -211,7 +206,7 @@ impl Method for PathTracer {
         width: u32,
         height: u32,
         spp: u32,
-    ) -> Result<(), String> {
+    ) -> Result<(), MethodError> {
         let render = self.render.with_view(width, height, spp);
         crate::methods::check(&render)?;
         self.render = render;
@@ -225,7 +220,7 @@ impl Method for PathTracer {
     }
 
     /// Nothing the path tracer uses changes without a rebuild.
-    fn update(&mut self, _settings: &RenderSettings) -> Result<(), String> {
+    fn update(&mut self, _settings: &RenderSettings) -> Result<(), MethodError> {
         Ok(())
     }
 

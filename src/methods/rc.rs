@@ -3,8 +3,12 @@
 //! only onto sparse cache records, picked in image-space passes by the error ε when the film is
 //! made, and interpolated between them.
 
-use crate::film::Film;
-use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
+use crate::methods::Timings;
+use crate::methods::eye_side::{LobeDraws, TargetGeometry};
+use crate::methods::photon_core::{
+    Classes, Combine, CoreConfig, EyePasses, PhotonCore, SampleLight, SplatStats, StoredRays,
+};
+use crate::methods::photon_method::{PhotonMethod, Resolved, Resolver};
 use crate::pipeline::cache::{self, Cache, PixelGeometry, RecordValue, record_value};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::radiance_map::{Accumulators, Interpolated};
@@ -15,35 +19,57 @@ use glam::Vec3;
 use std::time::Instant;
 
 /// Radiance caching.
-pub type RadianceCaching = PhotonMethod<RcFilm>;
+pub type RadianceCaching = PhotonMethod<RcResolver>;
 
-/// rc's film: the cache built by splatting, interpolated, plus the splatted caustics.
+/// rc's resolver: the cache built by splatting, interpolated, plus the splatted caustics.
 #[derive(Default)]
-pub struct RcFilm {
+pub struct RcResolver {
     cache: Option<Cache>,
 }
 
-impl Resolver for RcFilm {
+impl Resolver for RcResolver {
     const KIND: MethodKind = MethodKind::Rc;
-    const SPLATTED: [bool; 3] = [false, false, true];
+    const CONFIG: CoreConfig = CoreConfig {
+        splatted: Classes {
+            direct: false,
+            indirect: false,
+            caustic: true,
+        },
+        lobes: LobeDraws::InEyePass,
+        eye_passes: EyePasses::One,
+        targets: TargetGeometry::Kept,
+        stored_rays: StoredRays::Read,
+    };
 
-    fn film(&mut self, core: &mut Progressive) -> Film {
+    fn film(&mut self, core: &mut PhotonCore) -> Resolved {
         let t = Instant::now();
         let b = core.pass_batches() as u32;
         // The cache pass counts as splatting (T_S), not as resolving.
+        let mut timings = Timings::default();
         let tc = Instant::now();
-        let (cache, values) = cache_by_splatting(core);
-        let cache_time = tc.elapsed().as_secs_f64();
-        core.timings.t_splat += cache_time;
+        let (cache, values, counters) = cache_by_splatting(core);
+        timings.t_splat = tc.elapsed().as_secs_f64();
         // The caustics, splatted onto every target; the interpolated light is added to them.
         let mut map = core.resolve_indirect(b);
         if !cache.is_empty() {
-            core.resolve_samples(&mut map, Some(values), b, false, true);
+            core.resolve_samples(
+                &mut map,
+                SampleLight {
+                    values: Some(values),
+                    batches: b,
+                    splat_stats: SplatStats::None,
+                    combine: Combine::Add,
+                },
+            );
         }
         self.cache = Some(cache);
-        let film = core.compose(map, b, core.splat_direct());
-        core.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;
-        film
+        let film = core.compose(map, b, core.direct_photons());
+        timings.t_resolve = t.elapsed().as_secs_f64() - timings.t_splat;
+        Resolved {
+            film,
+            timings,
+            counters,
+        }
     }
 
     fn cache(&self) -> Option<&Cache> {
@@ -52,21 +78,23 @@ impl Resolver for RcFilm {
 }
 
 /// Every pass of the cache splats the stored indirect photon rays onto its new records only.
-/// Returns the cache and the eye samples' values from it.
-fn cache_by_splatting(core: &mut Progressive) -> (Cache, Interpolated) {
-    let (w, h) = (core.settings.width, core.settings.height);
-    let geo = PixelGeometry::new(&core.side.eye, w, h);
-    let mode = core.side.acc_indirect.mode;
+/// Returns the cache, the eye samples' values from it and the passes' splatting counters.
+fn cache_by_splatting(core: &PhotonCore) -> (Cache, Interpolated, SplatCounters) {
+    let settings = core.settings();
+    let side = core.side();
+    let (w, h) = (settings.width, settings.height);
+    let geo = PixelGeometry::new(&side.eye, w, h);
+    let mode = side.acc_indirect.mode;
     // Photon directions serve the directional records of glossy targets only: without any,
     // the rays are prepared without them (records and values keep the map's layout).
-    let ray_mode = if core.side.targets.glossy.iter().any(|&g| g) {
+    let ray_mode = if side.targets.glossy.iter().any(|&g| g) {
         mode
     } else {
         DirectionalMode::Diffuse
     };
     // Rays are prepared once for every pass.
     let batches: Vec<SplatBatch> = core
-        .store
+        .store()
         .batches()
         .iter()
         .map(|b| {
@@ -75,7 +103,7 @@ fn cache_by_splatting(core: &mut Progressive) -> (Cache, Interpolated) {
                 &core.bandwidths(b.m),
                 [false, true, false],
                 ray_mode,
-                &core.scene,
+                core.scene(),
             )
         })
         .collect();
@@ -83,16 +111,20 @@ fn cache_by_splatting(core: &mut Progressive) -> (Cache, Interpolated) {
     // there is no light to cache: records would all be dark, each as small as the image
     // allows, and their passes cost more than the splatted caustics.
     if batches.iter().all(|b| b.rays.is_empty()) {
-        return (Cache::default(), Interpolated::default());
+        return (
+            Cache::default(),
+            Interpolated::default(),
+            SplatCounters::default(),
+        );
     }
     let inv_b = 1.0 / batches.len().max(1) as f32;
-    let side = &core.side;
+    let scene = core.scene();
     let mut counters = SplatCounters::default();
-    let built = cache::build(
+    let (cache, values) = cache::build(
         &side.eye,
         &geo,
-        &core.camera,
-        &core.settings.cache,
+        core.camera(),
+        &settings.cache,
         mode,
         |samples| {
             if samples.is_empty() {
@@ -110,16 +142,16 @@ fn cache_by_splatting(core: &mut Progressive) -> (Cache, Interpolated) {
             let nrm: Vec<Vec3> = targets.iter().map(|&t| side.targets.normal[t]).collect();
             let glossy: Vec<bool> = targets.iter().map(|&t| side.targets.glossy[t]).collect();
             let mut tree = SplatTree::build(&pos, &nrm);
-            if core.settings.splat_visibility {
+            if settings.splat_visibility {
                 let geo_normals: Vec<Vec3> = targets
                     .iter()
                     .map(|&t| side.targets.geo_normal[t])
                     .collect();
-                tree.find_blockers(&core.scene, &geo_normals);
+                tree.find_blockers(scene, &geo_normals);
             }
             let mut acc = Accumulators::for_tree(&tree, &glossy, mode);
             for batch in &batches {
-                counters += splat(&tree, batch, &mut acc, Some(&core.scene));
+                counters += splat(&tree, batch, &mut acc, Some(scene));
             }
             let values: Vec<RecordValue> = (0..targets.len())
                 .map(|k| record_value(&acc, tree.target_slot[k] as usize, inv_b))
@@ -130,6 +162,5 @@ fn cache_by_splatting(core: &mut Progressive) -> (Cache, Interpolated) {
                 .collect()
         },
     );
-    core.counters += counters;
-    built
+    (cache, values, counters)
 }

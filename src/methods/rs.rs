@@ -4,52 +4,74 @@
 //! optionally read through the radiance cache (§8.3, the previewer's ε slider) and filtered in
 //! image space (§8.2).
 
-use crate::film::Film;
-use crate::methods::progressive::{PhotonMethod, Progressive, Resolver};
+use crate::methods::Timings;
+use crate::methods::eye_side::{LobeDraws, TargetGeometry};
+use crate::methods::photon_core::{
+    Classes, Combine, CoreConfig, EyePasses, PhotonCore, SampleLight, SplatStats, StoredRays,
+};
+use crate::methods::photon_method::{PhotonMethod, Resolved, Resolver};
 use crate::pipeline::cache::{self, Cache, PixelGeometry, record_value};
 use crate::pipeline::radiance_map::Interpolated;
+use crate::pipeline::splat::SplatCounters;
 use crate::settings::MethodKind;
 use std::time::Instant;
 
 /// Photon ray splatting.
-pub type RaySplatting = PhotonMethod<RsFilm>;
+pub type RaySplatting = PhotonMethod<RsResolver>;
 
-/// rs's film: the full radiance map, optionally through the cache and the filter.
+/// rs's resolver: the full radiance map, optionally through the cache and the filter.
 #[derive(Default)]
-pub struct RsFilm {
+pub struct RsResolver {
     /// The radiance cache of the last film (with `cache_on`).
     cache: Option<Cache>,
 }
 
-impl Resolver for RsFilm {
+impl Resolver for RsResolver {
     const KIND: MethodKind = MethodKind::Rs;
-    const SPLATTED: [bool; 3] = [false, true, true];
-    const REDRAWS_LOBES: bool = true;
-    const REDRAWS_EYE: bool = true;
-    const READS_TARGETS: bool = false;
-    const READS_STORED_RAYS: bool = false;
+    const CONFIG: CoreConfig = CoreConfig {
+        splatted: Classes {
+            direct: false,
+            indirect: true,
+            caustic: true,
+        },
+        lobes: LobeDraws::PerBatch,
+        eye_passes: EyePasses::Redrawn,
+        targets: TargetGeometry::Freed,
+        stored_rays: StoredRays::Unread,
+    };
 
-    fn film(&mut self, core: &mut Progressive) -> Film {
+    fn film(&mut self, core: &mut PhotonCore) -> Resolved {
         let t = Instant::now();
         let b = core.pass_batches() as u32;
         self.cache = None;
         // The cache pass counts as splatting (T_S), not as resolving.
-        let mut cache_time = 0.0;
+        let mut timings = Timings::default();
         let mut cached = None;
-        if core.settings.cache_on {
+        if core.settings().cache_on {
             let t = Instant::now();
             let (cache, values) = cache_from_map(core, b);
             (self.cache, cached) = (Some(cache), Some(values));
-            cache_time = t.elapsed().as_secs_f64();
-            core.timings.t_splat += cache_time;
+            timings.t_splat = t.elapsed().as_secs_f64();
         }
         let mut map = core.resolve_indirect(b);
-        if cached.is_some() || core.settings.filter.enabled {
-            core.resolve_samples(&mut map, cached, b, true, false);
+        if cached.is_some() || core.settings().filter.enabled {
+            core.resolve_samples(
+                &mut map,
+                SampleLight {
+                    values: cached,
+                    batches: b,
+                    splat_stats: SplatStats::FromMap,
+                    combine: Combine::Replace,
+                },
+            );
         }
-        let film = core.compose(map, b, core.splat_direct());
-        core.timings.t_resolve += t.elapsed().as_secs_f64() - cache_time;
-        film
+        let film = core.compose(map, b, core.direct_photons());
+        timings.t_resolve = t.elapsed().as_secs_f64() - timings.t_splat;
+        Resolved {
+            film,
+            timings,
+            counters: SplatCounters::default(),
+        }
     }
 
     fn cache(&self) -> Option<&Cache> {
@@ -59,16 +81,17 @@ impl Resolver for RsFilm {
 
 /// The cache's record values read from the full radiance map: no splatting, so ε can move
 /// freely (§8.3 in the previewer). Returns the cache and the eye samples' values from it.
-fn cache_from_map(core: &Progressive, batches: u32) -> (Cache, Interpolated) {
-    let side = &core.side;
-    let geo = PixelGeometry::new(&side.eye, core.settings.width, core.settings.height);
+fn cache_from_map(core: &PhotonCore, batches: u32) -> (Cache, Interpolated) {
+    let side = core.side();
+    let settings = core.settings();
+    let geo = PixelGeometry::new(&side.eye, settings.width, settings.height);
     let acc = &side.acc_indirect;
     let inv_b = 1.0 / batches.max(1) as f32;
     cache::build(
         &side.eye,
         &geo,
-        &core.camera,
-        &core.settings.cache,
+        core.camera(),
+        &settings.cache,
         acc.mode,
         |samples| {
             samples

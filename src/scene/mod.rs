@@ -1,9 +1,9 @@
 //! The scene: triangles with materials, lights, cameras and the BVH (obvhs) over them.
 //!
 //! Loading lives in `load` (glTF 2.0 / GLB), the project's own scenes in `builtin`, light
-//! sampling in `light`, materials and textures in `material`, the camera in `camera`, hit
-//! records and ray offsets in `geometry`, ray queries in `trace`. Everything here is read-only
-//! once built and shared between threads.
+//! sampling in `light`, the environment and the sun in [`environment`], materials and textures
+//! in `material`, the camera in `camera`, hit records and ray offsets in `geometry`, ray
+//! queries in `trace`. Everything here is read-only once built and shared between threads.
 
 mod builtin;
 mod camera;

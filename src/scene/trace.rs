@@ -135,13 +135,6 @@ impl Scene {
         offset_ray_origin(hit.position, hit.geo_normal, hit.offset, dir)
     }
 
-    /// The next hit of a ray leaving `hit` along `dir`: offset off the surface and never
-    /// meeting the triangle it leaves.
-    #[inline]
-    pub fn intersect_from(&self, hit: &Hit, dir: Vec3) -> Option<Hit> {
-        self.intersect_except(self.offset(hit, dir), dir, f32::INFINITY, hit.triangle)
-    }
-
     /// Does `dir` leave the surface of `hit` on the side it should? Reflection (`transmit`
     /// false) must stay on the side of `wo` and transmission cross to the other, judged by the
     /// geometric normal: an interpolated shading normal can send a sample through the surface,

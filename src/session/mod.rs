@@ -14,6 +14,7 @@ mod worker;
 use worker::Worker;
 
 use crate::film::Film;
+use crate::methods::MethodStats;
 use crate::pipeline::cache::CacheParams;
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::filter::FilterParams;
@@ -123,55 +124,16 @@ pub enum Event {
     Error(String),
 }
 
-/// Counters shown in the stats panel.
+/// Counters shown in the stats panel: the method's own ([`MethodStats`], as the stats JSON of
+/// a headless render has them) and the session's.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SessionStats {
-    /// Photons traced since the scene was loaded or tracing restarted.
-    pub photons_traced: u64,
-    /// Photon rays stored for re-splatting.
-    pub photon_rays: usize,
-    /// Bytes of the stored photon rays.
-    pub photon_ray_bytes: usize,
-    /// Batches whose light the image holds.
-    pub batches: usize,
-    /// Batches folded into the image and dropped from the ray store (budget exceeded).
-    pub folded_batches: usize,
-    /// Batches whose rays are stored (re-splattable).
-    pub stored_batches: usize,
-    /// Bytes held by eye samples, splat tree and accumulators.
-    pub splat_bytes: usize,
-    /// Bytes of the directional radiance-map records (§8.1), included in `splat_bytes`.
-    pub directional_bytes: usize,
-    /// Splat targets on glossy surfaces (the ones with directional records).
-    pub glossy_targets: usize,
-    /// Glossy eye samples whose lobe goes through the radiance map (§8.1).
-    #[serde(default)]
-    pub glossy_map_samples: usize,
-    /// Glossy eye samples whose lobe is traced by the eye path (too sharp for the map).
-    #[serde(default)]
-    pub glossy_traced_samples: usize,
-    /// Eye passes the image averages over (issue 16; 1 with fixed eye samples).
-    #[serde(default)]
-    pub eye_passes: u32,
-    /// Where the render's memory is (issue 16).
-    #[serde(default)]
-    pub memory: crate::methods::MemoryBreakdown,
-    /// Splatted pairs tested with a shadow ray, with the visibility test on (§40).
-    #[serde(default)]
-    pub shadow_tests: u64,
-    /// Of those, the pairs found blocked.
-    #[serde(default)]
-    pub occluded_pairs: u64,
-    /// Radiance cache records of this frame (0 when the cache is off).
-    pub cache_records: usize,
+    /// The method's counters and memory.
+    pub method: MethodStats,
     /// `photons_traced` / `elapsed_s`.
     pub photons_per_second: f64,
     /// Splat time of the last step, milliseconds.
     pub last_splat_ms: f64,
-    /// Eye samples of the current view.
-    pub eye_samples: usize,
-    /// Splat targets (eye samples after merging).
-    pub splat_targets: usize,
     /// Seconds since the current scene was loaded or tracing restarted.
     pub elapsed_s: f64,
     /// The worker is paused.

@@ -3,24 +3,23 @@
 
 use super::{Command, Event, Frame, Notify, SessionConfig, SessionStats};
 use crate::methods::{self, Method, Step};
-use crate::pipeline::photon::BandwidthParams;
 use crate::scene::{Camera, EnvironmentSettings, Scene};
-use crate::settings::{MethodKind, RenderSettings, limits};
+use crate::settings::{Changes, Effect, MethodKind, RenderSettings, limits};
 use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// Changes gathered from one drain of the command queue, applied once.
+/// Changes gathered from one drain of the command queue, applied once. Changes of the render
+/// settings are not listed here: `apply` reads them from the settings table
+/// ([`Changes::between`] the settings last applied and the new ones).
 #[derive(Default)]
 struct Pending {
     load: Option<PathBuf>,
     restart: bool,
+    /// A new camera (or the full resolution after the coarse first image).
     view: bool,
     interactive: Option<bool>,
-    bandwidth: Option<BandwidthParams>,
-    /// Settings that need no re-trace changed ([`Method::update`]).
-    update: bool,
     /// The environment changed (`SessionConfig::environment` holds it).
     environment: bool,
 }
@@ -29,6 +28,9 @@ pub(super) struct Worker {
     scene: Arc<Scene>,
     scene_path: Option<PathBuf>,
     config: SessionConfig,
+    /// The settings the running method was last given (full size: the method itself may
+    /// render the interactive size).
+    applied: RenderSettings,
     camera: Camera,
     interactive: bool,
     /// The settings whose method could not be built (the previous one keeps running).
@@ -66,6 +68,7 @@ impl Worker {
         let mut w = Self {
             scene,
             scene_path,
+            applied: config.settings.clone(),
             config,
             camera,
             interactive: false,
@@ -160,39 +163,24 @@ impl Worker {
         }
     }
 
-    /// Record a command; false on shutdown.
+    /// Record a command; false on shutdown. A command that sets render settings only writes
+    /// them: what the change asks of the method is the settings table's to say (`apply`).
     fn take(&mut self, c: Command, p: &mut Pending) -> bool {
         let s = &mut self.config.settings;
         match c {
-            Command::SetBandwidth(b) => p.bandwidth = Some(b),
-            Command::SetPhotonsPerBatch(n) => {
-                s.photons = n;
-                p.update = true;
-            }
-            Command::SetSamplesPerPixel(spp) => {
-                s.spp = spp;
-                p.view = true;
-            }
+            Command::SetBandwidth(b) => s.bandwidth = b,
+            Command::SetPhotonsPerBatch(n) => s.photons = n,
+            Command::SetSamplesPerPixel(spp) => s.spp = spp,
             Command::SetResolution { width, height } => {
                 s.width = width;
                 s.height = height;
-                p.view = true;
             }
             Command::SetCache { on, params } => {
                 s.cache_on = on;
                 s.cache = params;
-                p.update = true;
             }
-            Command::SetFilter(f) => {
-                s.filter = f;
-                p.update = true;
-            }
-            Command::SetRadianceMap(m) => {
-                s.radiance_map = m;
-                p.update = true;
-            }
-            // Changes of what is traced or how the trees are built: `apply` sees that the
-            // method needs a rebuild.
+            Command::SetFilter(f) => s.filter = f,
+            Command::SetRadianceMap(m) => s.radiance_map = m,
             Command::SetDirect(d) => s.direct = d,
             Command::SetSplatVisibility(on) => s.splat_visibility = on,
             Command::SetCamera {
@@ -233,9 +221,6 @@ impl Worker {
         if p.view || p.restart || p.load.is_some() {
             // The reference shows the current view only.
             self.reference = None;
-        }
-        if let Some(b) = p.bandwidth {
-            self.config.settings.bandwidth = b;
         }
         // Whatever the commands asked for, into the limits table's ranges (one place).
         self.config.settings = std::mem::take(&mut self.config.settings).within_limits();
@@ -292,15 +277,20 @@ impl Worker {
             return;
         };
         let s = &self.config.settings;
+        // What the commands changed, by the settings table: the view's settings make a new
+        // view, the re-splat and resolve ones an update (the re-trace ones rebuilt above).
+        let changes = Changes::between(&self.applied, s);
+        self.applied = s.clone();
         // Once the coarse first image is done, a renderer still on its half batch gets the
         // configured size back with the next change of any kind.
         let half_batch = !self.coarse_start && r.settings().photons != s.photons;
-        let changed = p.update || p.bandwidth.is_some() || half_batch;
+        let changed = changes.any(Effect::Resplat) || changes.any(Effect::Resolve) || half_batch;
         if changed && let Err(e) = r.update(s) {
-            self.emit(Event::Error(e));
+            self.emit(Event::Error(e.to_string()));
             return;
         }
-        if p.view {
+        let view = p.view || changes.any(Effect::View);
+        if view {
             let (w, h, spp) = if self.interactive {
                 let d = self.config.interactive_divisor.max(1);
                 (
@@ -312,11 +302,11 @@ impl Worker {
                 (s.width, s.height, s.spp)
             };
             if let Err(e) = r.set_view(self.camera.clone(), w, h, spp) {
-                self.emit(Event::Error(e));
+                self.emit(Event::Error(e.to_string()));
                 return;
             }
         }
-        if p.view || changed {
+        if view || changed {
             self.generation += 1;
         }
     }
@@ -336,7 +326,7 @@ impl Worker {
                 Ok(pt) => self.reference = Some(pt),
                 Err(e) => {
                     self.reference_on = false;
-                    self.emit(Event::Error(e));
+                    self.emit(Event::Error(e.to_string()));
                     return;
                 }
             }
@@ -348,6 +338,7 @@ impl Worker {
 
     fn restart(&mut self) {
         self.started = Instant::now();
+        self.applied = self.config.settings.clone();
         let mut settings = self.config.settings.clone();
         self.coarse_start = self.config.interactive_divisor > 1;
         if self.interactive || self.coarse_start {
@@ -371,7 +362,7 @@ impl Worker {
             }
             Err(e) => {
                 self.failed = Some(self.config.settings.clone());
-                self.emit(Event::Error(e));
+                self.emit(Event::Error(e.to_string()));
             }
         }
         self.generation += 1;
@@ -415,26 +406,9 @@ impl Worker {
             (pick.fraction_min(), pick.fraction_max())
         });
         let stats = SessionStats {
-            photons_traced: m.photons_traced,
-            photon_rays: m.photon_rays,
-            photon_ray_bytes: m.photon_ray_bytes,
-            batches: m.passes as usize,
-            folded_batches: m.folded_batches,
-            stored_batches: m.stored_batches,
-            splat_bytes: m.splat_bytes,
-            directional_bytes: m.directional_bytes,
-            glossy_targets: m.glossy_targets,
-            glossy_map_samples: m.glossy_map_samples,
-            glossy_traced_samples: m.glossy_traced_samples,
-            eye_passes: m.eye_passes,
-            memory: m.memory,
-            shadow_tests: m.shadow_tests,
-            occluded_pairs: m.occluded_pairs,
-            cache_records: m.cache_records.unwrap_or(0),
             photons_per_second: m.photons_traced as f64 / elapsed.max(1e-9),
+            method: m,
             last_splat_ms: self.last_splat_ms,
-            eye_samples: m.eye_samples,
-            splat_targets: m.splat_targets,
             elapsed_s: elapsed,
             paused: self.paused,
             resplat_pending: r.catching_up(),

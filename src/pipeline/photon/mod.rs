@@ -31,7 +31,7 @@ use serde::{Deserialize, Serialize};
 
 /// The paper's a in μC = a·⟨D⟩ (§6).
 pub const MU_C_FACTOR: f32 = 0.2;
-/// m0 = ⁶√(10⁵) = 10^(5/6) ≈ 6.8 (§6; DESIGN.md on the garbled root).
+/// m0 = ⁶√(10⁵) = 10^(5/6) ≈ 6.8 (§6; docs/deviations.md §1 on the garbled root).
 pub const M0: f32 = 6.812_921;
 /// The clamp distance D̃ of eq. 7 as a fraction of the pilot's ⟨D⟩ (the paper leaves it
 /// scene-dependent without a value; docs/deviations.md §3): D̃ = μC, the typical kernel
@@ -117,13 +117,6 @@ impl PhotonRay {
     #[inline]
     pub fn escapes(&self) -> bool {
         self.end_normal.is_zero()
-    }
-
-    /// The ray ends on a mirror or glass surface: it splats nothing beyond its end, since the
-    /// photon goes on from there (docs/deviations.md §23).
-    #[inline]
-    pub fn ends_specular(&self) -> bool {
-        !self.lands && !self.escapes()
     }
 
     /// Every number finite (power non-negative): a ray that may be splatted.

@@ -14,7 +14,7 @@ use rayon::prelude::*;
 #[derive(Clone, Copy, Debug)]
 pub struct Pilot {
     /// ⟨D⟩: weighted mean photon-segment length (a length, so that μC = a·⟨D⟩ is one;
-    /// DESIGN.md). Eq. 7's lengths are measured in this unit.
+    /// docs/deviations.md §2). Eq. 7's lengths are measured in this unit.
     pub mean_length: f32,
     /// Weighted mean of ln p̃ (dimensionless, eq. 7) over the pilot's vertices: the geometric
     /// mean of r = p̃^(−S/2) for any S is exp(−S/2 · this).

@@ -75,11 +75,6 @@ impl Accumulators {
         acc
     }
 
-    /// Directional records held.
-    pub fn record_count(&self) -> usize {
-        self.records.len() / self.mode.record_floats().max(1)
-    }
-
     /// The directional record of `slot`, if it has one.
     #[inline]
     pub fn record(&self, slot: usize) -> Option<&[f32]> {

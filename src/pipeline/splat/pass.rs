@@ -166,12 +166,12 @@ fn splat_subtree_impl<const VIS: bool>(job: &Job, st: &Subtree, acc: AccView) ->
                     } else {
                         None
                     };
-                    let (w, accepted, shadow) =
+                    let lanes =
                         splat_lanes(ray, &tree.points.chunks[k], vis, &mut acc.chunks[k - base]);
-                    c.accepted += accepted as u64;
-                    c.shadow_tests += shadow.0 as u64;
-                    c.occluded += shadow.1 as u64;
-                    if accepted > 0
+                    c.accepted += lanes.accepted as u64;
+                    c.shadow_tests += lanes.shadow_tests as u64;
+                    c.occluded += lanes.occluded as u64;
+                    if lanes.accepted > 0
                         && mode != DirectionalMode::Diffuse
                         && acc.chunk_has_record[k - base]
                     {
@@ -179,7 +179,7 @@ fn splat_subtree_impl<const VIS: bool>(job: &Job, st: &Subtree, acc: AccView) ->
                         deposit_directional(
                             ray.power,
                             &dirs[ri],
-                            &w,
+                            &lanes.weights,
                             &acc.slot_record[lane0..lane0 + LANES],
                             acc.first_record,
                             acc.records,
@@ -217,16 +217,27 @@ fn deposit_directional(
     }
 }
 
-/// Test and accumulate one chunk of 8 slots; returns the lanes' splat weights K·cos θ
-/// (zero where infeasible), the number of feasible samples, and the shadow rays traced and
-/// found blocked when `vis` gives the chunk's blocker planes.
+/// What splatting one ray onto one chunk of 8 slots gave.
+struct LaneSplat {
+    /// The lanes' splat weights K·cos θ (zero where infeasible).
+    weights: [f32; LANES],
+    /// Feasible lanes.
+    accepted: u32,
+    /// Shadow rays traced (with the visibility test).
+    shadow_tests: u32,
+    /// Of those, the ones found blocked.
+    occluded: u32,
+}
+
+/// Test and accumulate one chunk of 8 slots, with the shadow rays of the visibility test when
+/// `vis` gives the chunk's blocker planes.
 #[inline(always)]
 fn splat_lanes(
     ray: &SplatRay,
     pts: &PointChunk,
     vis: Option<(&BlockerChunk, &Scene)>,
     acc: &mut AccumChunk,
-) -> ([f32; LANES], u32, (u32, u32)) {
+) -> LaneSplat {
     let mut w = [0.0f32; LANES];
     let mut wr = [0.0f32; LANES];
     let mut wd = [0.0f32; LANES];
@@ -263,7 +274,12 @@ fn splat_lanes(
         ch[Channel::WeightedInvDist as usize][l] += wd[l];
         ch[Channel::Count as usize][l] += hit[l];
     }
-    (w, hit.iter().sum::<f32>() as u32, shadow)
+    LaneSplat {
+        weights: w,
+        accepted: hit.iter().sum::<f32>() as u32,
+        shadow_tests: shadow.0,
+        occluded: shadow.1,
+    }
 }
 
 /// Shadow rays run parallel to the segment from the target to the photon ray's nearest point,

@@ -15,8 +15,9 @@
 //! padding has a zero normal and is never feasible). A leaf node refers to a [`Leaf`] record
 //! holding its first slot and a bounding sphere, tested against the cone before its samples.
 //!
-//! The build (`build`), the node encoding (`node`) and the traversal (`traverse`) are
-//! submodules; every public item is re-exported here.
+//! The build (`build`), the node encoding (`node`), the traversal (`traverse`) and the probe
+//! rays' blocker planes for the visibility test (`blockers`) are submodules; every public item
+//! is re-exported here.
 
 mod blockers;
 mod build;

@@ -36,7 +36,8 @@ pub enum BuiltinScene {
     Outdoor,
     /// The glossy box from mirror to matte: [`BuiltinScene::CornellGlossy`]'s spheres, a blue
     /// plastic sphere of roughness 0.1 (Phong exponent 10⁴) and a white plastic floor of
-    /// roughness 0.25 (e ≈ 510): lobes too sharp for any directional mode (issue 13).
+    /// roughness 0.25 (e ≈ 510): lobes too sharp for any directional mode (docs/deviations.md
+    /// §37).
     CornellGlossySharp,
 }
 

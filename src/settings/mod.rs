@@ -192,27 +192,11 @@ impl RenderSettings {
 
     /// Every numeric setting moved into its range of [`limits`] (NaN goes to the lower
     /// bound); fractions that are negative, NaN or all zero fall back to the defaults, others
-    /// are normalised to sum to 1.
+    /// are normalised to sum to 1. Reads the one table of settings ([`SETTINGS`]).
     pub fn within_limits(mut self) -> Self {
-        use limits::*;
-        self.width = RESOLUTION.clamp(self.width);
-        self.height = RESOLUTION.clamp(self.height);
-        self.spp = SPP.clamp(self.spp);
-        self.photons = PHOTONS.clamp(self.photons);
-        self.bandwidth.smoothness_c = SMOOTHNESS_C.clamp(self.bandwidth.smoothness_c);
-        self.bandwidth.sensitivity_s = SENSITIVITY_S.clamp(self.bandwidth.sensitivity_s);
-        self.bandwidth.max_bandwidth_r = MAX_BANDWIDTH_R.clamp(self.bandwidth.max_bandwidth_r);
-        self.max_specular_depth = SPECULAR_DEPTH.clamp(self.max_specular_depth);
-        self.nee_samples = NEE_SAMPLES.clamp(self.nee_samples);
-        self.pm_k = PM_K.clamp(self.pm_k);
-        self.pm_caustic_k = PM_K.clamp(self.pm_caustic_k);
-        self.fg_rays = FG_RAYS.clamp(self.fg_rays);
-        self.pt_spp = PT_SPP.clamp(self.pt_spp);
-        self.cache.error = CACHE_ERROR.clamp(self.cache.error);
-        self.cache.min_records = MIN_RECORDS.clamp(self.cache.min_records);
-        self.filter.strength = FILTER_STRENGTH.clamp(self.filter.strength);
-        self.fractions = normalised_fractions(self.fractions)
-            .unwrap_or_else(|_| RenderSettings::default().fractions);
+        for setting in SETTINGS {
+            setting.range.clamp(&mut self);
+        }
         self
     }
 }
@@ -223,52 +207,44 @@ fn one() -> u32 {
 
 impl RenderSettings {
     /// An error naming the first setting outside its range of [`limits`] (or fractions that
-    /// cannot be normalised), for settings that must be right before any work starts.
-    pub fn validate(&self) -> Result<(), String> {
-        use limits::*;
-        fn check<T: Copy + PartialOrd + std::fmt::Display>(
-            name: &str,
-            limit: Limit<T>,
-            v: T,
-        ) -> Result<(), String> {
-            if limit.contains(v) {
-                Ok(())
-            } else {
-                Err(format!(
-                    "{name} must be in {}..={}, got {v}",
-                    limit.min, limit.max
-                ))
+    /// cannot be normalised), for settings that must be right before any work starts. Reads
+    /// the one table of settings ([`SETTINGS`]).
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        for setting in SETTINGS {
+            // The path tracer takes no eye samples (`pt_spp` is its count).
+            if setting.name == "spp" && self.method == MethodKind::Pt {
+                continue;
             }
+            setting.range.check(setting.label, self)?;
         }
-        check("width", RESOLUTION, self.width)?;
-        check("height", RESOLUTION, self.height)?;
-        // The path tracer takes no eye samples (`pt_spp` is its count).
-        if self.method != MethodKind::Pt {
-            check("samples per pixel", SPP, self.spp)?;
-        }
-        check("paths per pixel", PT_SPP, self.pt_spp)?;
-        check("photons per batch", PHOTONS, self.photons)?;
-        check("C", SMOOTHNESS_C, self.bandwidth.smoothness_c)?;
-        check("S", SENSITIVITY_S, self.bandwidth.sensitivity_s)?;
-        check("R", MAX_BANDWIDTH_R, self.bandwidth.max_bandwidth_r)?;
-        check("specular depth", SPECULAR_DEPTH, self.max_specular_depth)?;
-        check("NEE samples", NEE_SAMPLES, self.nee_samples)?;
-        check("K", PM_K, self.pm_k)?;
-        check("caustic K", PM_K, self.pm_caustic_k)?;
-        check("gather rays", FG_RAYS, self.fg_rays)?;
-        check("cache error", CACHE_ERROR, self.cache.error)?;
-        check("cache records", MIN_RECORDS, self.cache.min_records)?;
-        check("filter strength", FILTER_STRENGTH, self.filter.strength)?;
-        normalised_fractions(self.fractions).map(|_| ())
+        Ok(())
     }
+}
+
+/// A setting that cannot be used as given.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// A number outside its range of [`limits`].
+    #[error("{label} must be in {range}, got {value}")]
+    OutOfRange {
+        /// The setting, as the window and the messages name it.
+        label: &'static str,
+        /// The accepted range, `min..=max`.
+        range: String,
+        /// The value given.
+        value: String,
+    },
+    /// Photon fractions that cannot be normalised.
+    #[error("the photon fractions must be three non-negative numbers, not all zero")]
+    Fractions,
 }
 
 /// Photon fractions scaled to sum to 1; an error when one is negative or not finite, or all
 /// are zero.
-pub fn normalised_fractions(f: [f32; 3]) -> Result<[f32; 3], String> {
+pub fn normalised_fractions(f: [f32; 3]) -> Result<[f32; 3], SettingsError> {
     let sum: f32 = f.iter().sum();
     if f.iter().any(|x| !x.is_finite() || *x < 0.0) || sum <= 0.0 {
-        return Err("the photon fractions must be three non-negative numbers, not all zero".into());
+        return Err(SettingsError::Fractions);
     }
     // Fractions that already sum to 1 (up to rounding) stay exactly as given.
     if (sum - 1.0).abs() <= 1e-5 {
@@ -310,164 +286,11 @@ impl<T: Copy + PartialOrd> Limit<T> {
 }
 
 /// The one table of accepted ranges.
-pub mod limits {
-    use super::Limit;
-    use crate::scene::environment::{ANGLE_RANGE, STRENGTH_RANGE};
+pub mod limits;
 
-    /// Environment (and sun) strength, a multiplier of radiance.
-    pub const ENV_STRENGTH: Limit<f32> = Limit {
-        min: *STRENGTH_RANGE.start(),
-        max: *STRENGTH_RANGE.end(),
-    };
-    /// Environment rotation about +Y, degrees.
-    pub const ENV_ROTATION: Limit<f32> = Limit {
-        min: *ANGLE_RANGE.start(),
-        max: *ANGLE_RANGE.end(),
-    };
+mod table;
 
-    /// Image width and height, pixels.
-    pub const RESOLUTION: Limit<u32> = Limit { min: 8, max: 4096 };
-    /// Eye samples per pixel.
-    pub const SPP: Limit<u32> = Limit { min: 1, max: 64 };
-    /// Paths per pixel of a fixed-budget path-traced image.
-    pub const PT_SPP: Limit<u32> = Limit {
-        min: 1,
-        max: 1 << 20,
-    };
-    /// M, stored photon rays per batch.
-    pub const PHOTONS: Limit<u64> = Limit {
-        min: 100,
-        max: 100_000_000,
-    };
-    /// C, eq. 8's smoothness.
-    pub const SMOOTHNESS_C: Limit<f32> = Limit {
-        min: 0.05,
-        max: 5.0,
-    };
-    /// S, eq. 8's sensitivity.
-    pub const SENSITIVITY_S: Limit<f32> = Limit {
-        min: 0.01,
-        max: 1.0,
-    };
-    /// R, the bandwidth range: every h within [R·h̄, h̄/R].
-    pub const MAX_BANDWIDTH_R: Limit<f32> = Limit {
-        min: 0.01,
-        max: 1.0,
-    };
-    /// Longest specular chain.
-    pub const SPECULAR_DEPTH: Limit<u32> = Limit { min: 0, max: 64 };
-    /// Light samples per eye sample (NEE).
-    pub const NEE_SAMPLES: Limit<u32> = Limit { min: 1, max: 256 };
-    /// K of the photon maps.
-    pub const PM_K: Limit<usize> = Limit {
-        min: 1,
-        max: 100_000,
-    };
-    /// Gather rays per eye sample (final gathering).
-    pub const FG_RAYS: Limit<u32> = Limit { min: 1, max: 4096 };
-    /// ε, the radiance cache's error.
-    pub const CACHE_ERROR: Limit<f32> = Limit {
-        min: 0.05,
-        max: 2.0,
-    };
-    /// Cache records covering every pixel.
-    pub const MIN_RECORDS: Limit<u32> = Limit { min: 1, max: 16 };
-    /// Scale of the image-space filter's radius.
-    pub const FILTER_STRENGTH: Limit<f32> = Limit { min: 0.0, max: 4.0 };
-    /// Photon rays kept for re-splatting in the window.
-    pub const RAY_BUDGET: Limit<usize> = Limit {
-        min: 50_000,
-        max: 100_000_000,
-    };
-    /// Wall-clock budget of a headless render, seconds.
-    pub const TIME_BUDGET: Limit<f64> = Limit {
-        min: 0.001,
-        max: 1e6,
-    };
-    /// Batches (or passes) of a headless render with `--batches`.
-    pub const BATCHES: Limit<u64> = Limit {
-        min: 1,
-        max: 1_000_000,
-    };
-    /// Worker threads.
-    pub const THREADS: Limit<usize> = Limit { min: 1, max: 1024 };
-    /// Repetitions of a benchmark row.
-    pub const RUNS: Limit<u32> = Limit { min: 1, max: 1000 };
-    /// Display exposure, stops.
-    pub const EXPOSURE: Limit<f32> = Limit {
-        min: -16.0,
-        max: 16.0,
-    };
-}
+pub use table::{Changes, Effect, Range, SETTINGS, Setting};
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn limits_clamp_and_reject_nan() {
-        assert_eq!(limits::SPP.clamp(0), 1);
-        assert_eq!(limits::SPP.clamp(1000), 64);
-        assert_eq!(limits::SMOOTHNESS_C.clamp(f32::NAN), 0.05);
-        assert!(!limits::SMOOTHNESS_C.contains(f32::NAN));
-        assert!(limits::SENSITIVITY_S.contains(1.0));
-    }
-
-    #[test]
-    fn fractions_are_normalised_or_refused() {
-        assert_eq!(
-            normalised_fractions([3.0, 6.0, 1.0]).unwrap(),
-            [0.3, 0.6, 0.1]
-        );
-        assert!(normalised_fractions([0.0; 3]).is_err());
-        assert!(normalised_fractions([-1.0, 1.0, 1.0]).is_err());
-        assert!(normalised_fractions([f32::NAN, 1.0, 1.0]).is_err());
-        let s = RenderSettings {
-            spp: 0,
-            fractions: [0.0; 3],
-            ..RenderSettings::default()
-        }
-        .within_limits();
-        assert_eq!(s.spp, 1);
-        assert_eq!(s.fractions, RenderSettings::default().fractions);
-    }
-
-    #[test]
-    fn validate_names_the_setting_and_its_range() {
-        assert!(RenderSettings::default().validate().is_ok());
-        let e = RenderSettings {
-            width: 4_294_967_295,
-            ..RenderSettings::default()
-        }
-        .validate()
-        .unwrap_err();
-        assert_eq!(e, "width must be in 8..=4096, got 4294967295");
-        let e = RenderSettings {
-            cache: CacheParams {
-                error: f32::NAN,
-                min_records: 4,
-            },
-            ..RenderSettings::default()
-        }
-        .validate()
-        .unwrap_err();
-        assert!(e.starts_with("cache error must be in"), "{e}");
-        // Whatever within_limits gives is valid.
-        let wild = RenderSettings {
-            spp: 0,
-            photons: u64::MAX,
-            fractions: [f32::NAN, 0.0, 0.0],
-            ..RenderSettings::default()
-        };
-        assert!(wild.within_limits().validate().is_ok());
-    }
-
-    #[test]
-    fn method_names_round_trip() {
-        for &m in MethodKind::ALL {
-            assert_eq!(MethodKind::from_name(m.name()), Some(m));
-            let json = serde_json::to_string(&m).unwrap();
-            assert_eq!(json, format!("\"{}\"", m.name()));
-        }
-    }
-}
+mod tests;

@@ -1,0 +1,179 @@
+//! Tracing and splatting batches: a new batch (stored, or streamed a wave at a time when no
+//! batch is kept), a stored batch splatted again, and the traced glossy lobes' share of each.
+
+use super::PhotonCore;
+use crate::methods::eye_side::{EyeSide, LobeDraws};
+use crate::pipeline::directional::DirectionalMode;
+use crate::pipeline::photon::{Bandwidth, PhotonRay, plan_light_pass};
+use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
+use crate::scene::Scene;
+use crate::settings::DirectMode;
+use std::time::Instant;
+
+impl PhotonCore {
+    /// Trace one light pass of M photons, splat it with the bandwidth for the total M so
+    /// far. Finishes a pending re-splat first.
+    pub(super) fn run_batch(&mut self) {
+        debug_assert!(
+            !self.side.tree.is_released(),
+            "a render takes no step after its final film"
+        );
+        while self.resplat_pending() {
+            self.step();
+        }
+        if self.store.frees_every_batch() {
+            self.stream_batch();
+        } else {
+            let t = Instant::now();
+            let b = self
+                .store
+                .trace(&self.scene, &self.settings, self.splat_direct());
+            self.timings.t_light += t.elapsed().as_secs_f64();
+
+            let t = Instant::now();
+            self.splat_stored(b);
+            self.timings.t_splat += t.elapsed().as_secs_f64();
+            self.draw_lobes(b);
+        }
+        let t = Instant::now();
+        self.folded_total += self.store.fold();
+        // The dropped batches are the oldest; those of earlier eye passes were not splatted
+        // onto this one, whose batches are the newest `splatted` of the store.
+        let stored = self.store.batches().len();
+        if self.splatted > stored {
+            self.folded += self.splatted - stored;
+            self.splatted = stored;
+        }
+        self.timings.t_splat += t.elapsed().as_secs_f64();
+    }
+
+    /// [`PhotonCore::run_batch`] when no batch is kept once splatted (a headless rs render):
+    /// the light pass is counted first, then traced again a wave at a time, and each wave is
+    /// splatted (onto the eye side and the traced lobes) and dropped, so the batch's rays are
+    /// never held whole (docs/benchmarks.md, "Memory"). The same rays, in the same order, with
+    /// the same bandwidths as a stored batch; the second trace costs one more T_L.
+    fn stream_batch(&mut self) {
+        let t = Instant::now();
+        let lps = self
+            .store
+            .light_pass_settings(&self.settings, self.splat_direct());
+        let plan = plan_light_pass(&self.scene, &lps);
+        let b = self.store.add_streamed(&plan, self.settings.photons);
+        self.timings.t_light += t.elapsed().as_secs_f64();
+        let bw = self.bandwidths(self.store.batches()[b].m);
+        let classes = self.config.splatted.mask();
+        let mut lobes = if self.config.lobes == LobeDraws::PerBatch {
+            self.lobes.begin_batch(
+                &self.scene,
+                &self.camera,
+                &self.settings,
+                &self.side,
+                classes,
+                &mut self.timings,
+            )
+        } else {
+            None
+        };
+
+        let t = Instant::now();
+        let mut t_splat = 0.0;
+        let (scene, side, counters) = (&self.scene, &mut self.side, &mut self.counters);
+        let direct = self.settings.direct;
+        let mode = self.settings.radiance_map;
+        plan.stream(scene, &lps, |rays| {
+            let t = Instant::now();
+            let photons = direct == DirectMode::Photons;
+            *counters += splat_rays(scene, side, rays, &bw, classes, photons, mode);
+            if let Some(l) = lobes.as_mut() {
+                l.gather(scene, rays, &bw);
+            }
+            t_splat += t.elapsed().as_secs_f64();
+        });
+        self.timings.t_light += t.elapsed().as_secs_f64() - t_splat;
+        let t = Instant::now();
+        if let Some(l) = lobes {
+            self.lobes.finish_batch(&self.scene, l);
+        }
+        self.timings.t_splat += t_splat + t.elapsed().as_secs_f64();
+        self.splatted += 1;
+        self.generation += 1;
+    }
+
+    /// Splat stored batch `b` with the bandwidth of its M under the current parameters.
+    pub(super) fn splat_stored(&mut self, b: usize) {
+        let batch = &self.store.batches()[b];
+        let bw = self.bandwidths(batch.m);
+        self.counters += splat_rays(
+            &self.scene,
+            &mut self.side,
+            &batch.rays,
+            &bw,
+            self.config.splatted.mask(),
+            self.settings.direct == DirectMode::Photons,
+            self.settings.radiance_map,
+        );
+        self.splatted += 1;
+        self.generation += 1;
+    }
+
+    /// With [`LobeDraws::PerBatch`], new directions for the traced glossy lobes, and stored
+    /// batch `b` gathered where they land (timed into T_E, T_D and T_S by the lobes
+    /// themselves).
+    pub(super) fn draw_lobes(&mut self, b: usize) {
+        if self.config.lobes != LobeDraws::PerBatch {
+            return;
+        }
+        let batch = &self.store.batches()[b];
+        let bw = self.bandwidths(batch.m);
+        self.lobes.add_batch(
+            &self.scene,
+            &self.camera,
+            &self.settings,
+            &self.side,
+            &batch.rays,
+            &bw,
+            self.config.splatted.mask(),
+            &mut self.timings,
+        );
+    }
+}
+
+/// Splat `rays` of the `classes` (direct, indirect, caustic) onto the eye side's targets
+/// (direct photons, when `direct_photons`, into their own accumulators).
+fn splat_rays(
+    scene: &Scene,
+    side: &mut EyeSide,
+    rays: &[PhotonRay],
+    bw: &[Bandwidth; 3],
+    classes: [bool; 3],
+    direct_photons: bool,
+    mode: DirectionalMode,
+) -> SplatCounters {
+    let mut counters = SplatCounters::default();
+    if classes == [false; 3] {
+        return counters;
+    }
+    counters += prepare_and_splat(
+        &side.tree,
+        rays,
+        bw,
+        classes,
+        mode,
+        scene,
+        &mut side.acc_indirect,
+        Some(scene),
+    );
+    if direct_photons {
+        counters += prepare_and_splat(
+            &side.tree,
+            rays,
+            bw,
+            [true, false, false],
+            mode,
+            scene,
+            &mut side.acc_direct,
+            Some(scene),
+        );
+    }
+    counters
+}

@@ -1,0 +1,154 @@
+//! Making a film from the core's accumulators: the radiance map (eq. 5), per-sample light
+//! resolved again (the cache's values, the filter), and the composed film with its AOVs.
+
+use super::PhotonCore;
+use crate::film::Film;
+use crate::pipeline::cache::{PixelGeometry, sample_values};
+use crate::pipeline::filter::filter_samples;
+use crate::pipeline::radiance_map::{Interpolated, RadianceMap, add_radiance_at};
+use glam::Vec3;
+
+/// Per-sample incident light for [`PhotonCore::resolve_samples`].
+pub struct SampleLight {
+    /// The cache's values ([`crate::pipeline::cache::build`]); `None`: the accumulators'
+    /// own over `batches`.
+    pub values: Option<Interpolated>,
+    /// Batches the light is averaged over.
+    pub batches: u32,
+    /// Where the filter reads each pixel's splat statistics.
+    pub splat_stats: SplatStats,
+    /// Whether the light replaces the map's or is added to it.
+    pub combine: Combine,
+}
+
+/// Where the image-space filter reads each pixel's splat statistics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplatStats {
+    /// From the radiance map's `SplatInfo` (every sample was splatted).
+    FromMap,
+    /// None exist (interpolated samples): the filter takes its default radius.
+    None,
+}
+
+/// How resolved light meets the map's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Combine {
+    /// It replaces the map's light.
+    Replace,
+    /// It is added to the map's light (rc: onto the splatted caustics).
+    Add,
+}
+
+/// Whether the film adds the direct photons' accumulators.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirectPhotons {
+    /// Direct photons were splatted into their own accumulators: add them.
+    Splatted,
+    /// None were splatted (NEE gives direct light, or a density estimate holds them).
+    NotSplatted,
+}
+
+impl PhotonCore {
+    /// [`DirectPhotons::Splatted`] with `--direct photons`.
+    pub fn direct_photons(&self) -> DirectPhotons {
+        if self.splat_direct() {
+            DirectPhotons::Splatted
+        } else {
+            DirectPhotons::NotSplatted
+        }
+    }
+
+    /// Resolve `acc_indirect` into a radiance map, averaged over `batches`.
+    pub fn resolve_indirect(&self, batches: u32) -> RadianceMap {
+        let side = &self.side;
+        let mut map = RadianceMap::new(self.settings.width, self.settings.height);
+        map.resolve_from(
+            &self.scene,
+            &side.eye,
+            &side.tree.target_slot,
+            &side.acc_indirect,
+            batches,
+        );
+        map
+    }
+
+    /// Resolve `map` again from per-sample incident light (`light`: the cache's values or
+    /// the accumulators' own), filtered in image space when the filter is on (§8.2).
+    pub fn resolve_samples(&self, map: &mut RadianceMap, light: SampleLight) {
+        let side = &self.side;
+        let geo = PixelGeometry::new(&side.eye, self.settings.width, self.settings.height);
+        let mode = side.acc_indirect.mode;
+        let batches = light.batches;
+        let mut values = match light.values {
+            Some(values) => values,
+            None => sample_values(
+                &side.eye,
+                &side.tree.target_slot,
+                &side.acc_indirect,
+                batches,
+            ),
+        };
+        let filter = self.settings.filter;
+        if filter.enabled {
+            let splats: Vec<f32> = match light.splat_stats {
+                SplatStats::FromMap => map.info.iter().map(|i| i.splats).collect(),
+                SplatStats::None => vec![0.0; map.info.len()],
+            };
+            filter_samples(
+                &side.eye,
+                &geo,
+                &self.camera,
+                &splats,
+                batches,
+                filter,
+                &mut values,
+            );
+        }
+        let add = light.combine == Combine::Add;
+        map.resolve_interpolated(&self.scene, &side.eye, &values, mode, add);
+    }
+
+    /// Compose the film: emission + direct light (NEE, and the direct photons' accumulators
+    /// with [`DirectPhotons::Splatted`]) + the indirect radiance map, with AOVs.
+    pub fn compose(&self, map: RadianceMap, batches: u32, direct_photons: DirectPhotons) -> Film {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let side = &self.side;
+        // The map's radiance and statistics become the film's (moved: docs/benchmarks.md,
+        // "Memory").
+        let invalid_map = map.invalid;
+        let mut film = Film::around(w, h, map.radiance, map.info);
+        // Direct light goes straight into the film (no second map, no copy: docs/benchmarks.md,
+        // "Memory").
+        // (A released side, after a failed eye pass, has no sums: its film stays black.)
+        if side.direct.len() == film.direct.len() {
+            film.direct.copy_from_slice(&side.direct);
+        }
+        if direct_photons == DirectPhotons::Splatted {
+            film.invalid_contributions += add_radiance_at(
+                &self.scene,
+                &side.eye,
+                &side.tree.target_slot,
+                &side.acc_direct,
+                batches,
+                &mut film.direct,
+                |i| Some(side.eye.pixel[i] as usize),
+            );
+        }
+        film.invalid_contributions +=
+            invalid_map + side.invalid_direct + self.store.invalid_photon_rays + self.lobes.invalid;
+        self.lobes.add_means(&mut film.direct, &mut film.indirect);
+        for i in 0..film.direct.len() {
+            let (mut d, mut ind) = (film.direct[i], film.indirect[i]);
+            // The last guard: nothing non-finite reaches the film.
+            if !(d + ind).is_finite() {
+                film.invalid_contributions += 1;
+                (d, ind) = (Vec3::ZERO, Vec3::ZERO);
+            }
+            film.direct[i] = d;
+            film.indirect[i] = ind;
+            film.rgb[i] = d + ind;
+        }
+        side.eye.glossy_sources(&mut film.glossy_source);
+        film
+    }
+}

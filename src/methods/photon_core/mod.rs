@@ -1,0 +1,444 @@
+//! The photon core that rs, rc and pm share ([`PhotonCore`]): one view's eye side, the stored
+//! photon rays and the batch bookkeeping. A step traces a batch of photon rays and splats it
+//! with the bandwidth for the total M so far, or re-splats one stored batch after a change of
+//! C/S/R or of the view (newest first; the film averages over the batches splatted so far).
+//! Each method's way of turning the accumulated light into a film is its
+//! [`crate::methods::photon_method::Resolver`]; how a method uses the core is its
+//! [`CoreConfig`].
+//!
+//! Eye passes (rs, docs/deviations.md §41): as batches go on, the eye samples are drawn anew
+//! (new sub-pixel positions, NEE samples, branch choices). A finished pass's film is kept as a
+//! sum weighted by the batches it held; new batches are splatted onto the new pass with the
+//! bandwidth of the total M (as always), and the film is the batch-weighted mean over every
+//! pass. So the whole image converges, not only the splatted light: the stochastic
+//! progressive photon mapping of visible points, with photon rays.
+//!
+//! The files: this one holds the state, its configuration and the changes (re-splat, view,
+//! update); `batches` traces and splats; `passes` keeps the finished eye passes; `film` makes
+//! a film from the accumulators; `report` says what the core holds.
+
+mod batches;
+mod film;
+mod passes;
+mod report;
+
+pub use film::{Combine, DirectPhotons, SampleLight, SplatStats};
+
+use crate::methods::eye_side::{EyeSide, EyeSideOptions, LobeDraws, TargetGeometry};
+use crate::methods::lobes::TracedLobes;
+use crate::methods::photon_store::PhotonStore;
+use crate::methods::{MemoryBreakdown, MethodError, Step, Timings};
+use crate::pipeline::eye::SplatTargets;
+use crate::pipeline::photon::{Bandwidth, BandwidthParams};
+use crate::pipeline::radiance_map::Accumulators;
+use crate::pipeline::splat::SplatCounters;
+use crate::scene::{Camera, Scene};
+use crate::settings::{Changes, DirectMode, Effect, RenderSettings};
+use passes::EarlierPasses;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Photon classes (direct, indirect, caustic) splatted onto every splat target as batches
+/// arrive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Classes {
+    /// Direct photons (into their own accumulators, with `--direct photons`).
+    pub direct: bool,
+    /// Indirect-diffuse photons.
+    pub indirect: bool,
+    /// Caustic photons.
+    pub caustic: bool,
+}
+
+impl Classes {
+    /// None: photon mapping gathers when the film is made.
+    pub const NONE: Self = Self {
+        direct: false,
+        indirect: false,
+        caustic: false,
+    };
+
+    /// The mask the splatting stages take, in class order.
+    pub fn mask(self) -> [bool; 3] {
+        [self.direct, self.indirect, self.caustic]
+    }
+}
+
+/// Whether the eye samples are drawn once per view or anew as batches go on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EyePasses {
+    /// One eye pass per view.
+    One,
+    /// A new eye pass whenever the current one has held its share of photons (with the
+    /// `progressive_eye` setting; docs/deviations.md §41).
+    Redrawn,
+}
+
+/// Whether the film reads the stored photon rays (pm gathers them, rc splats them onto its
+/// cache records).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StoredRays {
+    /// The film reads them: every batch is kept, headless renders included.
+    Read,
+    /// Only re-splats read them: a headless render frees each batch once it is splatted.
+    Unread,
+}
+
+/// How a photon method uses the core: its resolver's choices, named.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CoreConfig {
+    /// Classes splatted onto every splat target as batches arrive.
+    pub splatted: Classes,
+    /// When traced glossy lobes get their directions.
+    pub lobes: LobeDraws,
+    /// Eye passes per view.
+    pub eye_passes: EyePasses,
+    /// Whether the splat targets' positions and normals outlive the splat tree's build.
+    pub targets: TargetGeometry,
+    /// Whether the film reads the stored photon rays.
+    pub stored_rays: StoredRays,
+}
+
+/// An eye pass lasts until its batches hold this many photons per eye sample: shorter passes
+/// converged faster down to one pass per batch in the window (docs/deviations.md §41, where
+/// 0.5, 0.2, 0.1 and 0.05 were measured), and the bound keeps tiny batches from spending all
+/// their time in eye passes.
+pub const EYE_PASS_PHOTONS_PER_SAMPLE: f64 = 0.05;
+
+/// One view's eye side, the stored photon rays and the batch bookkeeping of the photon-based
+/// methods. Its state is private: the methods read it through the accessors below and change
+/// it through [`PhotonCore::step`], [`PhotonCore::update`] and [`PhotonCore::set_view`].
+pub struct PhotonCore {
+    scene: Arc<Scene>,
+    /// The settings (the view's width, height and spp included).
+    settings: RenderSettings,
+    camera: Camera,
+    config: CoreConfig,
+    /// Everything that depends on the view.
+    side: EyeSide,
+    /// The stored photon rays.
+    store: PhotonStore,
+    /// Stored batches (indices into the store) still to be re-splatted, next last.
+    resplat_queue: Vec<usize>,
+    /// Batches whose light the accumulators hold.
+    splatted: usize,
+    /// Batches dropped from the store (over budget) whose light this eye pass's accumulators
+    /// still hold.
+    folded: usize,
+    /// Batches dropped from the store whose light the image still holds (in this pass's
+    /// accumulators or an earlier pass's film).
+    folded_total: usize,
+    /// Counts every change of the accumulated light (a batch traced or re-splatted, a view).
+    generation: u64,
+    /// Splatting counters.
+    counters: SplatCounters,
+    /// The light through traced lobes drawn per batch (with [`LobeDraws::PerBatch`]).
+    lobes: TracedLobes,
+    /// The current eye pass of this view (0 first).
+    eye_pass: u32,
+    /// The films of the finished eye passes of this view.
+    earlier: EarlierPasses,
+    /// The memory and splat-tree nodes held before [`PhotonCore::release_search`] (the
+    /// stats report what the render held, not what its final resolve left).
+    held: Option<(MemoryBreakdown, usize)>,
+    /// Time per phase.
+    timings: Timings,
+}
+
+impl PhotonCore {
+    /// Eye pass, splat tree, direct light and pilot for `scene` as seen by `camera`, used as
+    /// `config` says.
+    pub fn new(
+        scene: Arc<Scene>,
+        settings: RenderSettings,
+        camera: Camera,
+        config: CoreConfig,
+    ) -> Result<Self, MethodError> {
+        let mut timings = Timings::default();
+        let side = EyeSide::new(
+            &scene,
+            &camera,
+            &settings,
+            side_options(config, 0),
+            &mut timings,
+        )?;
+        let lobes = TracedLobes::new(&side.eye);
+        let t = Instant::now();
+        let mut store = PhotonStore::new(&scene, settings.seed);
+        store.set_progressive_bandwidth(settings.progressive_bandwidth);
+        store.set_batch_photons(settings.photons);
+        timings.t_light = t.elapsed().as_secs_f64();
+        Ok(Self {
+            scene,
+            settings,
+            camera,
+            config,
+            side,
+            store,
+            resplat_queue: Vec::new(),
+            splatted: 0,
+            folded: 0,
+            folded_total: 0,
+            generation: 0,
+            counters: SplatCounters::default(),
+            lobes,
+            eye_pass: 0,
+            earlier: EarlierPasses::default(),
+            held: None,
+            timings,
+        })
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &Arc<Scene> {
+        &self.scene
+    }
+
+    /// The settings (the view's width, height and spp included).
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    /// The camera.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// Eye samples, splat targets, tree, direct light and accumulators of the current pass.
+    pub fn side(&self) -> &EyeSide {
+        &self.side
+    }
+
+    /// The splat targets, their slots in the splat tree and the accumulators of indirect
+    /// and caustic light, for a resolver that estimates into them (photon mapping's density
+    /// estimate).
+    pub fn targets_and_accumulators(&mut self) -> (&SplatTargets, &[u32], &mut Accumulators) {
+        let side = &mut self.side;
+        (
+            &side.targets,
+            &side.tree.target_slot,
+            &mut side.acc_indirect,
+        )
+    }
+
+    /// The stored photon rays.
+    pub fn store(&self) -> &PhotonStore {
+        &self.store
+    }
+
+    /// Counts every change of the accumulated light (a batch traced or re-splatted, a view).
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// Time per phase so far.
+    pub fn timings(&self) -> Timings {
+        self.timings
+    }
+
+    /// Add what a resolver spent and counted while making a film.
+    pub fn record(&mut self, timings: Timings, counters: SplatCounters) {
+        self.timings += timings;
+        self.counters += counters;
+    }
+
+    /// Batches whose light the image holds (stored and splatted, plus folded), over every
+    /// eye pass.
+    pub fn batch_count(&self) -> usize {
+        self.earlier.batches + self.pass_batches()
+    }
+
+    /// Batches whose light the current eye pass's accumulators hold.
+    pub fn pass_batches(&self) -> usize {
+        self.splatted + self.folded
+    }
+
+    /// Eye passes of this view so far (the current one included).
+    pub fn eye_passes(&self) -> u32 {
+        self.earlier.passes + 1
+    }
+
+    /// True while stored batches wait to be re-splatted after a parameter or view change.
+    pub fn resplat_pending(&self) -> bool {
+        !self.resplat_queue.is_empty()
+    }
+
+    /// Direct light comes from splatted direct photons.
+    pub fn splat_direct(&self) -> bool {
+        self.settings.direct == DirectMode::Photons
+    }
+
+    /// Eq. 8's bandwidth per class for class sizes `m` under the current C, S, R.
+    pub fn bandwidths(&self, m: [u64; 3]) -> [Bandwidth; 3] {
+        self.store.bandwidths(&self.settings.bandwidth, m)
+    }
+
+    /// Do one unit of work: re-splat the next stored batch if a re-splat is pending,
+    /// otherwise trace and splat a new batch with the bandwidth for the total M so far
+    /// (docs/deviations.md §43). A new eye pass, when one is due, is the caller's to draw
+    /// first ([`PhotonCore::wants_new_eye_pass`]), since it keeps the finished pass's film.
+    pub fn step(&mut self) -> Step {
+        if let Some(b) = self.resplat_queue.pop() {
+            let t = Instant::now();
+            self.splat_stored(b);
+            self.timings.t_splat += t.elapsed().as_secs_f64();
+            self.draw_lobes(b);
+            Step::Resplatted
+        } else {
+            self.run_batch();
+            Step::Traced
+        }
+    }
+
+    /// True when the current eye pass has held its share of photons
+    /// ([`EYE_PASS_PHOTONS_PER_SAMPLE`]) and a new one should be drawn before the next batch.
+    pub fn wants_new_eye_pass(&self) -> bool {
+        self.config.eye_passes == EyePasses::Redrawn
+            && self.eye_passes_allowed()
+            && self.resplat_queue.is_empty()
+            && self.pass_batches() as f64 * self.settings.photons as f64
+                >= EYE_PASS_PHOTONS_PER_SAMPLE * self.side.eye.len().max(1) as f64
+    }
+
+    /// Eye passes are drawn with `progressive_eye`, but not while the image-space filter
+    /// (§8.2) or the radiance cache (§8.3) reads the radiance map: both work on one pass's
+    /// samples with a radius or records sized by that pass's batches, so averaging filtered
+    /// passes would keep a one-batch blur forever (deviations §41).
+    fn eye_passes_allowed(&self) -> bool {
+        self.settings.progressive_eye && !self.settings.filter.enabled && !self.settings.cache_on
+    }
+
+    /// Keep `film` (the current pass's, not blended) with the weight of its batches and draw
+    /// a new eye pass; the next batches are splatted onto it.
+    pub fn next_eye_pass(&mut self, film: &crate::film::Film) {
+        let pass = self.eye_pass + 1;
+        self.earlier
+            .add(film, self.pass_batches(), self.store.invalid_photon_rays);
+        // Free the finished side's arrays first (its film is kept), so that the peak holds
+        // one eye side, not two (a `--time-budget` render of CORNELL BOX I at 500×500×4:
+        // docs/benchmarks.md, "Memory").
+        self.side.release();
+        self.lobes = TracedLobes::default();
+        match EyeSide::new(
+            &self.scene,
+            &self.camera,
+            &self.settings,
+            side_options(self.config, pass),
+            &mut self.timings,
+        ) {
+            Ok(side) => self.side = side,
+            Err(_) => {
+                // Unreachable for a view that was built once; should it happen, the view
+                // starts again from the stored rays rather than splatting onto nothing.
+                let (w, h, spp) = (self.settings.width, self.settings.height, self.settings.spp);
+                let _ = self.set_view(self.camera.clone(), w, h, spp);
+                return;
+            }
+        }
+        self.eye_pass = pass;
+        self.lobes = TracedLobes::new(&self.side.eye);
+        self.splatted = 0;
+        self.folded = 0;
+        self.generation += 1;
+    }
+
+    /// `film` of the current pass becomes the batch-weighted mean over every eye pass.
+    pub fn blend_earlier(&self, film: &mut crate::film::Film) {
+        self.earlier.blend(film, self.pass_batches());
+    }
+
+    /// Start re-splatting every stored batch with new bandwidth parameters (no re-tracing).
+    /// Folded batches cannot be re-splatted: their light leaves the image.
+    pub fn begin_resplat(&mut self, params: BandwidthParams) {
+        self.settings.bandwidth = params;
+        self.side.clear();
+        self.lobes.clear();
+        self.splatted = 0;
+        self.folded = 0;
+        self.folded_total = 0;
+        // Earlier eye passes hold light of the old bandwidth: every stored batch goes onto
+        // the current pass instead.
+        self.earlier = EarlierPasses::default();
+        self.generation += 1;
+        // Newest first: it has the smallest bandwidth, so the first frame is the sharpest.
+        self.resplat_queue = (0..self.store.batches().len()).collect();
+    }
+
+    /// A new camera, resolution or sample count: new eye pass and splat tree, then a
+    /// progressive re-splat of the stored rays (photon rays do not depend on the view).
+    pub fn set_view(
+        &mut self,
+        camera: Camera,
+        width: u32,
+        height: u32,
+        spp: u32,
+    ) -> Result<(), MethodError> {
+        let settings = self.settings.with_view(width, height, spp);
+        crate::methods::check(&settings)?;
+        self.side = EyeSide::new(
+            &self.scene,
+            &camera,
+            &settings,
+            side_options(self.config, 0),
+            &mut self.timings,
+        )?;
+        self.eye_pass = 0;
+        self.lobes = TracedLobes::new(&self.side.eye);
+        self.settings = settings;
+        self.camera = camera;
+        self.begin_resplat(self.settings.bandwidth);
+        Ok(())
+    }
+
+    /// Apply the settings whose change needs no re-trace ([`Effect::Resplat`] and
+    /// [`Effect::Resolve`] in the settings table; the view's are [`PhotonCore::set_view`]'s).
+    /// A new C, S or R re-splats the stored rays; a new batch size or schedule re-splats when
+    /// it moves the progressive schedule's M₁ (deviations §43); a new radiance map builds new
+    /// accumulators, then re-splats; the cache and the filter reach the next film.
+    pub fn update(&mut self, s: &RenderSettings) -> Result<(), MethodError> {
+        let changes = Changes::between(&self.settings, s);
+        self.settings.adopt(s, &[Effect::Resolve, Effect::Resplat]);
+        // Either can move the progressive schedule's M₁ (deviations §43).
+        let schedule = self
+            .store
+            .set_progressive_bandwidth(s.progressive_bandwidth);
+        let mut resplat = self.store.set_batch_photons(s.photons) || schedule;
+        // Earlier passes' films were made without the cache and filter now asked for: their
+        // batches go onto the current pass (a re-splat), so that the change reaches all of it.
+        resplat |= !self.eye_passes_allowed() && self.earlier.batches > 0;
+        if changes.has("radiance_map") {
+            // New accumulators with the new directional records, then a re-splat.
+            let (w, h, spp) = (self.settings.width, self.settings.height, self.settings.spp);
+            return self.set_view(self.camera.clone(), w, h, spp);
+        }
+        // A new C, S or R.
+        resplat |= changes.names.iter().any(|n| n.starts_with("bandwidth."));
+        if resplat {
+            self.begin_resplat(s.bandwidth);
+        }
+        Ok(())
+    }
+
+    /// Keep at most this many photon rays for re-splatting (older batches are folded).
+    pub fn set_ray_budget(&mut self, rays: usize) {
+        self.store.max_stored_rays = rays;
+    }
+
+    /// Nothing will re-splat (a headless render): a film that never reads the stored rays
+    /// lets each batch be freed once it is splatted.
+    pub fn headless(&mut self) {
+        if self.config.stored_rays == StoredRays::Unread {
+            self.store.max_stored_rays = 0;
+            self.store.keep_newest = false;
+        }
+    }
+}
+
+/// The eye side's options for eye pass `pass` of a method configured as `config`.
+fn side_options(config: CoreConfig, pass: u32) -> EyeSideOptions {
+    EyeSideOptions {
+        lobes: config.lobes,
+        pass,
+        targets: config.targets,
+    }
+}

@@ -1,0 +1,245 @@
+//! One camera ray's eye path (§3): deterministic specular chains and traced glossy lobes,
+//! the eye samples it leaves and the emission it sees, and the sampled directions of lobes too
+//! sharp for the radiance map.
+
+use super::{EyeSample, EyeSettings};
+use crate::bsdf::{Bsdf, fresnel_dielectric, reflect, refract, specular_probability};
+use crate::sampling::Rng;
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Branches whose weight falls below this are dropped (they cannot change a pixel visibly).
+pub(super) const MIN_BRANCH_WEIGHT: f32 = 1e-3;
+/// Pending specular branches per camera ray.
+const BRANCH_STACK: usize = 16;
+
+/// A branch of an eye path: origin, direction, weight, depth (specular and traced glossy
+/// bounces so far), length so far, the triangle it leaves, and whether it leaves a traced lobe.
+#[derive(Clone, Copy)]
+pub(super) struct Branch {
+    /// Origin of the ray.
+    pub(super) origin: Vec3,
+    /// Unit direction of the ray.
+    pub(super) dir: Vec3,
+    /// RGB path weight.
+    pub(super) weight: Vec3,
+    /// Specular and traced glossy bounces so far.
+    pub(super) depth: u32,
+    /// Length of the eye path so far.
+    pub(super) travelled: f32,
+    /// The triangle the ray leaves (`u32::MAX`: none).
+    pub(super) leaving: u32,
+    /// The ray leaves a traced lobe.
+    pub(super) from_lobe: bool,
+}
+
+/// An eye sample as a chain leaves it, before it is packed.
+#[derive(Clone, Copy)]
+pub(super) struct RawSample {
+    pub(super) sample: EyeSample,
+    /// Length of the eye path to the sample (for the pixel footprint).
+    pub(super) path_length: f32,
+    /// Target index within the row during the pass.
+    pub(super) target: u32,
+}
+
+/// Follow one camera ray through specular chains and traced glossy lobes; push eye samples,
+/// return emitted radiance.
+pub(super) fn trace_chain(
+    scene: &Scene,
+    start: Branch,
+    pixel: u32,
+    s: &EyeSettings,
+    rng: &mut Rng,
+    out: &mut Vec<RawSample>,
+) -> Vec3 {
+    let max_depth = s.max_specular_depth;
+    let mut stack = [Branch {
+        origin: Vec3::ZERO,
+        dir: Vec3::ZERO,
+        weight: Vec3::ZERO,
+        depth: 0,
+        travelled: 0.0,
+        leaving: u32::MAX,
+        from_lobe: false,
+    }; BRANCH_STACK];
+    stack[0] = start;
+    let mut top = 1;
+    let mut emitted = Vec3::ZERO;
+    while top > 0 {
+        top -= 1;
+        let Branch {
+            origin: o,
+            dir: d,
+            weight: w,
+            depth,
+            travelled,
+            leaving,
+            from_lobe,
+        } = stack[top];
+        let Some(hit) = scene.intersect_except(o, d, f32::INFINITY, leaving) else {
+            // Escaped: the environment seen directly or through the chain (off a traced lobe
+            // it is NEE's at the lobe's eye sample, as emission below).
+            if !from_lobe {
+                emitted += w * scene.background(d);
+            }
+            continue;
+        };
+        let path_length = travelled + hit.t;
+        let wo = -d;
+        // Light met straight off a traced lobe is NEE's at the lobe's eye sample (its BSDF
+        // sample under MIS holds this path), so it is not counted twice.
+        if !from_lobe {
+            emitted += w * scene.emitted(&hit, wo);
+        }
+        let bsdf = scene.bsdf(&hit);
+        let surface = match bsdf {
+            Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO)),
+            Bsdf::Glossy { kd, ks, .. } => Some((kd, ks)),
+            _ => None,
+        };
+        if let Some((albedo, specular)) = surface {
+            // Face the viewer: flip both normals to the side the ray came from.
+            let (n, ng) = if hit.geo_normal.dot(wo) >= 0.0 {
+                (hit.normal, hit.geo_normal)
+            } else {
+                (-hit.normal, -hit.geo_normal)
+            };
+            out.push(RawSample {
+                sample: EyeSample {
+                    position: hit.position,
+                    normal: n,
+                    geo_normal: ng,
+                    offset: hit.offset,
+                    wo,
+                    material: hit.material,
+                    pixel,
+                    weight: w,
+                    albedo,
+                    specular,
+                    primary: depth == 0,
+                    lobe_traced: false,
+                },
+                path_length,
+                target: 0,
+            });
+            if depth < max_depth
+                && s.follow_lobes
+                && let Some((d, lobe_w)) = sample_traced_lobe(bsdf, wo, n, ng, s.lobe_limit, rng)
+                && (w * lobe_w).max_element() >= MIN_BRANCH_WEIGHT
+                && top < BRANCH_STACK
+            {
+                out.last_mut().expect("just pushed").sample.lobe_traced = true;
+                stack[top] = Branch {
+                    origin: scene.offset(&hit, d),
+                    dir: d,
+                    weight: w * lobe_w,
+                    depth: depth + 1,
+                    travelled: path_length,
+                    leaving: hit.triangle,
+                    from_lobe: true,
+                };
+                top += 1;
+            } else if depth < max_depth && traces_lobe(bsdf, s.lobe_limit) {
+                // The lobe is traced, but its sampled direction left through the surface or
+                // carries too little: it adds nothing (f = 0 below the surface).
+                out.last_mut().expect("just pushed").sample.lobe_traced = true;
+            }
+            continue;
+        }
+        // A branch that leaves through the geometric surface the wrong way (a shading normal
+        // can send it there) is dropped, as photons and the path tracer drop it.
+        let mut push = |d: Vec3, w: Vec3, transmit: bool, top: &mut usize| {
+            if w.max_element() >= MIN_BRANCH_WEIGHT
+                && *top < BRANCH_STACK
+                && Scene::leaves_correctly(&hit, wo, d, transmit)
+            {
+                stack[*top] = Branch {
+                    origin: scene.offset(&hit, d),
+                    dir: d,
+                    weight: w,
+                    depth: depth + 1,
+                    travelled: path_length,
+                    leaving: hit.triangle,
+                    from_lobe: false,
+                };
+                *top += 1;
+            }
+        };
+        match bsdf {
+            // Non-specular surfaces were handled above.
+            Bsdf::Lambert { .. } | Bsdf::Glossy { .. } => {}
+            _ if depth >= max_depth => {}
+            Bsdf::Mirror { color } => {
+                let n = if hit.normal.dot(wo) >= 0.0 {
+                    hit.normal
+                } else {
+                    -hit.normal
+                };
+                let r = reflect(wo, n);
+                push(r, w * color, false, &mut top);
+            }
+            Bsdf::Dielectric { ior, tint } => {
+                let cos_o = wo.dot(hit.normal);
+                let (eta, n) = if cos_o > 0.0 {
+                    (1.0 / ior, hit.normal)
+                } else {
+                    (ior, -hit.normal)
+                };
+                let f = fresnel_dielectric(cos_o.abs(), eta);
+                let r = reflect(wo, n);
+                push(r, w * f, false, &mut top);
+                if let Some(t) = refract(wo, n, eta) {
+                    push(t, w * tint * (1.0 - f), true, &mut top);
+                }
+            }
+        }
+    }
+    emitted
+}
+
+/// True when `bsdf` is glossy with a lobe sharper than `limit` (traced by the eye path).
+#[inline]
+fn traces_lobe(bsdf: Bsdf, limit: f32) -> bool {
+    matches!(bsdf, Bsdf::Glossy { ks, exponent, .. } if exponent > limit && ks != Vec3::ZERO)
+}
+
+/// One direction of a glossy lobe too sharp for the radiance map, sampled from the normalised
+/// Phong lobe about the mirror direction of `wo` (`n` the shading normal facing the viewer,
+/// `ng` the geometric one): the direction and its weight ks·g·cos θ/(pdf·p) = ks·(e+2)/(e+1)·
+/// cos θ/p, an unbiased one-sample estimate of the lobe's reflection. The lobe is traced with
+/// the probability p the BSDF's own sampling gives it (its share of the reflectance by
+/// luminance: 1 for a metal, 0.11 for a white plastic), a Russian roulette that spends rays
+/// where the lobe carries light. `None` when the lobe is not traced, the roulette ends it, or
+/// the direction leaves below the surface (where f = 0).
+#[inline]
+pub(super) fn sample_traced_lobe(
+    bsdf: Bsdf,
+    wo: Vec3,
+    n: Vec3,
+    ng: Vec3,
+    limit: f32,
+    rng: &mut Rng,
+) -> Option<(Vec3, Vec3)> {
+    if !traces_lobe(bsdf, limit) {
+        return None;
+    }
+    let Bsdf::Glossy { kd, ks, exponent } = bsdf else {
+        return None;
+    };
+    let p = specular_probability(kd, ks);
+    if rng.next_f32() >= p {
+        return None;
+    }
+    let u = rng.next_2d();
+    let cos_a = u.x.powf(1.0 / (exponent + 1.0));
+    let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    let local = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
+    let d = crate::sampling::to_world(local, reflect(wo, n));
+    let cos = d.dot(n);
+    if cos <= 0.0 || d.dot(ng) <= 0.0 {
+        return None;
+    }
+    Some((d, ks * ((exponent + 2.0) / (exponent + 1.0) * cos / p)))
+}
