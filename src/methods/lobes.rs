@@ -1,4 +1,4 @@
-//! Traced glossy lobes drawn anew for every photon batch (issue 13; rs): the eye samples whose
+//! Traced glossy lobes drawn anew for every photon batch (rs; docs/deviations.md §38): the eye samples whose
 //! lobe is too sharp for the radiance map get one new direction per batch, the eye samples it
 //! reaches get that batch's photon rays splatted onto them (with the batch's bandwidth, as the
 //! main eye side) and their own direct light, and the film holds the mean over batches. So the
@@ -139,7 +139,7 @@ impl TracedLobes {
 
         let t = Instant::now();
         let samples = &pass.samples;
-        // The eye pass's seed: each eye pass (issue 16) draws its own NEE streams.
+        // The eye pass's seed: each eye pass (docs/deviations.md §41) draws its own NEE streams.
         let seed = side.eye_settings.seed ^ (draw + 1).wrapping_mul(0x5851_f42d_4c95_7f2d);
         let (nee, invalid) = if settings.direct == DirectMode::Nee {
             direct_light(scene, samples, settings.nee_samples, seed)

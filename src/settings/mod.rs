@@ -131,12 +131,12 @@ pub struct RenderSettings {
     /// Image-space filter of the indirect light (§8.2).
     #[serde(default)]
     pub filter: FilterParams,
-    /// rs: draw the eye samples anew as photon batches go on (issue 16), so that
+    /// rs: draw the eye samples anew as photon batches go on (docs/deviations.md §41), so that
     /// anti-aliasing, NEE and traced branches converge with the batches too.
     #[serde(default = "yes")]
     pub progressive_eye: bool,
     /// rs, rc: beyond the first photon batch the bandwidth shrinks as M^(−1/3) instead of
-    /// eq. 8's M^(−1/6) (issue 16, docs/deviations.md §43); off, every batch keeps eq. 8's
+    /// eq. 8's M^(−1/6) (docs/deviations.md §43); off, every batch keeps eq. 8's
     /// bandwidth for the total M, as in the paper.
     #[serde(default = "yes")]
     pub progressive_bandwidth: bool,
