@@ -17,6 +17,10 @@
 //! budget loop ([`render_method`]), `compare`, `bench` and the previewer's worker drive a
 //! `dyn Method` and never branch on which one it is. To add a method, write one file with a
 //! type implementing [`Method`] and add one line to [`build`].
+//!
+//! Also here: [`memory`] (a render's memory estimate, checked before anything is allocated),
+//! [`lobes`] (rs's traced glossy lobes drawn anew per batch) and [`testing`] (reads and drives
+//! for the integration tests only).
 
 pub mod eye_side;
 pub mod fg;

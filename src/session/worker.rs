@@ -19,6 +19,10 @@ struct Pending {
     restart: bool,
     /// A new camera (or the full resolution after the coarse first image).
     view: bool,
+    /// A command arrived: `apply` compares the render settings with those last applied (a
+    /// change the method refused is tried again at the next command, not on every turn of
+    /// the loop).
+    settings: bool,
     interactive: Option<bool>,
     /// The environment changed (`SessionConfig::environment` holds it).
     environment: bool,
@@ -167,6 +171,7 @@ impl Worker {
     /// them: what the change asks of the method is the settings table's to say (`apply`).
     fn take(&mut self, c: Command, p: &mut Pending) -> bool {
         let s = &mut self.config.settings;
+        p.settings = true;
         match c {
             Command::SetBandwidth(b) => s.bandwidth = b,
             Command::SetPhotonsPerBatch(n) => s.photons = n,
@@ -279,8 +284,11 @@ impl Worker {
         let s = &self.config.settings;
         // What the commands changed, by the settings table: the view's settings make a new
         // view, the re-splat and resolve ones an update (the re-trace ones rebuilt above).
-        let changes = Changes::between(&self.applied, s);
-        self.applied = s.clone();
+        let changes = if p.settings {
+            Changes::between(&self.applied, s)
+        } else {
+            Changes::default()
+        };
         // Once the coarse first image is done, a renderer still on its half batch gets the
         // configured size back with the next change of any kind.
         let half_batch = !self.coarse_start && r.settings().photons != s.photons;
@@ -289,6 +297,10 @@ impl Worker {
             self.emit(Event::Error(e.to_string()));
             return;
         }
+        // What the method now has, but for a view it may still refuse below.
+        let mut applied = s.clone();
+        applied.adopt(&self.applied, &[Effect::View]);
+        self.applied = applied;
         let view = p.view || changes.any(Effect::View);
         if view {
             let (w, h, spp) = if self.interactive {
@@ -305,6 +317,7 @@ impl Worker {
                 self.emit(Event::Error(e.to_string()));
                 return;
             }
+            self.applied = s.clone();
         }
         if view || changed {
             self.generation += 1;
@@ -338,7 +351,6 @@ impl Worker {
 
     fn restart(&mut self) {
         self.started = Instant::now();
-        self.applied = self.config.settings.clone();
         let mut settings = self.config.settings.clone();
         self.coarse_start = self.config.interactive_divisor > 1;
         if self.interactive || self.coarse_start {
@@ -359,6 +371,7 @@ impl Worker {
                 r.set_ray_budget(self.config.max_stored_rays);
                 self.renderer = Some(r);
                 self.failed = None;
+                self.applied = self.config.settings.clone();
             }
             Err(e) => {
                 self.failed = Some(self.config.settings.clone());

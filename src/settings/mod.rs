@@ -1,7 +1,8 @@
 //! Every render setting in one place: [`RenderSettings`] (what the CLI, the worker and the
-//! window configure), the method and direct-light choices, and [`limits`], the one table of
+//! window configure), the method and direct-light choices, [`limits`], the one table of
 //! accepted ranges that the window's sliders, the worker's clamps and the command line's
-//! value parsers all read.
+//! value parsers all read, and `table` ([`SETTINGS`]: every field with what a change of it
+//! asks of a running render, [`Effect`], and its range; [`Changes`] between two settings).
 
 use crate::choice::Choice;
 use crate::pipeline::cache::CacheParams;

@@ -8,7 +8,8 @@
 use super::limits::*;
 use super::{Limit, RenderSettings, SettingsError, normalised_fractions};
 
-/// What a change of one setting asks of a running render, cheapest first.
+/// What a change of one setting asks of a running render, cheapest first. No render setting
+/// is display-only: exposure and tone curve live in the window's own settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Effect {
     /// The next film is resolved with it (cache, filter, eye passes from the next batch):

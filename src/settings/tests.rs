@@ -124,7 +124,7 @@ fn each_row_reads_its_own_field() {
             Range::U64(l, f) => *f(&mut s) = if *f(&mut s) == l.max { l.min } else { l.max },
             Range::Usize(l, f) => *f(&mut s) = if *f(&mut s) == l.max { l.min } else { l.max },
             Range::F32(l, f) => *f(&mut s) = if *f(&mut s) == l.max { l.min } else { l.max },
-            Range::Fractions | Range::Any => continue,
+            Range::Fractions | Range::Any => s = moved_by_json(&base, row.name),
         }
         let changed: Vec<String> = json(&s)
             .into_iter()
@@ -141,6 +141,10 @@ fn each_row_reads_its_own_field() {
         );
         // Within the limits, so validate accepts the moved value.
         assert!(s.validate().is_ok(), "row {}", row.name);
+        // The row's `assign` copies exactly that field.
+        let mut copied = base.clone();
+        (row.assign)(&mut copied, &s);
+        assert_eq!(copied, s, "row {}", row.name);
     }
     let other = RenderSettings {
         method: MethodKind::Pm,
@@ -152,4 +156,77 @@ fn each_row_reads_its_own_field() {
     assert_eq!(c.names, vec!["camera", "method", "cache_on"]);
     assert!(c.any(Effect::Retrace) && c.any(Effect::View) && c.any(Effect::Resolve));
     assert!(!c.any(Effect::Resplat));
+}
+
+/// `base` with the JSON leaf `name` set to another value its type accepts (a flipped switch,
+/// the next whole number, another named choice, a camera name, other fractions).
+fn moved_by_json(base: &RenderSettings, name: &str) -> RenderSettings {
+    let mut v = serde_json::to_value(base).unwrap();
+    let ptr = format!("/{}", name.replace('.', "/"));
+    let old = v.pointer(&ptr).unwrap().clone();
+    let candidates: Vec<serde_json::Value> = match &old {
+        serde_json::Value::Bool(b) => vec![serde_json::json!(!b)],
+        serde_json::Value::Number(n) => vec![serde_json::json!(n.as_u64().unwrap() + 1)],
+        serde_json::Value::Null => vec![serde_json::json!("side")],
+        serde_json::Value::Array(_) => vec![serde_json::json!([0.5, 0.5, 0.0])],
+        serde_json::Value::String(_) => ["pm", "photons", "histogram", "diffuse"]
+            .iter()
+            .map(|c| serde_json::json!(c))
+            .collect(),
+        serde_json::Value::Object(_) => panic!("{name} is not a leaf"),
+    };
+    for c in candidates {
+        if c == old {
+            continue;
+        }
+        *v.pointer_mut(&ptr).unwrap() = c;
+        if let Ok(s) = serde_json::from_value::<RenderSettings>(v.clone()) {
+            return s;
+        }
+        *v.pointer_mut(&ptr).unwrap() = old.clone();
+    }
+    panic!("no other value found for {name}")
+}
+
+/// The settings whose change re-traces are the ones the worker rebuilt the method for before
+/// the table existed; the view's are the view's; the rest reach a running method by update.
+#[test]
+fn the_effects_are_the_documented_ones() {
+    let of = |e: Effect| -> Vec<&str> {
+        SETTINGS
+            .iter()
+            .filter(|s| s.effect == e)
+            .map(|s| s.name)
+            .collect()
+    };
+    assert_eq!(
+        of(Effect::Retrace),
+        vec![
+            "pt_spp",
+            "fractions",
+            "seed",
+            "direct",
+            "max_specular_depth",
+            "nee_samples",
+            "max_emitted_factor",
+            "merge_targets",
+            "splat_visibility",
+            "method",
+            "pm_k",
+            "pm_caustic_k",
+            "fg_rays"
+        ]
+    );
+    assert_eq!(of(Effect::View), vec!["width", "height", "spp", "camera"]);
+    assert_eq!(
+        of(Effect::Resplat),
+        vec![
+            "photons",
+            "bandwidth.smoothness_c",
+            "bandwidth.sensitivity_s",
+            "bandwidth.max_bandwidth_r",
+            "progressive_bandwidth",
+            "radiance_map"
+        ]
+    );
 }

@@ -12,15 +12,13 @@ use std::time::Instant;
 
 impl PhotonCore {
     /// Trace one light pass of M photons, splat it with the bandwidth for the total M so
-    /// far. Finishes a pending re-splat first.
+    /// far ([`PhotonCore::step`] calls it when no re-splat is pending).
     pub(super) fn run_batch(&mut self) {
         debug_assert!(
             !self.side.tree.is_released(),
             "a render takes no step after its final film"
         );
-        while self.resplat_pending() {
-            self.step();
-        }
+        debug_assert!(!self.resplat_pending(), "re-splats come first");
         if self.store.frees_every_batch() {
             self.stream_batch();
         } else {

@@ -42,7 +42,8 @@ use std::time::Instant;
 /// arrive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Classes {
-    /// Direct photons (into their own accumulators, with `--direct photons`).
+    /// Direct photons into the same accumulators as the others (no method does: with
+    /// `--direct photons` they go to their own accumulators, whatever this says).
     pub direct: bool,
     /// Indirect-diffuse photons.
     pub indirect: bool,
@@ -106,8 +107,9 @@ pub struct CoreConfig {
 pub const EYE_PASS_PHOTONS_PER_SAMPLE: f64 = 0.05;
 
 /// One view's eye side, the stored photon rays and the batch bookkeeping of the photon-based
-/// methods. Its state is private: the methods read it through the accessors below and change
-/// it through [`PhotonCore::step`], [`PhotonCore::update`] and [`PhotonCore::set_view`].
+/// methods. Its state is private: anyone may read it through the accessors below; only the
+/// crate changes it (the methods' one step API is [`crate::methods::photon_method::PhotonMethod`],
+/// which draws the eye passes around [`PhotonCore::step`]).
 pub struct PhotonCore {
     scene: Arc<Scene>,
     /// The settings (the view's width, height and spp included).
@@ -148,7 +150,7 @@ pub struct PhotonCore {
 impl PhotonCore {
     /// Eye pass, splat tree, direct light and pilot for `scene` as seen by `camera`, used as
     /// `config` says.
-    pub fn new(
+    pub(crate) fn new(
         scene: Arc<Scene>,
         settings: RenderSettings,
         camera: Camera,
@@ -211,8 +213,11 @@ impl PhotonCore {
 
     /// The splat targets, their slots in the splat tree and the accumulators of indirect
     /// and caustic light, for a resolver that estimates into them (photon mapping's density
-    /// estimate).
-    pub fn targets_and_accumulators(&mut self) -> (&SplatTargets, &[u32], &mut Accumulators) {
+    /// estimate, which is redone whenever [`PhotonCore::generation`] moves; writing here does
+    /// not move it).
+    pub(crate) fn targets_and_accumulators(
+        &mut self,
+    ) -> (&SplatTargets, &[u32], &mut Accumulators) {
         let side = &mut self.side;
         (
             &side.targets,
@@ -237,7 +242,7 @@ impl PhotonCore {
     }
 
     /// Add what a resolver spent and counted while making a film.
-    pub fn record(&mut self, timings: Timings, counters: SplatCounters) {
+    pub(crate) fn record(&mut self, timings: Timings, counters: SplatCounters) {
         self.timings += timings;
         self.counters += counters;
     }
@@ -277,7 +282,7 @@ impl PhotonCore {
     /// otherwise trace and splat a new batch with the bandwidth for the total M so far
     /// (docs/deviations.md §43). A new eye pass, when one is due, is the caller's to draw
     /// first ([`PhotonCore::wants_new_eye_pass`]), since it keeps the finished pass's film.
-    pub fn step(&mut self) -> Step {
+    pub(crate) fn step(&mut self) -> Step {
         if let Some(b) = self.resplat_queue.pop() {
             let t = Instant::now();
             self.splat_stored(b);
@@ -292,7 +297,7 @@ impl PhotonCore {
 
     /// True when the current eye pass has held its share of photons
     /// ([`EYE_PASS_PHOTONS_PER_SAMPLE`]) and a new one should be drawn before the next batch.
-    pub fn wants_new_eye_pass(&self) -> bool {
+    pub(crate) fn wants_new_eye_pass(&self) -> bool {
         self.config.eye_passes == EyePasses::Redrawn
             && self.eye_passes_allowed()
             && self.resplat_queue.is_empty()
@@ -310,7 +315,7 @@ impl PhotonCore {
 
     /// Keep `film` (the current pass's, not blended) with the weight of its batches and draw
     /// a new eye pass; the next batches are splatted onto it.
-    pub fn next_eye_pass(&mut self, film: &crate::film::Film) {
+    pub(crate) fn next_eye_pass(&mut self, film: &crate::film::Film) {
         let pass = self.eye_pass + 1;
         self.earlier
             .add(film, self.pass_batches(), self.store.invalid_photon_rays);
@@ -343,13 +348,13 @@ impl PhotonCore {
     }
 
     /// `film` of the current pass becomes the batch-weighted mean over every eye pass.
-    pub fn blend_earlier(&self, film: &mut crate::film::Film) {
+    pub(crate) fn blend_earlier(&self, film: &mut crate::film::Film) {
         self.earlier.blend(film, self.pass_batches());
     }
 
     /// Start re-splatting every stored batch with new bandwidth parameters (no re-tracing).
     /// Folded batches cannot be re-splatted: their light leaves the image.
-    pub fn begin_resplat(&mut self, params: BandwidthParams) {
+    pub(crate) fn begin_resplat(&mut self, params: BandwidthParams) {
         self.settings.bandwidth = params;
         self.side.clear();
         self.lobes.clear();
@@ -366,7 +371,7 @@ impl PhotonCore {
 
     /// A new camera, resolution or sample count: new eye pass and splat tree, then a
     /// progressive re-splat of the stored rays (photon rays do not depend on the view).
-    pub fn set_view(
+    pub(crate) fn set_view(
         &mut self,
         camera: Camera,
         width: u32,
@@ -395,7 +400,7 @@ impl PhotonCore {
     /// A new C, S or R re-splats the stored rays; a new batch size or schedule re-splats when
     /// it moves the progressive schedule's M₁ (deviations §43); a new radiance map builds new
     /// accumulators, then re-splats; the cache and the filter reach the next film.
-    pub fn update(&mut self, s: &RenderSettings) -> Result<(), MethodError> {
+    pub(crate) fn update(&mut self, s: &RenderSettings) -> Result<(), MethodError> {
         let changes = Changes::between(&self.settings, s);
         self.settings.adopt(s, &[Effect::Resolve, Effect::Resplat]);
         // Either can move the progressive schedule's M₁ (deviations §43).
@@ -407,9 +412,14 @@ impl PhotonCore {
         // batches go onto the current pass (a re-splat), so that the change reaches all of it.
         resplat |= !self.eye_passes_allowed() && self.earlier.batches > 0;
         if changes.has("radiance_map") {
-            // New accumulators with the new directional records, then a re-splat.
+            // New accumulators with the new directional records, then a re-splat; refused,
+            // the accumulators keep the mode they were built for.
             let (w, h, spp) = (self.settings.width, self.settings.height, self.settings.spp);
-            return self.set_view(self.camera.clone(), w, h, spp);
+            let result = self.set_view(self.camera.clone(), w, h, spp);
+            if result.is_err() {
+                self.settings.radiance_map = self.side.acc_indirect.mode;
+            }
+            return result;
         }
         // A new C, S or R.
         resplat |= changes.names.iter().any(|n| n.starts_with("bandwidth."));
@@ -420,13 +430,13 @@ impl PhotonCore {
     }
 
     /// Keep at most this many photon rays for re-splatting (older batches are folded).
-    pub fn set_ray_budget(&mut self, rays: usize) {
+    pub(crate) fn set_ray_budget(&mut self, rays: usize) {
         self.store.max_stored_rays = rays;
     }
 
     /// Nothing will re-splat (a headless render): a film that never reads the stored rays
     /// lets each batch be freed once it is splatted.
-    pub fn headless(&mut self) {
+    pub(crate) fn headless(&mut self) {
         if self.config.stored_rays == StoredRays::Unread {
             self.store.max_stored_rays = 0;
             self.store.keep_newest = false;

@@ -9,7 +9,7 @@ use glam::Vec3;
 impl PhotonCore {
     /// Free the splat tree's search structure before a finished render's last resolve (it
     /// takes no more steps); the stats keep reporting the memory held until then.
-    pub fn release_search(&mut self) {
+    pub(crate) fn release_search(&mut self) {
         if self.held.is_none() {
             self.held = Some((self.memory(), self.side.tree.nodes.len()));
         }
