@@ -309,10 +309,15 @@ pub trait Method: Send {
 /// Build the method `settings.method` for `scene` seen by the settings' named camera (the
 /// scene's first when none is named).
 pub fn build(scene: Arc<Scene>, settings: RenderSettings) -> Result<Box<dyn Method>, MethodError> {
-    let camera = scene
-        .camera_or_error(settings.camera.as_deref())
-        .map_err(MethodError::NoCamera)?;
+    let camera = camera_for(&scene, &settings)?;
     build_for(scene, settings, camera)
+}
+
+/// The settings' named camera of `scene` (its first when none is named).
+pub fn camera_for(scene: &Scene, settings: &RenderSettings) -> Result<Camera, MethodError> {
+    scene
+        .camera_or_error(settings.camera.as_deref())
+        .map_err(MethodError::NoCamera)
 }
 
 /// Build the method `settings.method` for `scene` seen by `camera`. This is the one place

@@ -17,9 +17,7 @@ pub fn open<R: Resolver + Default>(
     scene: Arc<Scene>,
     settings: RenderSettings,
 ) -> Result<PhotonMethod<R>, MethodError> {
-    let camera = scene
-        .camera_or_error(settings.camera.as_deref())
-        .map_err(MethodError::NoCamera)?;
+    let camera = crate::methods::camera_for(&scene, &settings)?;
     PhotonMethod::new(scene, settings, camera)
 }
 

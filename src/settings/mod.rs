@@ -211,12 +211,14 @@ impl RenderSettings {
     /// cannot be normalised), for settings that must be right before any work starts. Reads
     /// the one table of settings ([`SETTINGS`]).
     pub fn validate(&self) -> Result<(), SettingsError> {
+        // The rows' accessors take `&mut`: one copy serves them all.
+        let mut copy = self.clone();
         for setting in SETTINGS {
             // The path tracer takes no eye samples (`pt_spp` is its count).
             if setting.name == "spp" && self.method == MethodKind::Pt {
                 continue;
             }
-            setting.range.check(setting.label, self)?;
+            setting.range.check(setting.label, &mut copy)?;
         }
         Ok(())
     }

@@ -261,8 +261,9 @@ impl Range {
         }
     }
 
-    /// An error naming the setting (`label`) when its value in `s` is outside the range.
-    pub fn check(&self, label: &'static str, s: &RenderSettings) -> Result<(), SettingsError> {
+    /// An error naming the setting (`label`) when its value in `s` is outside the range (read
+    /// through the row's accessor, hence `&mut`; nothing is written).
+    pub fn check(&self, label: &'static str, s: &mut RenderSettings) -> Result<(), SettingsError> {
         fn within<T: Copy + PartialOrd + std::fmt::Display>(
             label: &'static str,
             l: Limit<T>,
@@ -278,13 +279,11 @@ impl Range {
                 })
             }
         }
-        // The accessors take `&mut`: read through a copy of the one field's owner.
-        let mut s = s.clone();
         match *self {
-            Range::U32(l, f) => within(label, l, *f(&mut s)),
-            Range::U64(l, f) => within(label, l, *f(&mut s)),
-            Range::Usize(l, f) => within(label, l, *f(&mut s)),
-            Range::F32(l, f) => within(label, l, *f(&mut s)),
+            Range::U32(l, f) => within(label, l, *f(s)),
+            Range::U64(l, f) => within(label, l, *f(s)),
+            Range::Usize(l, f) => within(label, l, *f(s)),
+            Range::F32(l, f) => within(label, l, *f(s)),
             Range::Fractions => normalised_fractions(s.fractions).map(|_| ()),
             Range::Any => Ok(()),
         }
@@ -316,16 +315,6 @@ impl Changes {
     /// Some setting with this effect differs.
     pub fn any(&self, effect: Effect) -> bool {
         self.effects[effect as usize]
-    }
-
-    /// The setting `name` differs.
-    pub fn has(&self, name: &str) -> bool {
-        self.names.contains(&name)
-    }
-
-    /// Nothing differs.
-    pub fn is_empty(&self) -> bool {
-        self.names.is_empty()
     }
 }
 

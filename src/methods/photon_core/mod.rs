@@ -33,7 +33,7 @@ use crate::pipeline::photon::{Bandwidth, BandwidthParams};
 use crate::pipeline::radiance_map::Accumulators;
 use crate::pipeline::splat::SplatCounters;
 use crate::scene::{Camera, Scene};
-use crate::settings::{Changes, DirectMode, Effect, RenderSettings};
+use crate::settings::{DirectMode, Effect, RenderSettings};
 use passes::EarlierPasses;
 use std::sync::Arc;
 use std::time::Instant;
@@ -401,7 +401,8 @@ impl PhotonCore {
     /// it moves the progressive schedule's M₁ (deviations §43); a new radiance map builds new
     /// accumulators, then re-splats; the cache and the filter reach the next film.
     pub(crate) fn update(&mut self, s: &RenderSettings) -> Result<(), MethodError> {
-        let changes = Changes::between(&self.settings, s);
+        let new_map = s.radiance_map != self.settings.radiance_map;
+        let new_bandwidth = s.bandwidth != self.settings.bandwidth;
         self.settings.adopt(s, &[Effect::Resolve, Effect::Resplat]);
         // Either can move the progressive schedule's M₁ (deviations §43).
         let schedule = self
@@ -411,7 +412,7 @@ impl PhotonCore {
         // Earlier passes' films were made without the cache and filter now asked for: their
         // batches go onto the current pass (a re-splat), so that the change reaches all of it.
         resplat |= !self.eye_passes_allowed() && self.earlier.batches > 0;
-        if changes.has("radiance_map") {
+        if new_map {
             // New accumulators with the new directional records, then a re-splat; refused,
             // the accumulators keep the mode they were built for.
             let (w, h, spp) = (self.settings.width, self.settings.height, self.settings.spp);
@@ -421,9 +422,7 @@ impl PhotonCore {
             }
             return result;
         }
-        // A new C, S or R.
-        resplat |= changes.names.iter().any(|n| n.starts_with("bandwidth."));
-        if resplat {
+        if resplat || new_bandwidth {
             self.begin_resplat(s.bandwidth);
         }
         Ok(())
