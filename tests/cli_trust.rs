@@ -263,6 +263,7 @@ fn every_numeric_flag_has_a_range() {
         (vec!["render", "--filter-strength=-1"], "--filter-strength"),
         (vec!["render", "--time-budget=-1"], "--time-budget"),
         (vec!["render", "--time-budget", "nan"], "--time-budget"),
+        (vec!["render", "--batches", "0"], "--batches"),
         (vec!["bench", "--runs", "0"], "--runs"),
         (
             vec!["tonemap", "a.exr", "b.png", "--exposure", "NaN"],
@@ -282,6 +283,57 @@ fn every_numeric_flag_has_a_range() {
     }
 }
 
+/// `--batches N` renders exactly N batches (or path-tracing passes), and cannot be given with
+/// a time budget.
+#[test]
+fn batches_renders_exactly_that_many() {
+    for (method, passes) in [("rs", 3), ("pt", 2)] {
+        let d = dir(&format!("batches_{method}"));
+        let n = passes.to_string();
+        let args = [
+            "render",
+            "builtin:classic",
+            "--method",
+            method,
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "1",
+            "--photons",
+            "2000",
+            "--batches",
+            &n,
+            "--out",
+            "o.exr",
+            "--stats",
+            "s.json",
+        ];
+        let o = run(&args, &d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let j: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+        assert_eq!(j["passes"], passes, "{method}: {j}");
+    }
+    let d = dir("batches_budget");
+    let o = run(
+        &[
+            "render",
+            "builtin:classic",
+            "--batches",
+            "2",
+            "--time-budget",
+            "1",
+        ],
+        &d,
+    );
+    assert!(
+        !o.status.success(),
+        "--batches with --time-budget must be refused"
+    );
+}
+
 /// The help documents each numeric flag's range, the same range the parser holds it to.
 #[test]
 fn the_help_shows_every_range() {
@@ -298,6 +350,7 @@ fn the_help_shows_every_range() {
         ("--pm-k", "1..=100000"),
         ("--cache-error", "0.05..=2"),
         ("--time-budget", "0.001..=1000000"),
+        ("--batches", "1..=1000000"),
         ("--threads", "1..=1024"),
     ] {
         let at = help
