@@ -76,6 +76,39 @@ const SMALL: [&str; 8] = [
     "2000",
 ];
 
+/// The exit status tells a script what failed: 2 the flags, 3 an input, 4 an output (README,
+/// "Exit status"). Each case fails before any work and prints one line.
+#[test]
+fn the_exit_status_says_what_failed() {
+    let d = dir("status");
+    std::fs::write(d.join("junk.glb"), b"not a scene").unwrap();
+    let cases: [(&[&str], i32); 8] = [
+        // The flags: clap's own refusals and the settings' checks alike.
+        (&["render", "--c", "99"], 2),
+        (&["render", "--fractions", "0,0,0"], 2),
+        (&["render", "--spp", "100000"], 2),
+        // An input: a missing or broken scene, an unknown built-in, a missing EXR.
+        (&["render", "missing.glb"], 3),
+        (&["render", "junk.glb"], 3),
+        (&["render", "builtin:nope"], 3),
+        (&["tonemap", "missing.exr", "out.png"], 3),
+        // An output: a folder that cannot be made (a file stands in its way).
+        (&["render", "builtin:classic", "--out", "junk.glb/x.exr"], 4),
+    ];
+    for (args, status) in cases {
+        let o = run(args, &d);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(status), "{args:?}: {e}");
+        assert!(!e.contains("panicked"), "{args:?}: {e}");
+        // One line of error (clap adds its pointer to --help below its own).
+        assert!(e.starts_with("error: "), "{args:?}: {e}");
+        let errors = e.lines().filter(|l| l.starts_with("error")).count();
+        assert_eq!(errors, 1, "{args:?}: {e}");
+    }
+    let left: Vec<_> = std::fs::read_dir(&d).unwrap().collect();
+    assert_eq!(left.len(), 1, "only junk.glb stays: {left:?}");
+}
+
 #[test]
 fn negative_numbers_are_values() {
     refused(
@@ -220,7 +253,7 @@ fn view_takes_what_render_takes() {
         let d = dir("view");
         let o = run(&args, &d);
         let e = stderr(&o);
-        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert_eq!(o.status.code(), Some(3), "{args:?}: {e}");
         assert_eq!(e.lines().count(), 1, "{args:?}: {e}");
         assert!(e.contains(args[args.len() - 1].trim_start_matches("builtin:")));
     }

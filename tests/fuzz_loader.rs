@@ -192,7 +192,8 @@ fn check(bytes: &[u8]) -> Result<bool, String> {
                 ..common::tiny_settings()
             },
             Budget::Fixed,
-        )?;
+        )
+        .map_err(|e| e.to_string())?;
         if pt.film.invalid_pixels() > 0 {
             return Err("NaN or infinite pixels (pt)".into());
         }

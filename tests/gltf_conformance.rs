@@ -6,7 +6,7 @@
 
 mod common;
 
-use raysplat::scene::Scene;
+use raysplat::scene::{Scene, SceneError};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -121,7 +121,7 @@ fn every_validator_file_loads_or_gives_one_clean_line() {
 }
 
 /// The two files that crashed inside the `gltf` crate (an empty image object, a POSITION
-/// accessor that does not exist): the command line prints exactly one line and exits 1.
+/// accessor that does not exist): the command line prints exactly one line and exits 3.
 #[test]
 fn files_that_crashed_the_gltf_crate_are_one_line() {
     let root =
@@ -140,11 +140,40 @@ fn files_that_crashed_the_gltf_crate_are_one_line() {
             .output()
             .unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{file}: {stderr}");
+        // Status 3: the input is at fault (README, "Exit status").
+        assert_eq!(out.status.code(), Some(3), "{file}: {stderr}");
         assert_eq!(stderr.lines().count(), 1, "{file}: {stderr}");
         assert!(
             stderr.contains(file.rsplit('/').next().unwrap()),
             "{stderr}"
         );
     }
+}
+
+/// The error's kind is what a caller branches on: a file that cannot be read, one that holds
+/// no renderable scene, and (in-memory) bytes that are not glTF at all. Each names its file.
+#[test]
+fn a_load_error_says_which_kind() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("scene_error_kinds");
+    std::fs::create_dir_all(&dir).unwrap();
+    let missing = dir.join("missing.glb");
+    let e = Scene::load(&missing).err().expect("a missing file loads");
+    assert!(matches!(e, SceneError::Unreadable { .. }), "{e:?}");
+    assert_eq!(e.file(), missing.display().to_string());
+    // A folder is not a file either.
+    let e = Scene::load(&dir).err().expect("a folder loads");
+    assert!(matches!(e, SceneError::Unreadable { .. }), "{e:?}");
+    let junk = dir.join("junk.glb");
+    std::fs::write(&junk, b"not a scene").unwrap();
+    let e = Scene::load(&junk).err().expect("junk loads");
+    assert!(matches!(e, SceneError::Invalid { .. }), "{e:?}");
+    assert!(
+        e.to_string().starts_with(&junk.display().to_string()),
+        "{e}"
+    );
+    let e = Scene::from_glb_bytes(b"glTF", "bytes")
+        .err()
+        .expect("4 bytes load");
+    assert!(matches!(e, SceneError::Invalid { .. }), "{e:?}");
+    assert_eq!(e.file(), "bytes");
 }

@@ -3,6 +3,7 @@
 //! `--quality-references`, quality over time (`super::quality`); one line per row on stdout
 //! and, with `--json`, the rows merged into a JSON file (docs/benchmarks.md quotes both).
 
+use super::error::CliError;
 use super::quality;
 use super::set_threads;
 use clap::{Args, ValueEnum};
@@ -127,7 +128,7 @@ fn cornell1_rc_settings(direct: DirectMode) -> RenderSettings {
 }
 
 /// Every row, printed and (with `--json`) written.
-pub fn run(args: BenchArgs) -> Result<(), String> {
+pub fn run(args: BenchArgs) -> Result<(), CliError> {
     // Everything the command line names is checked before the first row runs.
     if let Some(path) = &args.json {
         let inputs: Vec<&std::path::Path> = [&args.cornell_reference, &args.glossy_reference]
@@ -135,13 +136,13 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
             .flatten()
             .map(PathBuf::as_path)
             .collect();
-        super::output::check(&[(path.as_path(), false)], &inputs)?;
+        super::output::check(&[(path.as_path(), false)], &inputs).map_err(CliError::Output)?;
     }
     for (reference, scene) in [
         (&args.cornell_reference, "CORNELL BOX I"),
         (&args.glossy_reference, "builtin:glossy"),
     ] {
-        read_reference(reference.as_ref(), scene)?;
+        read_reference(reference.as_ref(), scene).map_err(CliError::Input)?;
     }
     let runs = |g: Group| args.only.is_empty() || args.only.contains(&g);
     let quality_refs = match &args.quality_references {
@@ -152,10 +153,13 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     let path = quality::reference_path(dir, stem)?;
                     Ok(read_reference(Some(&path), stem)?.unwrap_or_default())
                 })
-                .collect::<Result<Vec<_>, String>>()?,
+                .collect::<Result<Vec<_>, String>>()
+                .map_err(CliError::Input)?,
         ),
         None if !args.only.is_empty() && runs(Group::Quality) => {
-            return Err("--only quality needs --quality-references DIR".into());
+            return Err(CliError::Usage(
+                "--only quality needs --quality-references DIR".into(),
+            ));
         }
         _ => None,
     };
@@ -171,7 +175,10 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("png"))
         {
-            return Err(format!("{}: the quality plot is a .png", plot.display()));
+            return Err(CliError::Output(format!(
+                "{}: the quality plot is a .png",
+                plot.display()
+            )));
         }
         let dir = args.quality_references.as_deref().unwrap_or(Path::new("."));
         let refs: Vec<PathBuf> = quality::SCENES
@@ -180,13 +187,13 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
             .collect();
         let mut inputs: Vec<&Path> = refs.iter().map(PathBuf::as_path).collect();
         inputs.extend(args.json.as_deref());
-        super::output::check(&[(plot.as_path(), false)], &inputs)?;
+        super::output::check(&[(plot.as_path(), false)], &inputs).map_err(CliError::Output)?;
     }
     if !(args.quality_seconds >= CHECKPOINT_MIN && args.quality_seconds <= 600.0) {
-        return Err(format!(
+        return Err(CliError::Usage(format!(
             "--quality-seconds {}: must be within {CHECKPOINT_MIN}..600",
             args.quality_seconds
-        ));
+        )));
     }
     set_threads(args.threads)?;
     let mut rows = Rows::new();
@@ -205,7 +212,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         rows.extend(quality::rows(&curves));
     }
     if let Some(path) = &args.json {
-        write_json(path, rows)?;
+        write_json(path, rows).map_err(CliError::Output)?;
     }
     // After the rows are safe: a plot that cannot be drawn costs only the plot.
     if !curves.is_empty()
@@ -270,9 +277,10 @@ fn rel_mse_json(err: f64) -> serde_json::Value {
 }
 
 /// Table 2's CORNELL BOX I rows: the fastest of `--runs` runs each.
-fn cornell_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), String> {
+fn cornell_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), CliError> {
     let scene = Arc::new(Scene::default_scene());
-    let reference = read_reference(args.cornell_reference.as_ref(), "CORNELL BOX I")?;
+    let reference = read_reference(args.cornell_reference.as_ref(), "CORNELL BOX I")
+        .map_err(CliError::Input)?;
     for (name, settings) in [
         ("cornell1_rs", cornell1_settings(DirectMode::Photons)),
         ("cornell1_rs_nee", cornell1_settings(DirectMode::Nee)),
@@ -283,7 +291,9 @@ fn cornell_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), String> {
         for _ in 0..args.runs.max(1) {
             let r = render_method(&scene, settings.method, &settings, Budget::Fixed)?;
             if r.invalid > 0 {
-                return Err(format!("{name}: the image has NaN or infinite pixels"));
+                return Err(CliError::Failed(format!(
+                    "{name}: the image has NaN or infinite pixels"
+                )));
             }
             let rel_mse = rel_mse(&r.film.rgb, reference.as_deref());
             if best
@@ -342,9 +352,10 @@ fn cornell_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), String> {
 /// glossy reflections go through the radiance map too, where a mode resolves the lobe; sharper
 /// lobes are traced, docs/deviations.md §37–§38): splat and resolve time and directional
 /// memory of the diffuse, SH and histogram modes, and relMSE to a path-traced reference.
-fn glossy_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), String> {
+fn glossy_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), CliError> {
     let scene = Arc::new(Scene::builtin(BuiltinScene::CornellGlossy));
-    let reference = read_reference(args.glossy_reference.as_ref(), "glossy")?;
+    let reference =
+        read_reference(args.glossy_reference.as_ref(), "glossy").map_err(CliError::Input)?;
     for &mode in DirectionalMode::ALL {
         let settings = RenderSettings {
             direct: DirectMode::Photons,

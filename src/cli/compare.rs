@@ -3,6 +3,7 @@
 //! map, Fig. 10's montage and compare.json.
 
 use super::args::{SettingsArgs, ToneArgs};
+use super::error::CliError;
 use super::{choice, load_scene, output, set_threads};
 use clap::Args;
 use glam::Vec3;
@@ -65,7 +66,7 @@ struct MontageColumn {
 }
 
 /// Every method with the same settings, against a reference.
-pub fn run(args: CompareArgs) -> Result<(), String> {
+pub fn run(args: CompareArgs) -> Result<(), CliError> {
     // The eye-sample checks of the first method that takes eye samples.
     let kind = args
         .methods
@@ -73,7 +74,7 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
         .copied()
         .find(|&m| m != MethodKind::Pt)
         .unwrap_or(MethodKind::Pt);
-    let settings = args.settings.settings(kind)?;
+    let settings = args.settings.settings(kind).map_err(CliError::Usage)?;
     // Every file compare writes, checked before any work; the reference is never overwritten.
     let mut files: Vec<PathBuf> = vec![
         args.out_dir.join("montage.jpg"),
@@ -96,7 +97,7 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
     {
         inputs.push(Path::new(s));
     }
-    output::check(&outputs, &inputs)?;
+    output::check(&outputs, &inputs).map_err(CliError::Output)?;
     set_threads(args.settings.run.threads)?;
     let scene = Arc::new(load_scene(
         args.settings.scene.as_deref(),
@@ -164,13 +165,15 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
             row.mean_bias * 100.0
         );
         r.film
-            .write_exr(&args.out_dir.join(format!("{}.exr", m.name())))?;
+            .write_exr(&args.out_dir.join(format!("{}.exr", m.name())))
+            .map_err(CliError::Output)?;
         raysplat::film::write_png(
             &args.out_dir.join(format!("{}_error.png", m.name())),
             settings.width,
             settings.height,
             &error_map(&r.film.rgb, &reference),
-        )?;
+        )
+        .map_err(CliError::Output)?;
         rows.insert(
             m.name().to_string(),
             serde_json::to_value(&row).map_err(|e| e.to_string())?,
@@ -189,7 +192,8 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
         settings.width,
         settings.height,
         &montage,
-    )?;
+    )
+    .map_err(CliError::Output)?;
     let doc = json!({
         "scene": scene.name,
         "settings": settings,
@@ -201,7 +205,8 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
     raysplat::film::write_atomic(
         &path,
         &serde_json::to_vec_pretty(&doc).map_err(|e| e.to_string())?,
-    )?;
+    )
+    .map_err(CliError::Output)?;
     eprintln!("wrote {} and the images beside it", path.display());
     Ok(())
 }
@@ -212,16 +217,16 @@ fn reference(
     args: &CompareArgs,
     scene: &Arc<Scene>,
     settings: &RenderSettings,
-) -> Result<Vec<Vec3>, String> {
+) -> Result<Vec<Vec3>, CliError> {
     if let Some(path) = &args.reference {
-        let (w, h, px) = raysplat::film::read_exr(path)?;
+        let (w, h, px) = raysplat::film::read_exr(path).map_err(CliError::Input)?;
         if (w, h) != (settings.width, settings.height) {
-            return Err(format!(
+            return Err(CliError::Input(format!(
                 "{}: the reference is {w}×{h}, the comparison {}×{}",
                 path.display(),
                 settings.width,
                 settings.height
-            ));
+            )));
         }
         return Ok(px);
     }
@@ -252,7 +257,7 @@ fn reference(
     }
     let r = methods::finish(pt.as_mut());
     let path = args.out_dir.join("reference.exr");
-    r.film.write_exr(&path)?;
+    r.film.write_exr(&path).map_err(CliError::Output)?;
     eprintln!("wrote {} ({:.1} s)", path.display(), r.timings.total());
     Ok(r.film.rgb)
 }

@@ -7,6 +7,7 @@
 mod args;
 mod bench;
 mod compare;
+mod error;
 mod output;
 mod quality;
 mod render;
@@ -15,6 +16,7 @@ mod tonemap;
 mod view;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+use error::CliError;
 use raysplat::choice::Choice;
 use raysplat::scene::{BuiltinScene, Scene};
 use raysplat::settings::Limit;
@@ -77,7 +79,7 @@ pub fn main() -> i32 {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e}");
-            1
+            e.exit_status()
         }
     }
 }
@@ -223,14 +225,14 @@ where
 /// CORNELL BOX I.
 /// Load the scene (`None`: the embedded one, `builtin:KEY`, or a file), light it with the
 /// environment `env` asks for, and print its warnings and lighting notice on stderr.
-fn load_scene(arg: Option<&str>, env: &args::EnvArgs) -> Result<Scene, String> {
+fn load_scene(arg: Option<&str>, env: &args::EnvArgs) -> Result<Scene, CliError> {
     let mut scene = load_scene_file(arg)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
     let settings = env.settings();
     if settings != raysplat::scene::EnvironmentSettings::default() {
-        scene.set_environment(&settings)?;
+        scene.set_environment(&settings).map_err(CliError::Input)?;
     }
     if let Some(notice) = &scene.lighting_notice {
         eprintln!("note: {notice} (--environment to choose another)");
@@ -238,21 +240,21 @@ fn load_scene(arg: Option<&str>, env: &args::EnvArgs) -> Result<Scene, String> {
     Ok(scene)
 }
 
-fn load_scene_file(arg: Option<&str>) -> Result<Scene, String> {
+fn load_scene_file(arg: Option<&str>) -> Result<Scene, CliError> {
     match arg {
         None => Ok(Scene::default_scene()),
         Some(name) if name.starts_with("builtin:") => {
             let key = &name["builtin:".len()..];
             let Some(which) = BuiltinScene::from_key(key) else {
                 let keys: Vec<&str> = BuiltinScene::ALL.iter().map(|s| s.key()).collect();
-                return Err(format!(
+                return Err(CliError::Input(format!(
                     "unknown built-in scene '{key}' ({})",
                     keys.join(", ")
-                ));
+                )));
             };
             Ok(Scene::builtin(which))
         }
-        Some(path) => Scene::load(Path::new(path)).map_err(|e| e.to_string()),
+        Some(path) => Ok(Scene::load(Path::new(path))?),
     }
 }
 

@@ -2,6 +2,7 @@
 //! optional JSON stats.
 
 use super::args::RenderArgs;
+use super::error::CliError;
 use super::output;
 use super::{load_scene, set_threads};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -18,16 +19,16 @@ use std::time::{Duration, Instant};
 /// Renders `args`' scene with its method and writes the files it asks for. Everything the
 /// command line says is checked before the scene loads; Ctrl-C ends the render early, writes
 /// the image so far (marked partial in the stats) and exits with status 130.
-pub fn run(args: RenderArgs) -> Result<(), String> {
+pub fn run(args: RenderArgs) -> Result<(), CliError> {
     let interrupted = super::interrupt_flag();
-    let settings = args.settings()?;
+    let settings = args.settings().map_err(CliError::Usage)?;
     if let Some(png) = &args.output.png
-        && output::Format::of(png)? == output::Format::Exr
+        && output::Format::of(png).map_err(CliError::Output)? == output::Format::Exr
     {
-        return Err(format!(
+        return Err(CliError::Output(format!(
             "--png {}: a tone-mapped image is .png or .jpg (use --out for an EXR)",
             png.display()
-        ));
+        )));
     }
     let images = args.output.images();
     let mut outputs: Vec<(&Path, bool)> = images.iter().map(|p| (p.as_path(), true)).collect();
@@ -40,7 +41,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         .as_deref()
         .filter(|s| !s.starts_with("builtin:"))
         .map(Path::new);
-    output::check(&outputs, scene_file.as_slice())?;
+    output::check(&outputs, scene_file.as_slice()).map_err(CliError::Output)?;
     set_threads(args.settings.run.threads)?;
     let t_load = Instant::now();
     let scene = Arc::new(load_scene(
@@ -105,7 +106,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     // The images are written without the render's eye side and stores beside them.
     drop(m);
     for path in &images {
-        output::write_image(path, &film, stops, tone.tonemap)?;
+        output::write_image(path, &film, stops, tone.tonemap).map_err(CliError::Output)?;
         eprintln!("wrote {}", path.display());
     }
     if let (Some(path), Some(j)) = (&args.output.stats, j.as_mut()) {
@@ -115,7 +116,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         // The peak so far, image writing included.
         j["peak_rss_mb"] = json!(peak_rss_mb());
         let bytes = serde_json::to_vec_pretty(&j).map_err(|e| e.to_string())?;
-        raysplat::film::write_atomic(path, &bytes)?;
+        raysplat::film::write_atomic(path, &bytes).map_err(CliError::Output)?;
         eprintln!("wrote {}", path.display());
     }
     if stopped {

@@ -11,12 +11,14 @@ pub struct ScenesArgs {
 }
 
 /// Writes every built-in scene into `--out`, one line per file.
-pub fn run(args: ScenesArgs) -> Result<(), String> {
+pub fn run(args: ScenesArgs) -> Result<(), super::error::CliError> {
+    use super::error::CliError;
     let out = &args.out;
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    std::fs::create_dir_all(out)
+        .map_err(|e| CliError::Output(format!("cannot create {}: {e}", out.display())))?;
     for s in BuiltinScene::ALL {
         let path = out.join(s.file_name());
-        raysplat::film::write_atomic(&path, &s.to_glb())?;
+        raysplat::film::write_atomic(&path, &s.to_glb()).map_err(CliError::Output)?;
         println!("wrote {} ({})", path.display(), s.title());
     }
     Ok(())

@@ -18,7 +18,7 @@ pub struct ViewArgs {
 
 /// Loads the scene (a failure is reported here, on stderr, and no window opens), then opens
 /// the previewer window on it and returns when the window closes.
-pub fn run(args: ViewArgs) -> Result<(), String> {
+pub fn run(args: ViewArgs) -> Result<(), super::error::CliError> {
     let scene = load_scene(args.scene.as_deref(), &args.environment)?;
     let path = args
         .scene
@@ -46,6 +46,8 @@ pub fn run(args: ViewArgs) -> Result<(), String> {
         Box::new(move |cc| Ok(Box::new(raysplat::app::App::new(cc, app_options)))),
     )
     .map_err(|e| {
-        format!("cannot open the previewer window ({e}); without a display, use `raysplat render`")
+        super::error::CliError::Failed(format!(
+            "cannot open the previewer window ({e}); without a display, use `raysplat render`"
+        ))
     })
 }

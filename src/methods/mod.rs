@@ -88,13 +88,6 @@ fn gib(bytes: u64) -> String {
     format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
 }
 
-/// For callers that report the message only (the command line).
-impl From<MethodError> for String {
-    fn from(e: MethodError) -> Self {
-        e.to_string()
-    }
-}
-
 /// What one [`Method::step`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Step {

@@ -29,24 +29,52 @@ use obvhs::{
     cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
     triangle::Triangle,
 };
-use std::{fmt, path::Path, time::Duration};
+use std::{path::Path, time::Duration};
 
-/// A scene that could not be loaded: which file, and what is wrong with it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SceneError {
-    /// The file (or built-in scene) that failed.
-    pub source: String,
-    /// What is wrong with it.
-    pub message: String,
+/// A scene that could not be loaded: which file, and why. The kinds are what a caller
+/// branches on: the command line's exit status is the same for all three (the input is at
+/// fault), but only [`SceneError::Unreadable`] is worth retrying (the file may appear, or its
+/// permissions change), and [`SceneError::ReaderFailed`] names a fault in a dependency, not in
+/// the user's file alone.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read (missing, a folder, no permission).
+    #[error("{file}: cannot read the file: {reason}")]
+    Unreadable {
+        /// The file that failed.
+        file: String,
+        /// The operating system's reason.
+        reason: String,
+    },
+    /// The file was read but holds no scene raysplat can render (not glTF, a broken buffer,
+    /// a required extension that changes the geometry, no triangles, degenerate extent).
+    #[error("{file}: {reason}")]
+    Invalid {
+        /// The file (or built-in scene) that failed.
+        file: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The glTF reader (a dependency) panicked on the file; the panic was caught.
+    #[error("{file}: the glTF reader failed on this file ({reason})")]
+    ReaderFailed {
+        /// The file that failed.
+        file: String,
+        /// The first line of the panic's message.
+        reason: String,
+    },
 }
 
-impl fmt::Display for SceneError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.source, self.message)
+impl SceneError {
+    /// The file (or built-in scene) the error is about.
+    pub fn file(&self) -> &str {
+        match self {
+            Self::Unreadable { file, .. }
+            | Self::Invalid { file, .. }
+            | Self::ReaderFailed { file, .. } => file,
+        }
     }
 }
-
-impl std::error::Error for SceneError {}
 
 /// A loaded scene, ready to render: triangles with shading data and materials, lights,
 /// cameras and the BVH. Cloning copies everything (the window clones a scene to light it
@@ -144,9 +172,9 @@ impl Scene {
     }
 
     pub(crate) fn build(parts: SceneParts, source: &str) -> Result<Self, SceneError> {
-        let err = |message: String| SceneError {
-            source: source.to_string(),
-            message,
+        let err = |reason: String| SceneError::Invalid {
+            file: source.to_string(),
+            reason,
         };
         if parts.triangles.is_empty() {
             return Err(err("the scene has no triangles to render".into()));
@@ -339,12 +367,9 @@ fn guarded<T>(source: &str, load: impl FnOnce() -> Result<T, SceneError>) -> Res
             .map(|s| s.to_string())
             .or_else(|| panic.downcast_ref::<String>().cloned())
             .unwrap_or_else(|| "unknown failure".into());
-        Err(SceneError {
-            source: source.to_string(),
-            message: format!(
-                "the glTF reader failed on this file ({})",
-                why.lines().next().unwrap_or("")
-            ),
+        Err(SceneError::ReaderFailed {
+            file: source.to_string(),
+            reason: why.lines().next().unwrap_or("").to_string(),
         })
     })
 }

@@ -100,7 +100,7 @@ pub fn tiny_settings() -> RenderSettings {
 /// One pass of [`tiny_settings`]' render of `scene`: Err when it fails or gives a NaN or
 /// infinite pixel.
 pub fn renders_cleanly(scene: Arc<Scene>) -> Result<(), String> {
-    let mut r = raysplat::methods::build(scene, tiny_settings())?;
+    let mut r = raysplat::methods::build(scene, tiny_settings()).map_err(|e| e.to_string())?;
     r.step();
     match r.film().invalid_pixels() {
         0 => Ok(()),

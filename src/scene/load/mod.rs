@@ -42,9 +42,9 @@ const SUPPORTED: [&str; 9] = [
 
 pub(crate) fn load_path(path: &Path) -> Result<SceneParts, SceneError> {
     let source = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| SceneError {
-        source: source.clone(),
-        message: format!("cannot read the file: {e}"),
+    let bytes = std::fs::read(path).map_err(|e| SceneError::Unreadable {
+        file: source.clone(),
+        reason: e.to_string(),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
     load_checked(&bytes, Some(base), &source)
@@ -56,9 +56,9 @@ pub(crate) fn load_slice(bytes: &[u8], name: &str) -> Result<SceneParts, SceneEr
 
 /// Parse and convert (a panic inside a dependency is caught by `Scene::load`).
 fn load_checked(bytes: &[u8], base: Option<&Path>, source: &str) -> Result<SceneParts, SceneError> {
-    let err = |message: String| SceneError {
-        source: source.to_string(),
-        message,
+    let err = |reason: String| SceneError::Invalid {
+        file: source.to_string(),
+        reason,
     };
     let name = Path::new(source)
         .file_stem()
