@@ -110,9 +110,10 @@ impl RenderingPanel {
             |on| {
                 ui.checkbox(on, "Visibility in the splat footprint")
                     .on_hover_text(
-                        "Shadow rays for photon rays that pass behind a nearby wall, so that \
-                         light outside a room does not leak onto the inside of its walls \
-                         (docs/deviations.md §40). Splatting takes about twice as long. \
+                        "Keep each splat kernel to the part of its footprint the eye sample \
+                         sees, renormalised over it: light outside a room stays off the inside \
+                         of its walls and corners keep their light (docs/deviations.md §40). \
+                         Off is the paper's splatting; on costs 2–4× the splat time. \
                          Switching restarts tracing.",
                     );
             },

@@ -95,15 +95,16 @@ impl StatsPanel {
                     "lobes sharper than the directional mode resolves are traced by the eye path",
                 );
             }
-            if m.shadow_tests > 0 {
+            if m.domain_tests > 0 {
                 ui.separator();
                 ui.label(format!(
-                    "visibility: {} shadow rays, {:.1}% blocked",
-                    m.shadow_tests,
-                    100.0 * m.occluded_pairs as f64 / m.shadow_tests as f64
+                    "visibility: {} pairs tested, {:.1}% outside their domain",
+                    m.domain_tests,
+                    100.0 * m.occluded_pairs as f64 / m.domain_tests as f64
                 ))
                 .on_hover_text(
-                    "splatted pairs behind a nearby wall, tested with a shadow ray (§40)",
+                    "splatted pairs tested against the visible kernel domain of their target: \
+                     light beyond a wall splats nothing there (docs/deviations.md §40)",
                 );
             }
             ui.separator();

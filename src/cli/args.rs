@@ -34,7 +34,7 @@ pub struct RenderArgs {
 #[derive(Args, Clone, Debug)]
 pub struct SettingsArgs {
     /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic |
-    /// builtin:glossy | builtin:outdoor.
+    /// builtin:glossy | builtin:glossy-sharp | builtin:outdoor | builtin:room.
     /// Without it, the embedded CORNELL BOX I.
     pub scene: Option<String>,
     #[command(flatten)]
@@ -218,9 +218,9 @@ pub struct MethodArgs {
     /// a pixel that lie on the same surface.
     #[arg(long)]
     pub no_merge: bool,
-    /// Test visibility inside the splat footprint: blocker planes found by probe rays and
-    /// shadow rays where a photon ray passes behind one (less light leaks through walls, at
-    /// about 1.7× the splat time; docs/deviations.md §40).
+    /// Keep each splat kernel to the part of its footprint its target sees, renormalised
+    /// over it (visible kernel domains): light outside a 10 cm wall stays out and concave
+    /// corners keep their light, at 2–4× the splat time (docs/deviations.md §40).
     #[arg(long)]
     pub splat_visibility: bool,
     /// rs: keep the eye samples of the first eye pass for every batch instead of drawing

@@ -152,7 +152,7 @@ fn print_table(scene: &str, kind: MethodKind, t: Timings, s: &MethodStats) {
         );
     }
     println!(
-        "{}: photons traced {}, photon rays {}, eye samples {}, passes {}, accepted/tested pairs {}/{} ({:.2}), shadow-tested/blocked {}/{}",
+        "{}: photons traced {}, photon rays {}, eye samples {}, passes {}, accepted/tested pairs {}/{} ({:.2}), domain-tested/outside {}/{}",
         kind.name(),
         s.photons_traced,
         s.photon_rays,
@@ -161,7 +161,7 @@ fn print_table(scene: &str, kind: MethodKind, t: Timings, s: &MethodStats) {
         s.accepted_pairs,
         s.tested_pairs,
         s.accepted_pairs as f64 / s.tested_pairs.max(1) as f64,
-        s.shadow_tests,
+        s.domain_tests,
         s.occluded_pairs
     );
 }
@@ -221,7 +221,7 @@ fn stats_json(
         "passes": s.passes,
         "tested_pairs": s.tested_pairs,
         "accepted_pairs": s.accepted_pairs,
-        "shadow_tests": s.shadow_tests,
+        "domain_tests": s.domain_tests,
         "occluded_pairs": s.occluded_pairs,
         "peak_rss_mb": peak_rss_mb(),
         "memory": s.memory,

@@ -106,7 +106,7 @@ impl EyeSide {
         } = eye_pass(scene, camera, &eye_settings);
         let mut tree = SplatTree::build(&targets.position, &targets.normal);
         if settings.splat_visibility {
-            tree.find_blockers(scene, &targets.geo_normal);
+            tree.probe_domains(scene, &targets.geo_normal);
         }
         let mut targets = targets;
         if options.targets == TargetGeometry::Freed {

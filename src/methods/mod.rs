@@ -214,10 +214,10 @@ pub struct MethodStats {
     pub tested_pairs: u64,
     /// Eye samples that received energy.
     pub accepted_pairs: u64,
-    /// Splatted pairs behind one of the target's blocker planes, tested with a shadow ray
+    /// Splatted pairs tested against their target's visible kernel domain
     /// (docs/deviations.md §40).
-    pub shadow_tests: u64,
-    /// Of those, the pairs found blocked: light that would have leaked through a surface.
+    pub domain_tests: u64,
+    /// Of those, the pairs outside it: light that would have leaked through a surface.
     pub occluded_pairs: u64,
     /// ⟨D⟩ of the pilot (§6), the unit of eq. 7's lengths.
     pub pilot_mean_length: Option<f32>,

@@ -105,9 +105,10 @@ pub struct RenderSettings {
     pub camera: Option<String>,
     /// Eye samples of a pixel on the same surface share one splat target (docs/deviations.md).
     pub merge_targets: bool,
-    /// Splat only where the target sees the photon ray (blocker planes and shadow rays,
-    /// docs/deviations.md §40). Off by default, which is the paper's splatting: the test
-    /// halves little of the leak it was built for and costs 1.7× T_S.
+    /// Keep each kernel to the part of its footprint its target sees, renormalised over it
+    /// (visible kernel domains, docs/deviations.md §40). Off by default, which is the
+    /// paper's splatting, whose kernels reach through walls thinner than the bandwidth: the
+    /// test costs 2–4× T_S until its near-wall path is vectorised.
     pub splat_visibility: bool,
     /// The rendering method.
     pub method: MethodKind,

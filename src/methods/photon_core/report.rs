@@ -69,7 +69,7 @@ impl PhotonCore {
                 .map_or(self.side.tree.nodes.len(), |(_, nodes)| nodes),
             tested_pairs: self.counters.tested,
             accepted_pairs: self.counters.accepted,
-            shadow_tests: self.counters.shadow_tests,
+            domain_tests: self.counters.domain_tests,
             occluded_pairs: self.counters.occluded,
             pilot_mean_length: Some(self.store.pilot().mean_length),
             bandwidth_clamps: Some(clamps),

@@ -274,9 +274,9 @@ pub struct SplatCounters {
     pub tested: u64,
     /// Eye samples that received energy.
     pub accepted: u64,
-    /// Shadow rays traced for pairs behind a blocker plane (docs/deviations.md §40).
-    pub shadow_tests: u64,
-    /// Of those, the pairs found blocked (and splatted nothing).
+    /// Splatted pairs tested against their target's visible domain (docs/deviations.md §40).
+    pub domain_tests: u64,
+    /// Of those, the pairs outside it (which splatted nothing).
     pub occluded: u64,
 }
 
@@ -284,7 +284,7 @@ impl std::ops::AddAssign for SplatCounters {
     fn add_assign(&mut self, o: Self) {
         self.tested += o.tested;
         self.accepted += o.accepted;
-        self.shadow_tests += o.shadow_tests;
+        self.domain_tests += o.domain_tests;
         self.occluded += o.occluded;
     }
 }

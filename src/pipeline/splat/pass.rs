@@ -5,15 +5,15 @@ use super::{RayDirection, SplatBatch, SplatCounters, SplatRay, test_sample};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::radiance_map::{AccView, AccumChunk, Accumulators, Channel, NO_RECORD};
 use crate::pipeline::splat_tree::{
-    BLOCKERS, BlockerChunk, LANES, PointChunk, SplatTree, Subtree, sphere_in_cone,
+    DomainChunk, LANES, PROBES, PointChunk, SplatTree, Subtree, cell, share_at, sphere_in_cone,
 };
-use crate::scene::{SHADOW_EPSILON, Scene, offset_ray_origin, surface_offset};
+use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
 
 /// Splat `batch` into `acc` (slot order). With `scene`, and a tree that knows its targets'
-/// blocker planes ([`SplatTree::find_blockers`]), a pair whose nearest ray point lies behind
-/// one of them is splatted only if a shadow ray finds that point visible. Parallel over the
+/// visible domains ([`SplatTree::probe_domains`]), each kernel is kept to the part of its
+/// footprint its target sees and renormalised over it ([`visible_domain`]). Parallel over the
 /// tree's subtrees, each owning a disjoint range of slots; a tree with too few subtrees to keep the threads busy (a radiance
 /// cache pass splats onto a few hundred records) is splatted in parallel over fixed chunks of
 /// rays instead, each into its own accumulators, summed in chunk order. Either way the result
@@ -24,7 +24,7 @@ pub fn splat(
     acc: &mut Accumulators,
     scene: Option<&Scene>,
 ) -> SplatCounters {
-    let scene = scene.filter(|_| tree.has_blockers());
+    let scene = scene.filter(|_| tree.has_domains());
     assert_eq!(acc.len(), tree.slots());
     // Without directions (diffuse mode, or rays prepared without them) nothing directional is
     // deposited.
@@ -161,15 +161,15 @@ fn splat_subtree_impl<const VIS: bool>(job: &Job, st: &Subtree, acc: AccView) ->
                 let chunk = &tree.chunks[k];
                 if sphere_in_cone(&ray.cone, chunk.center, chunk.radius) {
                     c.tested += (end - slot).min(LANES) as u64;
-                    let vis = if VIS {
-                        scene.map(|s| (&tree.blockers[k], s))
+                    let vis = if VIS && scene.is_some() {
+                        Some(&tree.domains[k])
                     } else {
                         None
                     };
                     let lanes =
                         splat_lanes(ray, &tree.points.chunks[k], vis, &mut acc.chunks[k - base]);
                     c.accepted += lanes.accepted as u64;
-                    c.shadow_tests += lanes.shadow_tests as u64;
+                    c.domain_tests += lanes.domain_tests as u64;
                     c.occluded += lanes.occluded as u64;
                     if lanes.accepted > 0
                         && mode != DirectionalMode::Diffuse
@@ -223,19 +223,19 @@ struct LaneSplat {
     weights: [f32; LANES],
     /// Feasible lanes.
     accepted: u32,
-    /// Shadow rays traced (with the visibility test).
-    shadow_tests: u32,
-    /// Of those, the ones found blocked.
+    /// Feasible pairs tested against their target's visible domain.
+    domain_tests: u32,
+    /// Of those, the ones outside it (splatting nothing).
     occluded: u32,
 }
 
-/// Test and accumulate one chunk of 8 slots, with the shadow rays of the visibility test when
-/// `vis` gives the chunk's blocker planes.
+/// Test and accumulate one chunk of 8 slots, kept to the targets' visible domains when `vis`
+/// gives the chunk's.
 #[inline(always)]
 fn splat_lanes(
     ray: &SplatRay,
     pts: &PointChunk,
-    vis: Option<(&BlockerChunk, &Scene)>,
+    vis: Option<&DomainChunk>,
     acc: &mut AccumChunk,
 ) -> LaneSplat {
     let mut w = [0.0f32; LANES];
@@ -253,15 +253,18 @@ fn splat_lanes(
         wd[l] = r.weight * r.inv_dist;
         hit[l] = if r.feasible { 1.0 } else { 0.0 };
     }
-    let shadow = match vis {
-        Some((blockers, scene)) if hit.iter().any(|&h| h > 0.0) => occlude(
-            ray,
-            pts,
-            blockers,
-            scene,
-            [&mut w, &mut wr, &mut wd, &mut hit],
-        ),
-        _ => (0, 0),
+    let domain = match vis {
+        Some(dom) => {
+            let near = near_walls(ray, pts, dom, &w, &wr);
+            let tested = hit.iter().sum::<f32>() as u32;
+            let outside = if near != 0 {
+                visible_domain(ray, pts, dom, near, [&mut w, &mut wr, &mut wd, &mut hit])
+            } else {
+                0
+            };
+            (tested, outside)
+        }
+        None => (0, 0),
     };
     let p = ray.power;
     let ch = &mut acc.ch;
@@ -277,80 +280,118 @@ fn splat_lanes(
     LaneSplat {
         weights: w,
         accepted: hit.iter().sum::<f32>() as u32,
-        shadow_tests: shadow.0,
-        occluded: shadow.1,
+        domain_tests: domain.0,
+        occluded: domain.1,
     }
 }
 
-/// Shadow rays run parallel to the segment from the target to the photon ray's nearest point,
-/// this fraction of its length above the target's surface.
-const SHADOW_LIFT: f32 = 0.01;
-
-/// Partial visibility (docs/deviations.md §40): the point of the ray segment nearest to each
-/// splatted lane's target is tested against the target's blocker planes; where it lies behind
-/// one (by more than 0.1% of the splat radius), a shadow ray from the target to it decides, and
-/// a blocked pair splats nothing: its lanes of `sums` (weight, weight·radius, weight/distance,
-/// hit) are zeroed. Returns the shadow rays traced and those found blocked. Kept out of line:
-/// inlined, it slowed the splat loop without visibility by 12% (T_S 2.05 → 2.31 s on
-/// `builtin:glossy-sharp`).
-#[inline(never)]
-fn occlude(
+/// The first, branch-free half of the visible-domain test (it vectorises): a bit per
+/// splatted lane whose pair needs [`visible_domain`], because the foot of its target on the
+/// ray's line lies behind the target's tangent plane or the splat radius reaches past the
+/// nearest surface its probes met. Everything else is an open-plane pair, kept as it is.
+#[inline(always)]
+fn near_walls(
     ray: &SplatRay,
     pts: &PointChunk,
-    b: &BlockerChunk,
-    scene: &Scene,
-    mut sums: [&mut [f32; LANES]; 4],
-) -> (u32, u32) {
+    dom: &DomainChunk,
+    w: &[f32; LANES],
+    wr: &[f32; LANES],
+) -> u32 {
     let c = &ray.cone;
     let (o, d) = (c.origin, c.dir);
-    // Which plane each lane lies behind, or BLOCKERS for none.
-    let mut behind = [BLOCKERS; LANES];
-    // The ray's point nearest to each lane's target.
-    let mut q = [Vec3::ZERO; LANES];
+    let mut near = 0u32;
     for l in 0..LANES {
+        let r = wr[l] / w[l].max(f32::MIN_POSITIVE);
         let (vx, vy, vz) = (pts.px[l] - o.x, pts.py[l] - o.y, pts.pz[l] - o.z);
-        let t = (vx * d.x + vy * d.y + vz * d.z).clamp(0.0, c.length);
-        let (qx, qy, qz) = (o.x + d.x * t, o.y + d.y * t, o.z + d.z * t);
-        q[l] = Vec3::new(qx, qy, qz);
-        // The splat radius, from weight·radius where the lane splats (others are skipped).
+        let t = vx * d.x + vy * d.y + vz * d.z;
+        // foot − x = d·t − (x − o), against the normal.
+        let s = (d.x * t - vx) * dom.normal[0][l]
+            + (d.y * t - vy) * dom.normal[1][l]
+            + (d.z * t - vz) * dom.normal[2][l];
+        // Past the end of a ray that landed on another surface than the target's.
+        let plane =
+            vx * ray.end_normal.x + vy * ray.end_normal.y + vz * ray.end_normal.z - ray.end_plane;
+        let facing = ray.end_normal.x * dom.normal[0][l]
+            + ray.end_normal.y * dom.normal[1][l]
+            + ray.end_normal.z * dom.normal[2][l];
+        let past = (t > c.length) & ((plane.abs() >= 0.5 * c.h_end) | (facing < 0.5));
+        let flag = (w[l] > 0.0) & ((s < -1e-4 * r) | (r > dom.free_min[l]) | past);
+        near |= (flag as u32) << l;
+    }
+    near
+}
+
+/// Keep one chunk's splatted lanes to their targets' visible domains
+/// ([`crate::pipeline::splat_tree::DomainChunk`], docs/deviations.md §40): each pair's point v
+/// (the foot of the target on the ray's line, or where the line crosses the target's tangent
+/// plane when the foot lies behind it) must lie within the splat radius and the free distance
+/// of its cell, or the pair splats nothing; a kept pair is divided by N(x, r), the share of
+/// the kernel its target sees, wherever a cell's free distance is shorter than the radius.
+/// Only the lanes flagged in `near` ([`near_walls`]) are tested. `sums` are the lanes'
+/// weight, weight·radius, weight/distance and hit. Returns the pairs found outside. Kept out
+/// of line: it runs for pairs near walls only.
+#[inline(never)]
+fn visible_domain(
+    ray: &SplatRay,
+    pts: &PointChunk,
+    dom: &DomainChunk,
+    near: u32,
+    mut sums: [&mut [f32; LANES]; 4],
+) -> u32 {
+    let c = &ray.cone;
+    let (o, d) = (Vec3::from(c.origin), Vec3::from(c.dir));
+    let mut outside = 0;
+    for l in (0..LANES).filter(|l| near & (1 << l) != 0) {
         let w = sums[0][l];
-        let tol = -1e-3 * sums[1][l] / w.max(f32::MIN_POSITIVE);
-        for (j, pl) in b.plane.iter().enumerate().rev() {
-            let s = pl[0][l] * qx + pl[1][l] * qy + pl[2][l] * qz - pl[3][l];
-            if (w > 0.0) & (s < tol) {
-                behind[l] = j;
+        let r = sums[1][l] / w;
+        let x = Vec3::new(pts.px[l], pts.py[l], pts.pz[l]);
+        let n = Vec3::new(dom.normal[0][l], dom.normal[1][l], dom.normal[2][l]);
+        // The foot of x on the ray's line, past its end too (the hemisphere of Fig. 4) when
+        // x lies on the surface the ray landed on; a ray that landed elsewhere stops there.
+        let t_foot = (x - o).dot(d);
+        let plane = (x - o).dot(Vec3::from(ray.end_normal)) - ray.end_plane;
+        // On that surface: near its plane and facing the same way (the other face of a
+        // thin wall is near the plane too).
+        let same = plane.abs() < 0.5 * c.h_end && n.dot(Vec3::from(ray.end_normal)) >= 0.5;
+        let stops = t_foot > c.length && !same;
+        let foot = o + d * if stops { c.length } else { t_foot };
+        let mut v = foot - x;
+        let behind = v.dot(n);
+        let mut keep = true;
+        if stops && behind < 0.0 {
+            // It stopped behind the target's plane before reaching it.
+            keep = false;
+        } else if behind < -1e-4 * r {
+            // Behind the tangent plane: the ray stands for the one landing where its line
+            // crosses the plane, if it reaches it from the front within r.
+            let dn = d.dot(n);
+            let t = (x - o).dot(n) / dn;
+            keep = dn < 0.0 && t >= 0.0;
+            v = o + d * t - x;
+            keep &= v.length_squared() <= r * r;
+        }
+        let mut scale = 1.0;
+        if keep && r > dom.free_min[l] {
+            let t = Vec3::new(dom.tangent[0][l], dom.tangent[1][l], dom.tangent[2][l]);
+            let k = cell(v, t, n.cross(t), n);
+            // Strictly nearer than the surface the probe met: a ray that ended on that
+            // surface lies on it, and stands for rays the planar model lets pass on.
+            keep = v.length() < dom.free[k][l] * (1.0 - 1e-3);
+            if keep {
+                scale = 1.0 / share_at(dom, l, r).max(1.0 / 16.0);
             }
         }
-    }
-    if behind.iter().all(|&j| j == BLOCKERS) {
-        return (0, 0);
-    }
-    let (mut traced, mut blocked) = (0, 0);
-    for l in (0..LANES).filter(|&l| behind[l] < BLOCKERS) {
-        let p = Vec3::new(pts.px[l], pts.py[l], pts.pz[l]);
-        let n = Vec3::new(b.own[0][l], b.own[1][l], b.own[2][l]);
-        let v = q[l] - p;
-        let dist = v.length();
-        if dist.is_nan() || dist <= 0.0 {
-            continue;
-        }
-        // Both ends lifted off the target's surface by 1% of their distance: a wall standing
-        // on the target's floor meets that floor exactly at its edge, where a ray along the
-        // floor could slip under it.
-        let lift = n * (SHADOW_LIFT * dist);
-        let dir = v / dist;
-        let origin = offset_ray_origin(p + lift, n, surface_offset(p.abs().max_element()), dir);
-        traced += 1;
-        let tmax = dist * (1.0 - SHADOW_EPSILON);
-        // The blocker's own triangle first: it settles a quarter of the blocked pairs on the
-        // apartment without the BVH.
-        let tri = b.triangle[behind[l]][l];
-        if scene.segment_meets(origin, dir, tmax, tri) || scene.occluded(origin, dir, tmax) {
-            blocked += 1;
+        if keep {
+            for x in sums[..3].iter_mut() {
+                x[l] *= scale;
+            }
+        } else {
+            outside += 1;
             for x in sums.iter_mut() {
                 x[l] = 0.0;
             }
         }
     }
-    (traced, blocked)
+    debug_assert_eq!(PROBES, dom.free.len());
+    outside
 }

@@ -108,7 +108,7 @@ impl SplatTree {
             leaves: b.leaves,
             chunks,
             points,
-            blockers: Vec::new(),
+            domains: Vec::new(),
             slot_target,
             target_slot,
             subtrees,

@@ -15,17 +15,17 @@
 //! padding has a zero normal and is never feasible). A leaf node refers to a [`Leaf`] record
 //! holding its first slot and a bounding sphere, tested against the cone before its samples.
 //!
-//! The build (`build`), the node encoding (`node`), the traversal (`traverse`) and the probe
-//! rays' blocker planes for the visibility test (`blockers`) are submodules; every public item
-//! is re-exported here.
+//! The build (`build`), the node encoding (`node`), the traversal (`traverse`) and the targets'
+//! visible kernel domains (`domain`) are submodules; every public item is re-exported here.
 
-mod blockers;
 mod build;
+mod domain;
 mod node;
 mod traverse;
 
-pub use blockers::{
-    AZIMUTHS, BLOCKERS, Blocker, BlockerChunk, PROBE_ELEVATIONS_DEG, PROBES, probe,
+pub use domain::{
+    AZIMUTHS, DomainChunk, PROBE_ELEVATIONS_DEG, PROBES, SHARE_RADII, cell, planar_share, probe,
+    share_at, visible_share,
 };
 pub use node::Node;
 pub use traverse::{clip, sphere_in_cone};
@@ -185,9 +185,9 @@ pub struct SplatTree {
     pub chunks: Vec<Chunk>,
     /// Positions and normals of the slots.
     pub points: Points,
-    /// Blocker planes of the slots, one chunk per [`LANES`] slots, or empty when the tree was
-    /// built without a scene to probe ([`SplatTree::find_blockers`]).
-    pub blockers: Vec<BlockerChunk>,
+    /// Visible kernel domains of the slots, one chunk per [`LANES`] slots, or empty when the
+    /// tree was built without a scene to probe ([`SplatTree::probe_domains`]).
+    pub domains: Vec<DomainChunk>,
     /// Splat target held by each slot (`u32::MAX` for padding).
     pub slot_target: Vec<u32>,
     /// Slot of each splat target.
@@ -227,7 +227,7 @@ impl SplatTree {
         self.leaves = Vec::new();
         self.chunks = Vec::new();
         self.points = Points::default();
-        self.blockers = Vec::new();
+        self.domains = Vec::new();
         self.slot_target = Vec::new();
         self.subtrees = Vec::new();
     }
@@ -243,7 +243,7 @@ impl SplatTree {
             + self.leaves.len() * std::mem::size_of::<Leaf>()
             + self.chunks.len() * std::mem::size_of::<Chunk>()
             + self.points.chunks.len() * std::mem::size_of::<PointChunk>()
-            + self.blockers.len() * std::mem::size_of::<BlockerChunk>()
+            + self.domains.len() * std::mem::size_of::<DomainChunk>()
             + self.slots() * 4
             + self.target_slot.len() * 4
     }

@@ -39,17 +39,24 @@ pub enum BuiltinScene {
     /// roughness 0.25 (e ≈ 510): lobes too sharp for any directional mode (docs/deviations.md
     /// §37).
     CornellGlossySharp,
+    /// A room lit from outside: 5 × 2.8 × 4 m inside, walls and a ceiling slab 0.1 thick
+    /// standing on open ground (which runs on under the walls), one 2 × 1.2 m window and a
+    /// small bright emitter 14 m outside whose light falls through it onto the floor. Meant
+    /// for `--environment uniform` or `sky` as well: light outside must stay outside
+    /// (docs/deviations.md §40).
+    WindowRoom,
 }
 
 impl BuiltinScene {
     /// Every built-in scene, in the order `raysplat scenes` writes them and help lists them.
-    pub const ALL: [BuiltinScene; 6] = [
+    pub const ALL: [BuiltinScene; 7] = [
         BuiltinScene::CornellBox1,
         BuiltinScene::CornellBox2,
         BuiltinScene::CornellClassic,
         BuiltinScene::CornellGlossy,
         BuiltinScene::Outdoor,
         BuiltinScene::CornellGlossySharp,
+        BuiltinScene::WindowRoom,
     ];
 
     /// The name after `builtin:` on the command line.
@@ -61,6 +68,7 @@ impl BuiltinScene {
             BuiltinScene::CornellGlossy => "glossy",
             BuiltinScene::Outdoor => "outdoor",
             BuiltinScene::CornellGlossySharp => "glossy-sharp",
+            BuiltinScene::WindowRoom => "room",
         }
     }
 
@@ -78,6 +86,7 @@ impl BuiltinScene {
             BuiltinScene::CornellGlossy => "cornell_glossy.glb",
             BuiltinScene::Outdoor => "outdoor.glb",
             BuiltinScene::CornellGlossySharp => "cornell_glossy_sharp.glb",
+            BuiltinScene::WindowRoom => "window_room.glb",
         }
     }
 
@@ -90,6 +99,7 @@ impl BuiltinScene {
             BuiltinScene::CornellGlossy => "Glossy Cornell box",
             BuiltinScene::Outdoor => "Outdoor",
             BuiltinScene::CornellGlossySharp => "Glossy Cornell box, mirror to matte",
+            BuiltinScene::WindowRoom => "Room lit through a window",
         }
     }
 
@@ -100,6 +110,10 @@ impl BuiltinScene {
             outdoor(&mut g);
             return g.to_glb();
         }
+        if self == BuiltinScene::WindowRoom {
+            window_room(&mut g);
+            return g.to_glb();
+        }
         let floor = match self {
             BuiltinScene::CornellBox1 => Floor::Bumpy,
             BuiltinScene::CornellGlossySharp => Floor::GlossyPlastic(0.25),
@@ -107,7 +121,7 @@ impl BuiltinScene {
         };
         cornell_shell(&mut g, floor);
         match self {
-            BuiltinScene::Outdoor => unreachable!("generated above"),
+            BuiltinScene::Outdoor | BuiltinScene::WindowRoom => unreachable!("generated above"),
             BuiltinScene::CornellBox1 => {
                 // Brushed brass: Phong exponent 9.2, sharper than the 16 SH coefficients
                 // carry (docs/deviations.md §37): its reflection is traced.
@@ -278,6 +292,83 @@ fn outdoor(g: &mut GlbBuilder) {
         Vec3::new(0.0, 0.35, 0.0),
         40f32.to_radians(),
     );
+}
+
+/// [`BuiltinScene::WindowRoom`]: every wall a closed box of its own, the window a hole
+/// framed by four of them.
+fn window_room(g: &mut GlbBuilder) {
+    let ground = g.material(diffuse_json("ground", [0.5, 0.5, 0.5]));
+    let white = g.material(diffuse_json("plaster", [0.8, 0.8, 0.8]));
+    let light = g.material(json!({
+        "name": "sun_lamp",
+        "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 1.0},
+        "emissiveFactor": [1.0, 0.95, 0.85],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2000.0}}
+    }));
+    let v = Vec3::new;
+    let mut f = Quads::default();
+    let s = 20.0;
+    f.add(
+        [v(-s, 0., s), v(s, 0., s), v(s, 0., -s), v(-s, 0., -s)],
+        Vec3::Y,
+    );
+    g.mesh("ground", &f.p, &f.n, &f.i, ground);
+    let (t, w, d, hgt) = (0.1, 5.0, 4.0, 2.8);
+    let mut walls = Quads::default();
+    for (min, max) in [
+        // The window wall (z from −t to 0) around its 2 × 1.2 m opening.
+        (v(-t, 0., -t), v(1.5, hgt, 0.)),
+        (v(3.5, 0., -t), v(w + t, hgt, 0.)),
+        (v(1.5, 0., -t), v(3.5, 0.9, 0.)),
+        (v(1.5, 2.1, -t), v(3.5, hgt, 0.)),
+        // The wall opposite, the side walls and the ceiling slab.
+        (v(-t, 0., d), v(w + t, hgt, d + t)),
+        (v(-t, 0., 0.), v(0., hgt, d)),
+        (v(w, 0., 0.), v(w + t, hgt, d)),
+        (v(-t, hgt, -t), v(w + t, hgt + t, d + t)),
+    ] {
+        cuboid(&mut walls, min, max);
+    }
+    g.mesh("walls", &walls.p, &walls.n, &walls.i, white);
+    // 0.5 × 0.5 m, 14 m from the window, facing it: its light falls through onto the floor.
+    let c = v(2.5, 8.0, -12.0);
+    let toward = (v(2.5, 1.5, 0.0) - c).normalize();
+    let a = toward.cross(Vec3::X).normalize() * 0.25;
+    let b = Vec3::X * 0.25;
+    let mut l = Quads::default();
+    l.add([c - a - b, c - a + b, c + a + b, c + a - b], toward);
+    g.mesh("sun_lamp", &l.p, &l.n, &l.i, light);
+    g.camera(
+        "towards_the_window",
+        v(2.5, 1.5, 3.8),
+        v(2.5, 1.2, 0.0),
+        70f32.to_radians(),
+    );
+    g.camera(
+        "towards_the_back_wall",
+        v(2.5, 1.5, 0.3),
+        v(2.5, 1.2, 4.0),
+        70f32.to_radians(),
+    );
+}
+
+/// The six faces of the box from `min` to `max`, normals outwards.
+fn cuboid(q: &mut Quads, min: Vec3, max: Vec3) {
+    let v = |x: bool, y: bool, z: bool| {
+        Vec3::new(
+            if x { max.x } else { min.x },
+            if y { max.y } else { min.y },
+            if z { max.z } else { min.z },
+        )
+    };
+    let (f, t) = (false, true);
+    q.add([v(f, f, f), v(f, t, f), v(f, t, t), v(f, f, t)], -Vec3::X);
+    q.add([v(t, f, f), v(t, f, t), v(t, t, t), v(t, t, f)], Vec3::X);
+    q.add([v(f, f, f), v(f, f, t), v(t, f, t), v(t, f, f)], -Vec3::Y);
+    q.add([v(f, t, f), v(t, t, f), v(t, t, t), v(f, t, t)], Vec3::Y);
+    q.add([v(f, f, f), v(t, f, f), v(t, t, f), v(f, t, f)], -Vec3::Z);
+    q.add([v(f, f, t), v(f, t, t), v(t, t, t), v(t, f, t)], Vec3::Z);
 }
 
 /// The floor of a Cornell box.

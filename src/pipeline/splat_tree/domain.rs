@@ -1,0 +1,338 @@
+//! Visible kernel domains (after Perrot et al. 2018, "Photon mapping with visible kernel
+//! domains", adapted to ray splatting; docs/deviations.md §40): the part of a splat kernel's
+//! footprint that a target can see, and the renormalisation that makes up for the rest.
+//!
+//! **The footprint's points.** A photon ray splats onto a target x through the point v of the
+//! ray that stands for the pair: the foot of x on the ray's line (extended past its end, as
+//! the hemisphere of Fig. 4 reaches past the hit) when it lies in front of x's own tangent
+//! plane, otherwise the point where the line crosses that plane. On an open plane this is
+//! where the ray lands, and every v lies within the splat radius r of x; on a convex surface
+//! a ray passing just behind the tangent plane stands for the ray that would have landed on
+//! the plane there, so columns and spheres keep their light.
+//!
+//! **What the target sees.** When the tree is built, each target casts [`PROBES`] rays: 8
+//! azimuths in each of two elevation rings above its geometric tangent plane. Each cell of
+//! directions (an azimuth sector of 45° in one ring) keeps the free distance its probe met.
+//! A pair whose v lies beyond its cell's free distance, or behind the tangent plane with a
+//! crossing farther than r, splats nothing: light outside a 10 cm wall stays out.
+//!
+//! **The renormalisation.** Where a cell's free distance is shorter than r, part of the kernel
+//! is cut off (a concave corner: the rays that would pass behind the other wall do not
+//! exist). Each kept pair is divided by N(x, r), the share of the kernel's mass whose v is
+//! visible, computed for a diffuse field over an open plane ([`planar_share`]) and cut by the
+//! same cells; on an open plane N = 1. Where a cell says "hidden" for a point that is in fact
+//! visible, the estimate only loses samples, not its mean: the same cell cuts N.
+
+use super::{LANES, PADDING, SplatTree};
+use crate::sampling::onb;
+use crate::scene::{Scene, offset_ray_origin, surface_offset};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::sync::OnceLock;
+
+/// Azimuth sectors per ring.
+pub const AZIMUTHS: usize = 8;
+/// Elevations of the two rings' probes above the tangent plane, degrees. The low ring covers
+/// 0–30° (a point on the target's own plane looks along it), the high ring 30–90°.
+pub const PROBE_ELEVATIONS_DEG: [f32; 2] = [10.0, 50.0];
+/// sin 30°: a direction above this elevation is in the high ring.
+const RING_SPLIT: f32 = 0.5;
+/// cos 30°: a probe passes over a surface whose normal lies this close to the target's (a
+/// facet of its own bumpy floor, the gentle curve of its own surface) and goes on; a wall,
+/// a ceiling or the other side of a corner stops it.
+const SAME_SURFACE_COS: f32 = 0.866;
+/// Surfaces of the target's own kind a probe passes over before it gives up (free).
+const PASS_OVER: usize = 4;
+/// Cells (and probe rays) per target.
+pub const PROBES: usize = AZIMUTHS * PROBE_ELEVATIONS_DEG.len();
+/// Steps of the planar shares' table in τ = distance / r.
+const SHARE_STEPS: usize = 64;
+/// Radii at which each target's N(x, r) is tabulated: r_j = free_min · 2^(j/2).
+pub const SHARE_RADII: usize = 12;
+
+/// The visible domains of one chunk of [`LANES`] slots, structure of arrays.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub struct DomainChunk {
+    /// The lanes' geometric normals (x, y, z), facing the viewer (zero for padding).
+    pub normal: [[f32; LANES]; 3],
+    /// The first tangent of each lane's frame ([`onb`] of the normal); the second is n × t.
+    pub tangent: [[f32; LANES]; 3],
+    /// Free distance of each cell: low ring first, sector k covering azimuths 45°k–45°(k+1).
+    pub free: [[f32; LANES]; PROBES],
+    /// The smallest of a lane's free distances: for r at most this, nothing is cut.
+    pub free_min: [f32; LANES],
+    /// N(x, r_j) at r_j = free_min · 2^(j/2) ([`visible_share`]), so that a pair near a wall
+    /// reads its renormalisation instead of summing 16 cells; beyond the last, the last.
+    pub share: [[f32; LANES]; SHARE_RADII],
+}
+
+impl Default for DomainChunk {
+    fn default() -> Self {
+        Self {
+            normal: [[0.0; LANES]; 3],
+            tangent: [[0.0; LANES]; 3],
+            free: [[f32::INFINITY; LANES]; PROBES],
+            free_min: [f32::INFINITY; LANES],
+            share: [[1.0; LANES]; SHARE_RADII],
+        }
+    }
+}
+
+/// The cell of direction `u` (not necessarily unit) in the frame (t, b, n): the ring from its
+/// elevation, the sector from the signs and sizes of its tangent components.
+#[inline(always)]
+pub fn cell(u: Vec3, t: Vec3, b: Vec3, n: Vec3) -> usize {
+    let (x, y, z) = (u.dot(t), u.dot(b), u.dot(n));
+    let ring = (z > RING_SPLIT * u.length()) as usize;
+    let sector = if y >= 0.0 {
+        if x >= 0.0 {
+            if x >= y { 0 } else { 1 }
+        } else if -x <= y {
+            2
+        } else {
+            3
+        }
+    } else if x < 0.0 {
+        if -x >= -y { 4 } else { 5 }
+    } else if x <= -y {
+        6
+    } else {
+        7
+    };
+    ring * AZIMUTHS + sector
+}
+
+/// Free distances of the [`PROBES`] cells around `p` (unit geometric normal `n`): each cell's
+/// probe at the middle of its sector, at its ring's elevation; INFINITY where nothing is met.
+/// A probe passes over surfaces facing the way the target's does (within 30°): their
+/// kernels' planar model holds there, and a bumpy floor would otherwise cut every kernel.
+pub fn probe(scene: &Scene, p: Vec3, n: Vec3) -> [f32; PROBES] {
+    let mut free = [f32::INFINITY; PROBES];
+    if !n.is_finite() || n == Vec3::ZERO || !p.is_finite() {
+        return free;
+    }
+    let (t, _) = onb(n);
+    let b = n.cross(t);
+    // Just off the surface, on its front: the target's position carries the rounding of the
+    // triangle it lies on, a few ulps of its largest coordinate.
+    let origin = p + n * surface_offset(p.abs().max_element());
+    for (ring, elevation) in PROBE_ELEVATIONS_DEG.iter().enumerate() {
+        let (se, ce) = elevation.to_radians().sin_cos();
+        for k in 0..AZIMUTHS {
+            let phi = std::f32::consts::TAU * (k as f32 + 0.5) / AZIMUTHS as f32;
+            let (s, c) = phi.sin_cos();
+            let dir = t * (c * ce) + b * (s * ce) + n * se;
+            let (mut from, mut travelled) = (origin, 0.0);
+            for _ in 0..PASS_OVER {
+                let Some(hit) = scene.intersect(from, dir, f32::INFINITY) else {
+                    break;
+                };
+                travelled += hit.t;
+                let g = hit.geo_normal;
+                let facing = if g.dot(dir) < 0.0 { g } else { -g };
+                if facing.dot(n) < SAME_SURFACE_COS {
+                    free[ring * AZIMUTHS + k] = travelled;
+                    break;
+                }
+                let off = surface_offset(hit.position.abs().max_element());
+                from = offset_ray_origin(hit.position, g, off, dir);
+                travelled += (from - hit.position).length();
+            }
+        }
+    }
+    free
+}
+
+/// The share of a splat kernel's mass, for a diffuse field over an open plane, whose point v
+/// (module docs) lies in one given cell of `ring` within τ·r of the target: the planar
+/// model's cumulative share, 1/8 of the ring's. Sampled once (2¹⁸ pairs: cosine-distributed
+/// directions, offsets from the Epanechnikov kernel across the ray, each landing pair
+/// weighted by the end gain as the splat weights it: each direction's kept pairs share one unit), tabulated in
+/// [`SHARE_STEPS`] steps of τ ∈ [0, 1]; τ ≥ 1 is the cell's whole share.
+pub fn planar_share(ring: usize, tau: f32) -> f32 {
+    static TABLE: OnceLock<[[f32; SHARE_STEPS + 1]; 2]> = OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        let (dirs, offsets) = (1usize << 12, 64usize);
+        let mut hist = [[0.0f64; SHARE_STEPS]; 2];
+        let mut total = 0.0f64;
+        // Two-dimensional low-discrepancy points (Kronecker sequences), deterministic.
+        let kr =
+            |i: usize, a: f64, b: f64| ((0.5 + a * i as f64).fract(), (0.5 + b * i as f64).fract());
+        let mut kept: Vec<(usize, usize)> = Vec::with_capacity(offsets);
+        for i in 0..dirs {
+            let (u0, u1) = kr(i, 0.754_877_7, 0.569_840_3);
+            kept.clear();
+            for j in 0..offsets {
+                let (u2, u3) = kr(j + 7 * i, 0.618_034_0, 0.381_966_0);
+                let u = [u0, u1, u2, u3];
+                // Direction towards the light, cosine-distributed: the photon travels along −w.
+                let (sr, phi) = (u[0].sqrt(), std::f64::consts::TAU * u[1]);
+                let w = glam::DVec3::new(sr * phi.cos(), sr * phi.sin(), (1.0 - u[0]).sqrt());
+                if w.z < 1e-4 {
+                    break;
+                }
+                let d = -w;
+                // Offset across the ray from the 2D Epanechnikov kernel: ρ² = 1 − √(1 − u).
+                let rho = (1.0 - (1.0 - u[2]).sqrt()).sqrt();
+                let psi = std::f64::consts::TAU * u[3];
+                let a = if d.x.abs() < 0.9 {
+                    glam::DVec3::X
+                } else {
+                    glam::DVec3::Y
+                };
+                let e1 = d.cross(a).normalize();
+                let e2 = d.cross(e1);
+                let z = e1 * (rho * psi.cos()) + e2 * (rho * psi.sin());
+                let v = if z.z >= 0.0 {
+                    z
+                } else {
+                    // The line lands on the plane before reaching z: its hit, kept within r.
+                    let p = z - d * (z.z / d.z);
+                    if p.length() >= 1.0 {
+                        continue;
+                    }
+                    p
+                };
+                let len = v.length();
+                let ring = (v.z > RING_SPLIT as f64 * len) as usize;
+                let bin = ((len * SHARE_STEPS as f64) as usize).min(SHARE_STEPS - 1);
+                kept.push((ring, bin));
+            }
+            // The end gain: the direction's kept pairs carry its whole weight.
+            let gain = 1.0 / kept.len().max(1) as f64;
+            for &(ring, bin) in &kept {
+                hist[ring][bin] += gain;
+                total += gain;
+            }
+        }
+        let mut out = [[0.0f32; SHARE_STEPS + 1]; 2];
+        for ring in 0..2 {
+            let mut acc = 0.0;
+            for (k, h) in hist[ring].iter().enumerate() {
+                acc += h;
+                out[ring][k + 1] = (acc / total / AZIMUTHS as f64) as f32;
+            }
+        }
+        out
+    });
+    let x = tau.clamp(0.0, 1.0) * SHARE_STEPS as f32;
+    let i = (x as usize).min(SHARE_STEPS - 1);
+    let f = x - i as f32;
+    let row = &table[ring];
+    row[i] * (1.0 - f) + row[i + 1] * f
+}
+
+/// N(x, r): the share of the kernel's mass visible from a target whose cells have the free
+/// distances `free` (one lane's), for splat radius `r`. 1 on an open plane.
+#[inline]
+pub fn visible_share(free: impl Fn(usize) -> f32, r: f32) -> f32 {
+    let inv = 1.0 / r;
+    let mut sum = 0.0;
+    for c in 0..PROBES {
+        sum += planar_share(c / AZIMUTHS, free(c) * inv);
+    }
+    sum
+}
+
+/// N(x, r) of one lane of `dom` from its table ([`DomainChunk::share`]), for r > free_min:
+/// interpolated in log₂ r (a bit-level logarithm, within 0.01 of the true one).
+#[inline(always)]
+pub fn share_at(dom: &DomainChunk, l: usize, r: f32) -> f32 {
+    let q = r / dom.free_min[l];
+    let bits = q.to_bits();
+    let e = ((bits >> 23) & 0xff) as i32 - 127;
+    let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000) - 1.0;
+    let log2 = e as f32 + m * (1.3466 - 0.3466 * m);
+    let x = (2.0 * log2).clamp(0.0, (SHARE_RADII - 1) as f32);
+    let j = (x as usize).min(SHARE_RADII - 2);
+    let f = x - j as f32;
+    dom.share[j][l] * (1.0 - f) + dom.share[j + 1][l] * f
+}
+
+impl SplatTree {
+    /// Probe every target's visible domain (module docs), so that splatting with a scene
+    /// keeps each kernel on its target's side of the walls. `geo_normals` are the targets'
+    /// geometric normals, in target order: the probes leave from that plane (a shading normal
+    /// can lean away from the surface).
+    pub fn probe_domains(&mut self, scene: &Scene, geo_normals: &[Vec3]) {
+        assert_eq!(geo_normals.len(), self.samples);
+        // The table is built once, outside the parallel loop (see `kept_fraction`).
+        planar_share(0, 1.0);
+        let (pts, slot_target) = (&self.points.chunks, &self.slot_target);
+        self.domains = pts
+            .par_iter()
+            .enumerate()
+            .map(|(k, c)| {
+                let mut out = DomainChunk::default();
+                for l in 0..LANES {
+                    let target = slot_target[k * LANES + l];
+                    if target == PADDING {
+                        continue;
+                    }
+                    let n = geo_normals[target as usize];
+                    let p = Vec3::new(c.px[l], c.py[l], c.pz[l]);
+                    let free = probe(scene, p, n);
+                    let (t, _) = onb(n);
+                    (out.normal[0][l], out.normal[1][l], out.normal[2][l]) = (n.x, n.y, n.z);
+                    (out.tangent[0][l], out.tangent[1][l], out.tangent[2][l]) = (t.x, t.y, t.z);
+                    for (cell, f) in free.iter().enumerate() {
+                        out.free[cell][l] = *f;
+                    }
+                    let free_min = free.iter().copied().fold(f32::INFINITY, f32::min);
+                    out.free_min[l] = free_min;
+                    if free_min.is_finite() {
+                        for (j, row) in out.share.iter_mut().enumerate() {
+                            let r = free_min * (j as f32 * 0.5).exp2();
+                            row[l] = visible_share(|c| free[c], r);
+                        }
+                    }
+                }
+                out
+            })
+            .collect();
+    }
+
+    /// The tree knows its targets' visible domains ([`SplatTree::probe_domains`]).
+    pub fn has_domains(&self) -> bool {
+        !self.domains.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_planar_shares_sum_to_one_and_grow_with_distance() {
+        let total: f32 = (0..PROBES).map(|c| planar_share(c / AZIMUTHS, 1.0)).sum();
+        assert!((total - 1.0).abs() < 1e-5, "{total}");
+        assert_eq!(visible_share(|_| f32::INFINITY, 0.3), total);
+        for ring in 0..2 {
+            assert_eq!(planar_share(ring, 0.0), 0.0);
+            let mut last = 0.0;
+            for k in 1..=20 {
+                let s = planar_share(ring, k as f32 / 20.0);
+                assert!(s >= last, "ring {ring}: not monotone at {k}");
+                last = s;
+            }
+        }
+        // Both rings carry mass: the low one (landing points, grazing feet) and the high one.
+        assert!(planar_share(0, 1.0) > 0.02 && planar_share(1, 1.0) > 0.02);
+    }
+
+    #[test]
+    fn cells_follow_their_probes() {
+        let n = Vec3::new(0.3, -0.5, 0.8).normalize();
+        let (t, _) = onb(n);
+        let b = n.cross(t);
+        for (ring, elevation) in PROBE_ELEVATIONS_DEG.iter().enumerate() {
+            let (se, ce) = elevation.to_radians().sin_cos();
+            for k in 0..AZIMUTHS {
+                let phi = std::f32::consts::TAU * (k as f32 + 0.5) / AZIMUTHS as f32;
+                let dir = t * (phi.cos() * ce) + b * (phi.sin() * ce) + n * se;
+                assert_eq!(cell(dir * 3.0, t, b, n), ring * AZIMUTHS + k);
+            }
+        }
+    }
+}
