@@ -340,6 +340,19 @@ pub fn check(settings: &RenderSettings) -> Result<(), MethodError> {
     memory::check(settings, memory::available_bytes())
 }
 
+/// `settings` with a new view ([`RenderSettings::with_view`]), or the refusal that every
+/// `set_view` gives before it allocates anything ([`check`]).
+pub fn checked_view(
+    settings: &RenderSettings,
+    width: u32,
+    height: u32,
+    spp: u32,
+) -> Result<RenderSettings, MethodError> {
+    let view = settings.with_view(width, height, spp);
+    check(&view)?;
+    Ok(view)
+}
+
 /// True when going from `old` to `new` changes what is traced ([`Effect::Retrace`] in the
 /// settings table), so the method must be built again rather than updated.
 pub fn needs_rebuild(old: &RenderSettings, new: &RenderSettings) -> bool {

@@ -207,8 +207,7 @@ impl Method for PathTracer {
         height: u32,
         spp: u32,
     ) -> Result<(), MethodError> {
-        let render = self.render.with_view(width, height, spp);
-        crate::methods::check(&render)?;
+        let render = crate::methods::checked_view(&self.render, width, height, spp)?;
         self.render = render;
         self.settings.width = width;
         self.settings.height = height;

@@ -136,8 +136,7 @@ impl Method for FinalGathering {
         height: u32,
         spp: u32,
     ) -> Result<(), MethodError> {
-        let settings = self.settings.with_view(width, height, spp);
-        crate::methods::check(&settings)?;
+        let settings = crate::methods::checked_view(&self.settings, width, height, spp)?;
         self.settings = settings;
         self.camera = camera;
         self.sum = vec![Vec3::ZERO; (width * height) as usize];

@@ -378,8 +378,7 @@ impl PhotonCore {
         height: u32,
         spp: u32,
     ) -> Result<(), MethodError> {
-        let settings = self.settings.with_view(width, height, spp);
-        crate::methods::check(&settings)?;
+        let settings = crate::methods::checked_view(&self.settings, width, height, spp)?;
         self.side = EyeSide::new(
             &self.scene,
             &camera,

@@ -5,7 +5,7 @@ use super::{RayDirection, SplatBatch, SplatCounters, SplatRay, test_sample};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::radiance_map::{AccView, AccumChunk, Accumulators, Channel, NO_RECORD};
 use crate::pipeline::splat_tree::{
-    DomainChunk, LANES, PROBES, PointChunk, SplatTree, Subtree, cell, share_at, sphere_in_cone,
+    DomainChunk, LANES, PointChunk, SplatTree, Subtree, cell, share_at, sphere_in_cone,
 };
 use crate::scene::Scene;
 use glam::Vec3;
@@ -314,7 +314,7 @@ fn near_walls(
         let facing = ray.end_normal.x * dom.normal[0][l]
             + ray.end_normal.y * dom.normal[1][l]
             + ray.end_normal.z * dom.normal[2][l];
-        let past = (t > c.length) & ((plane.abs() >= 0.5 * c.h_end) | (facing < 0.5));
+        let past = (t > c.length) & !on_landing_surface(plane, facing, c.h_end);
         let flag = (w[l] > 0.0) & ((s < -1e-4 * r) | (r > dom.free_min[l]) | past);
         near |= (flag as u32) << l;
     }
@@ -349,11 +349,9 @@ fn visible_domain(
         // The foot of x on the ray's line, past its end too (the hemisphere of Fig. 4) when
         // x lies on the surface the ray landed on; a ray that landed elsewhere stops there.
         let t_foot = (x - o).dot(d);
-        let plane = (x - o).dot(Vec3::from(ray.end_normal)) - ray.end_plane;
-        // On that surface: near its plane and facing the same way (the other face of a
-        // thin wall is near the plane too).
-        let same = plane.abs() < 0.5 * c.h_end && n.dot(Vec3::from(ray.end_normal)) >= 0.5;
-        let stops = t_foot > c.length && !same;
+        let end_normal = Vec3::from(ray.end_normal);
+        let plane = (x - o).dot(end_normal) - ray.end_plane;
+        let stops = t_foot > c.length && !on_landing_surface(plane, n.dot(end_normal), c.h_end);
         let foot = o + d * if stops { c.length } else { t_foot };
         let mut v = foot - x;
         let behind = v.dot(n);
@@ -392,6 +390,15 @@ fn visible_domain(
             }
         }
     }
-    debug_assert_eq!(PROBES, dom.free.len());
     outside
+}
+
+/// A target lies on the surface a ray landed on: within half the ray's end radius of the hit
+/// plane (signed distance `plane`) and facing the same way (`facing`, the cosine between the
+/// normals): the other face of a thin wall is near the plane too. Past the end of its ray,
+/// only such a target sees the ray go on (the hemisphere of Fig. 4); [`near_walls`] and
+/// [`visible_domain`] must agree on it.
+#[inline(always)]
+fn on_landing_surface(plane: f32, facing: f32, h_end: f32) -> bool {
+    (plane.abs() < 0.5 * h_end) & (facing >= 0.5)
 }
