@@ -555,24 +555,26 @@ fn the_probe_shows_where_the_glossy_part_came_from() {
     }
 }
 
-/// The visibility test (docs/deviations.md §40) switched on in the window: the worker
-/// restarts with probed splat trees and the stats count the pairs tested against them.
+/// The visibility test (docs/deviations.md §40), on by default in the window: the stats count
+/// the pairs tested against the visible domains; switched off, the worker restarts without.
 #[test]
-fn visibility_checkbox_restarts_with_domain_tests() {
+fn visibility_checkbox_restarts_without_domain_tests() {
     let mut h = harness(tmp("visibility"));
     run_until(&mut h, 60, "the first image", |a| {
         a.frame().is_some_and(|f| f.stats.method.passes >= 1)
     });
-    assert_eq!(h.state().frame().unwrap().stats.method.domain_tests, 0);
+    assert!(h.state().frame().unwrap().stats.method.domain_tests > 0);
+    h.get_by_label_contains("pairs tested");
     h.get_by_label("Visibility in the splat footprint").click();
-    run_until(&mut h, 60, "a frame with shadow rays", |a| {
+    run_until(&mut h, 60, "a frame without domain tests", |a| {
         a.frame().is_some_and(|f| {
-            f.settings.splat_visibility
+            !f.settings.splat_visibility
                 && f.stats.method.passes >= 1
-                && f.stats.method.domain_tests > 0
+                && f.stats.method.domain_tests == 0
         })
     });
-    h.get_by_label_contains("pairs tested");
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("pairs tested").is_none());
 }
 
 /// docs/deviations.md §41 in the window: the worker draws new eye passes as batches go on, and the

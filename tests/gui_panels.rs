@@ -298,10 +298,13 @@ fn rendering_panel_emits_one_command_per_widget() {
     );
     h.get_by_label("Visibility in the splat footprint").click();
     h.run_steps(2);
-    assert_commands(&mut h.state_mut().out, &[Command::SetSplatVisibility(true)]);
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetSplatVisibility(false)],
+    );
     expected.render.direct = DirectMode::Photons;
     expected.render.radiance_map = DirectionalMode::Histogram;
-    expected.render.splat_visibility = true;
+    expected.render.splat_visibility = false;
     assert_eq!(h.state().settings, expected);
 }
 

@@ -113,7 +113,8 @@ impl RenderingPanel {
                         "Keep each splat kernel to the part of its footprint the eye sample \
                          sees, renormalised over it: light outside a room stays off the inside \
                          of its walls and corners keep their light (docs/deviations.md §40). \
-                         Off is the paper's splatting; on costs 2–4× the splat time. \
+                         On by default; off is the paper's splatting, about twice as fast to \
+                         splat. \
                          Switching restarts tracing.",
                     );
             },

@@ -218,11 +218,12 @@ pub struct MethodArgs {
     /// a pixel that lie on the same surface.
     #[arg(long)]
     pub no_merge: bool,
-    /// Keep each splat kernel to the part of its footprint its target sees, renormalised
-    /// over it (visible kernel domains): light outside a 10 cm wall stays out and concave
-    /// corners keep their light, at 2–4× the splat time (docs/deviations.md §40).
+    /// Let splat kernels reach through walls and lose the light of concave corners, as the
+    /// paper's splatting does (§10), for about half the splat time: without it each kernel
+    /// is kept to the part of its footprint its target sees, renormalised over it (visible
+    /// kernel domains, docs/deviations.md §40).
     #[arg(long)]
-    pub splat_visibility: bool,
+    pub no_splat_visibility: bool,
     /// rs: keep the eye samples of the first eye pass for every batch instead of drawing
     /// them anew as batches go on (the paper's one eye pass per view; docs/deviations.md §41).
     #[arg(long)]
@@ -294,7 +295,7 @@ impl SettingsArgs {
             nee_samples: self.direct.nee_samples,
             camera: self.run.camera.clone(),
             merge_targets: !method.no_merge,
-            splat_visibility: method.splat_visibility,
+            splat_visibility: !method.no_splat_visibility,
             progressive_eye: !method.fixed_eye_samples,
             progressive_bandwidth: !method.paper_bandwidth_rate,
             method: kind,

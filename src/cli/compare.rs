@@ -11,7 +11,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use raysplat::choice::Choice;
 use raysplat::film::Film;
 use raysplat::film::display::{ViewMode, display};
-use raysplat::film::error::{error_map, mean_bias, rmse};
+use raysplat::film::error::{bright_dots, error_map, mean_bias, rmse};
 use raysplat::methods::{self, Budget, render_method};
 use raysplat::scene::Scene;
 use raysplat::settings::{MethodKind, RenderSettings};
@@ -55,6 +55,8 @@ struct CompareRow {
     relmse: f64,
     /// Image mean over reference mean, minus 1 (luminance): the method's overall bias.
     mean_bias: f64,
+    /// Isolated bright pixels the reference lacks ([`bright_dots`]).
+    dots: usize,
     photons: u64,
     passes: u64,
 }
@@ -128,8 +130,8 @@ pub fn run(args: CompareArgs) -> Result<(), CliError> {
     // Fig. 10's montage: each method's image above its relative-error map, the reference last.
     let mut montage: Vec<MontageColumn> = Vec::new();
     println!(
-        "{:<6} {:>8} {:>8} {:>8} {:>8} {:>10} {:>10} {:>8}",
-        "method", "T_E", "T_L", "T_S", "ΣT", "RMSE", "relMSE", "bias"
+        "{:<6} {:>8} {:>8} {:>8} {:>8} {:>10} {:>10} {:>8} {:>6}",
+        "method", "T_E", "T_L", "T_S", "ΣT", "RMSE", "relMSE", "bias", "dots"
     );
     for (i, &m) in args.methods.iter().enumerate() {
         let spinner = ProgressBar::new_spinner().with_message(format!(
@@ -150,11 +152,12 @@ pub fn run(args: CompareArgs) -> Result<(), CliError> {
             rmse: rmse(&r.film.rgb, &reference),
             relmse: raysplat::film::rel_mse(&r.film.rgb, &reference),
             mean_bias: mean_bias(&r.film.rgb, &reference),
+            dots: bright_dots(&r.film.rgb, &reference, settings.width, settings.height),
             photons: r.photons,
             passes: r.passes,
         };
         println!(
-            "{:<6} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.5} {:>10.5} {:>+7.2}%",
+            "{:<6} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.5} {:>10.5} {:>+7.2}% {:>6}",
             m.name(),
             row.t_eye,
             row.t_light,
@@ -162,7 +165,8 @@ pub fn run(args: CompareArgs) -> Result<(), CliError> {
             row.t_total,
             row.rmse,
             row.relmse,
-            row.mean_bias * 100.0
+            row.mean_bias * 100.0,
+            row.dots
         );
         r.film
             .write_exr(&args.out_dir.join(format!("{}.exr", m.name())))

@@ -1,5 +1,5 @@
-//! Error metrics against a reference image (RMSE, relative errors, mean bias) and Fig. 10's
-//! relative-error maps.
+//! Error metrics against a reference image (RMSE, relative errors, mean bias, bright dots)
+//! and Fig. 10's relative-error maps.
 
 use crate::sampling::luminance;
 use glam::Vec3;
@@ -41,6 +41,39 @@ pub fn relative_errors(image: &[Vec3], reference: &[Vec3]) -> Vec<f32> {
         .collect()
 }
 
+/// Isolated bright dots (issue 30's speckle count): pixels of `image` whose luminance is more
+/// than 3× the median of their 5×5 neighbourhood (themselves included) where the same pixel of
+/// `reference` is not, so that a sparkle the reference has too (a highlight, a lamp) is not
+/// counted. Pixels within 2 of the border are not tested. Both images are `width` × `height`.
+pub fn bright_dots(image: &[Vec3], reference: &[Vec3], width: u32, height: u32) -> usize {
+    let (w, h) = (width as usize, height as usize);
+    assert_eq!(image.len(), w * h);
+    assert_eq!(reference.len(), w * h);
+    let lum = |v: &[Vec3]| v.iter().map(|c| luminance(*c)).collect::<Vec<f32>>();
+    let (a, r) = (lum(image), lum(reference));
+    let dot = |l: &[f32], x: usize, y: usize, window: &mut [f32; 25]| {
+        let mut k = 0;
+        for yy in y - 2..=y + 2 {
+            for xx in x - 2..=x + 2 {
+                window[k] = l[yy * w + xx];
+                k += 1;
+            }
+        }
+        let (_, median, _) = window.select_nth_unstable_by(12, f32::total_cmp);
+        l[y * w + x] > 3.0 * median.max(0.0)
+    };
+    let mut window = [0.0f32; 25];
+    let mut count = 0;
+    for y in 2..h.saturating_sub(2) {
+        for x in 2..w.saturating_sub(2) {
+            if dot(&a, x, y, &mut window) && !dot(&r, x, y, &mut window) {
+                count += 1;
+            }
+        }
+    }
+    count
+}
+
 /// Fig. 10's colour scale: blue below 5% error, green at 15%, red at 30% and above.
 pub fn error_colour(e: f32) -> [u8; 3] {
     let lerp = |a: [f32; 3], b: [f32; 3], t: f32| -> [u8; 3] {
@@ -72,6 +105,20 @@ pub fn error_map(image: &[Vec3], reference: &[Vec3]) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bright_dots_count_isolated_sparkles_the_reference_lacks() {
+        let (w, h) = (12u32, 10u32);
+        let flat = vec![Vec3::splat(0.5); (w * h) as usize];
+        let mut img = flat.clone();
+        img[(4 * w + 5) as usize] = Vec3::splat(2.0); // 4× its neighbourhood: a dot
+        img[(6 * w + 8) as usize] = Vec3::splat(1.4); // 2.8×: not one
+        img[(w + 5) as usize] = Vec3::splat(9.0); // within 2 of the border: not tested
+        assert_eq!(bright_dots(&img, &flat, w, h), 1);
+        // The reference has it too: a highlight, not a speckle.
+        assert_eq!(bright_dots(&img, &img, w, h), 0);
+        assert_eq!(bright_dots(&flat, &flat, w, h), 0);
+    }
 
     #[test]
     fn error_colours_follow_fig_10() {

@@ -50,57 +50,118 @@ const SHARE_STEPS: usize = 64;
 /// Radii at which each target's N(x, r) is tabulated: r_j = free_min · 2^(j/2).
 pub const SHARE_RADII: usize = 12;
 
-/// The visible domains of one chunk of [`LANES`] slots, structure of arrays.
+/// Steps per octave of the quantised free distances ([`DomainChunk::free`]).
+pub const FREE_STEPS_PER_OCTAVE: f32 = 16.0;
+/// The quantised free distance that stands for "nothing met" (INFINITY).
+pub const FREE_NONE: u8 = u8::MAX;
+
+/// The visible domains of one chunk of [`LANES`] slots. The first two cache lines (normals,
+/// smallest free distances) are read for every splatted chunk; the quantised cells and share
+/// tables (one line pair each) only for pairs near walls. 384 bytes for 8 targets: the first,
+/// f32 layout (1,120 bytes, the tangent frame stored, the cells gathered across 14 lines) made
+/// the near-wall test memory-bound (docs/benchmarks.md).
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 pub struct DomainChunk {
-    /// The lanes' geometric normals (x, y, z), facing the viewer (zero for padding).
+    /// The lanes' geometric normals (x, y, z), facing the viewer (zero for padding); the
+    /// cells' frame is [`onb`] of it.
     pub normal: [[f32; LANES]; 3],
-    /// The first tangent of each lane's frame ([`onb`] of the normal); the second is n × t.
-    pub tangent: [[f32; LANES]; 3],
-    /// Free distance of each cell: low ring first, sector k covering azimuths 45°k–45°(k+1).
-    pub free: [[f32; LANES]; PROBES],
     /// The smallest of a lane's free distances: for r at most this, nothing is cut.
     pub free_min: [f32; LANES],
-    /// N(x, r_j) at r_j = free_min · 2^(j/2) ([`visible_share`]), so that a pair near a wall
-    /// reads its renormalisation instead of summing 16 cells; beyond the last, the last.
-    pub share: [[f32; LANES]; SHARE_RADII],
+    /// Free distance of each cell, per lane (low ring first, sector k covering azimuths
+    /// 45°k–45°(k+1)), as q with free = free_min · 2^(q/16), rounded down ([`FREE_NONE`]:
+    /// nothing met); [`free_distance`] decodes it.
+    pub free: [[u8; PROBES]; LANES],
+    /// N(x, r_j)·255, rounded, at r_j = free_min · 2^(j/2) ([`visible_share`] of the
+    /// quantised cells), per lane, so that a pair near a wall reads its renormalisation
+    /// instead of summing 16 cells; beyond the last, the last. 4 bytes of padding per lane.
+    pub share: [[u8; 16]; LANES],
 }
+
+const _: () = assert!(SHARE_RADII <= 16 && std::mem::size_of::<DomainChunk>() == 384);
 
 impl Default for DomainChunk {
     fn default() -> Self {
         Self {
             normal: [[0.0; LANES]; 3],
-            tangent: [[0.0; LANES]; 3],
-            free: [[f32::INFINITY; LANES]; PROBES],
             free_min: [f32::INFINITY; LANES],
-            share: [[1.0; LANES]; SHARE_RADII],
+            free: [[FREE_NONE; PROBES]; LANES],
+            share: [[255; 16]; LANES],
         }
     }
 }
 
-/// The cell of direction `u` (not necessarily unit) in the frame (t, b, n): the ring from its
-/// elevation, the sector from the signs and sizes of its tangent components.
+/// 2^(k/16), k = 0..15, as f32: the fractional steps of [`free_distance`].
+const FREE_STEPS: [f32; 16] = [
+    1.0,
+    1.044_273_7,
+    1.090_507_7,
+    1.138_788_6,
+    1.189_207_1,
+    1.241_857_8,
+    1.296_839_6,
+    1.354_255_6,
+    std::f32::consts::SQRT_2,
+    1.476_826_1,
+    1.542_210_8,
+    1.610_490_3,
+    1.681_792_9,
+    1.756_252_2,
+    1.834_008_1,
+    1.915_206_6,
+];
+
+/// The quantised free distance q of a cell ([`DomainChunk::free`]) for a lane whose smallest
+/// is `free_min`: rounded down, so that the decoded distance ([`free_distance`]) never lies
+/// beyond the surface.
+pub fn quantise_free(free: f32, free_min: f32) -> u8 {
+    if !free.is_finite() {
+        return FREE_NONE;
+    }
+    let q = (FREE_STEPS_PER_OCTAVE * (free / free_min).log2()).floor();
+    // The last code below FREE_NONE stands for anything farther (2^15.9 × free_min).
+    let mut q = q.clamp(0.0, (FREE_NONE - 1) as f32) as u8;
+    while q > 0 && free_distance(q, free_min) > free {
+        q -= 1;
+    }
+    q
+}
+
+/// The distance quantised as q ([`quantise_free`]) for a lane whose smallest is `free_min`:
+/// free_min · 2^(q/16) (INFINITY for [`FREE_NONE`]). The power of two is set in the exponent
+/// bits and the fraction read from a 16-entry table: integer work that the splat pass's
+/// per-lane reads do in a few instructions.
+#[inline(always)]
+pub fn free_distance(q: u8, free_min: f32) -> f32 {
+    let octave = f32::from_bits((127 + (q as u32 >> 4)) << 23);
+    let d = free_min * octave * FREE_STEPS[(q & 15) as usize];
+    if q == FREE_NONE { f32::INFINITY } else { d }
+}
+
+/// The cell of direction `u` (not necessarily unit) in the frame (t, b, n): see [`cell_of`].
 #[inline(always)]
 pub fn cell(u: Vec3, t: Vec3, b: Vec3, n: Vec3) -> usize {
-    let (x, y, z) = (u.dot(t), u.dot(b), u.dot(n));
-    let ring = (z > RING_SPLIT * u.length()) as usize;
-    let sector = if y >= 0.0 {
-        if x >= 0.0 {
-            if x >= y { 0 } else { 1 }
-        } else if -x <= y {
-            2
-        } else {
-            3
-        }
-    } else if x < 0.0 {
-        if -x >= -y { 4 } else { 5 }
-    } else if x <= -y {
-        6
-    } else {
-        7
-    };
-    ring * AZIMUTHS + sector
+    cell_of(u.dot(t), u.dot(b), u.dot(n))
+}
+
+/// The cell of the direction with frame components (x, y, z): [`cell_index`].
+#[inline(always)]
+pub fn cell_of(x: f32, y: f32, z: f32) -> usize {
+    cell_index(x, y, z) as usize % PROBES
+}
+
+/// The cell of the direction with frame components (x, y, z), below [`PROBES`]: the ring
+/// from its elevation (z > sin 30° · |u|, compared squared), the sector from the signs and
+/// sizes of x and y. Branch-free, in u32 (selects only), so that the splat pass's near-wall
+/// test vectorises: the lower half-plane is turned by 180° onto the upper one, where sectors
+/// 0–3 are counted by x < y, x < 0 and x < −y.
+#[inline(always)]
+pub fn cell_index(x: f32, y: f32, z: f32) -> u32 {
+    let high = (z > 0.0) & (z * z > RING_SPLIT * RING_SPLIT * (x * x + y * y + z * z));
+    let lower = y < 0.0;
+    let (x, y) = if lower { (-x, -y) } else { (x, y) };
+    let sector = 4 * lower as u32 + (x < y) as u32 + (x < 0.0) as u32 + (x < -y) as u32;
+    high as u32 * AZIMUTHS as u32 + sector
 }
 
 /// Free distances of the [`PROBES`] cells around `p` (unit geometric normal `n`): each cell's
@@ -112,8 +173,7 @@ pub fn probe(scene: &Scene, p: Vec3, n: Vec3) -> [f32; PROBES] {
     if !n.is_finite() || n == Vec3::ZERO || !p.is_finite() {
         return free;
     }
-    let (t, _) = onb(n);
-    let b = n.cross(t);
+    let (t, b) = onb(n);
     // Just off the surface, on its front: the target's position carries the rounding of the
     // triangle it lies on, a few ulps of its largest coordinate.
     let origin = p + n * surface_offset(p.abs().max_element());
@@ -236,18 +296,32 @@ pub fn visible_share(free: impl Fn(usize) -> f32, r: f32) -> f32 {
 }
 
 /// N(x, r) of one lane of `dom` from its table ([`DomainChunk::share`]), for r > free_min:
-/// interpolated in log₂ r (a bit-level logarithm, within 0.01 of the true one).
+/// interpolated at [`share_position`].
 #[inline(always)]
 pub fn share_at(dom: &DomainChunk, l: usize, r: f32) -> f32 {
-    let q = r / dom.free_min[l];
+    share_from_row(&dom.share[l], share_position(r, dom.free_min[l]))
+}
+
+/// N(x, r) from a lane's share row at position `x` ([`share_position`]).
+#[inline(always)]
+pub fn share_from_row(row: &[u8; 16], x: f32) -> f32 {
+    // x lies in [0, SHARE_RADII − 1] (share_position clamps it): a plain truncation.
+    let j = ((x as i32) as usize).min(SHARE_RADII - 2);
+    let f = x - j as f32;
+    (row[j] as f32 * (1.0 - f) + row[j + 1] as f32 * f) * (1.0 / 255.0)
+}
+
+/// Where radius `r` falls in a lane's share table of smallest free distance `free_min`:
+/// 2·log₂(r / free_min) clamped to [0, SHARE_RADII − 1], from a bit-level logarithm (within
+/// 0.01 of the true one; arithmetic only, so that it vectorises). 0 for r ≤ free_min.
+#[inline(always)]
+pub fn share_position(r: f32, free_min: f32) -> f32 {
+    let q = (r / free_min).max(1.0);
     let bits = q.to_bits();
     let e = ((bits >> 23) & 0xff) as i32 - 127;
     let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000) - 1.0;
     let log2 = e as f32 + m * (1.3466 - 0.3466 * m);
-    let x = (2.0 * log2).clamp(0.0, (SHARE_RADII - 1) as f32);
-    let j = (x as usize).min(SHARE_RADII - 2);
-    let f = x - j as f32;
-    dom.share[j][l] * (1.0 - f) + dom.share[j + 1][l] * f
+    (2.0 * log2).clamp(0.0, (SHARE_RADII - 1) as f32)
 }
 
 impl SplatTree {
@@ -272,19 +346,27 @@ impl SplatTree {
                     }
                     let n = geo_normals[target as usize];
                     let p = Vec3::new(c.px[l], c.py[l], c.pz[l]);
-                    let free = probe(scene, p, n);
-                    let (t, _) = onb(n);
+                    let exact = probe(scene, p, n);
                     (out.normal[0][l], out.normal[1][l], out.normal[2][l]) = (n.x, n.y, n.z);
-                    (out.tangent[0][l], out.tangent[1][l], out.tangent[2][l]) = (t.x, t.y, t.z);
-                    for (cell, f) in free.iter().enumerate() {
-                        out.free[cell][l] = *f;
-                    }
-                    let free_min = free.iter().copied().fold(f32::INFINITY, f32::min);
+                    // A probe that met a surface at once (a target in a crease) closes its
+                    // cell: the smallest distance quantised against stays positive.
+                    let free_min = exact
+                        .iter()
+                        .copied()
+                        .fold(f32::INFINITY, f32::min)
+                        .max(f32::MIN_POSITIVE);
                     out.free_min[l] = free_min;
                     if free_min.is_finite() {
-                        for (j, row) in out.share.iter_mut().enumerate() {
+                        // N is computed from the distances as the splat pass decodes them.
+                        let mut free = [0.0f32; PROBES];
+                        for (cell, f) in exact.iter().enumerate() {
+                            out.free[l][cell] = quantise_free(*f, free_min);
+                            free[cell] = free_distance(out.free[l][cell], free_min);
+                        }
+                        for j in 0..SHARE_RADII {
                             let r = free_min * (j as f32 * 0.5).exp2();
-                            row[l] = visible_share(|c| free[c], r);
+                            let n = visible_share(|c| free[c], r);
+                            out.share[l][j] = (n.clamp(0.0, 1.0) * 255.0).round() as u8;
                         }
                     }
                 }
@@ -322,10 +404,58 @@ mod tests {
     }
 
     #[test]
+    fn the_branch_free_cell_is_the_octant_and_the_ring_of_the_angles() {
+        // Against atan2 and asin on 20,000 directions off the sector boundaries.
+        let mut seed = 0x9e37_79b9_u32;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32
+        };
+        let mut checked = 0;
+        for _ in 0..20_000 {
+            let u = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 7.0;
+            let phi = u.y.atan2(u.x).rem_euclid(std::f32::consts::TAU);
+            let sector_f = phi / (std::f32::consts::TAU / AZIMUTHS as f32);
+            let elevation = (u.z / u.length()).asin().to_degrees();
+            if (sector_f - sector_f.round()).abs() < 1e-3 || (elevation - 30.0).abs() < 1e-3 {
+                continue;
+            }
+            let ring = (elevation > 30.0) as usize;
+            let expected = ring * AZIMUTHS + (sector_f as usize) % AZIMUTHS;
+            assert_eq!(cell_of(u.x, u.y, u.z), expected, "{u}");
+            checked += 1;
+        }
+        assert!(checked > 19_000);
+    }
+
+    #[test]
+    fn quantised_free_distances_never_lie_beyond_the_surface() {
+        let free_min = 0.37f32;
+        for k in 0..2000 {
+            let f = free_min * (k as f32 * 0.01).exp2();
+            let q = quantise_free(f, free_min);
+            let back = free_distance(q, free_min);
+            assert!(back <= f * (1.0 + 1e-6), "{f} -> {back}");
+            // Within one step (2^(1/16), 4.4%) up to the farthest code.
+            if f < free_min * 60_000.0 {
+                assert!(back >= f / 2f32.powf(1.0 / FREE_STEPS_PER_OCTAVE) * (1.0 - 1e-5));
+            }
+        }
+        assert_eq!(
+            free_distance(quantise_free(free_min, free_min), free_min),
+            free_min
+        );
+        assert_eq!(quantise_free(f32::INFINITY, free_min), FREE_NONE);
+        assert_eq!(free_distance(FREE_NONE, free_min), f32::INFINITY);
+        assert_eq!(free_distance(FREE_NONE, f32::MIN_POSITIVE), f32::INFINITY);
+    }
+
+    #[test]
     fn cells_follow_their_probes() {
         let n = Vec3::new(0.3, -0.5, 0.8).normalize();
-        let (t, _) = onb(n);
-        let b = n.cross(t);
+        let (t, b) = onb(n);
         for (ring, elevation) in PROBE_ELEVATIONS_DEG.iter().enumerate() {
             let (se, ce) = elevation.to_radians().sin_cos();
             for k in 0..AZIMUTHS {

@@ -24,8 +24,9 @@ mod node;
 mod traverse;
 
 pub use domain::{
-    AZIMUTHS, DomainChunk, PROBE_ELEVATIONS_DEG, PROBES, SHARE_RADII, cell, planar_share, probe,
-    share_at, visible_share,
+    AZIMUTHS, DomainChunk, FREE_NONE, FREE_STEPS_PER_OCTAVE, PROBE_ELEVATIONS_DEG, PROBES,
+    SHARE_RADII, cell, cell_index, cell_of, free_distance, planar_share, probe, quantise_free,
+    share_at, share_from_row, share_position, visible_share,
 };
 pub use node::Node;
 pub use traverse::{clip, sphere_in_cone};
