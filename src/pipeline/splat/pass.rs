@@ -8,6 +8,7 @@ use crate::pipeline::splat_tree::{
     DomainChunk, LANES, PROBES, PointChunk, SplatTree, Subtree, cell_index, free_distance,
     share_from_row, share_position, sphere_in_cone,
 };
+use crate::sampling::onb;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -256,11 +257,11 @@ fn splat_lanes(
         wd[l] = r.weight * r.inv_dist;
         hit[l] = if r.feasible { 1.0 } else { 0.0 };
     }
+    let splatted = hit.iter().sum::<f32>() as u32;
     let domain = match vis {
         // A chunk without a splatted lane has nothing to test.
-        Some(dom) if hit.iter().sum::<f32>() > 0.0 => {
+        Some(dom) if splatted > 0 => {
             let near = near_walls(ray, pts, dom, &w, &radius);
-            let tested = hit.iter().sum::<f32>() as u32;
             let outside = if near != 0 {
                 visible_domain(
                     ray,
@@ -273,7 +274,7 @@ fn splat_lanes(
             } else {
                 0
             };
-            (tested, outside)
+            (splatted, outside)
         }
         _ => (0, 0),
     };
@@ -290,7 +291,8 @@ fn splat_lanes(
     }
     LaneSplat {
         weights: w,
-        accepted: hit.iter().sum::<f32>() as u32,
+        // Those the visible domains kept.
+        accepted: splatted - domain.1,
         domain_tests: domain.0,
         occluded: domain.1,
     }
@@ -396,17 +398,11 @@ fn visible_domain(
         len2[l] = ux * ux + uy * uy + uz * uz;
         // Where the radius reaches past the nearest surface a probe met, v's cell decides.
         cut[l] = r > dom.free_min[l];
-        // The cells' frame: onb of the normal (Duff et al., branch-free), as the probes'.
-        let sign = 1.0f32.copysign(nz);
-        let a = -1.0 / (sign + nz);
-        let bb = nx * ny * a;
-        let (tx, ty, tz) = (1.0 + sign * nx * nx * a, sign * bb, -sign * nx);
-        let (bx, by, bz) = (bb, sign + ny * ny * a, -ny);
-        cell[l] = cell_index(
-            ux * tx + uy * ty + uz * tz,
-            ux * bx + uy * by + uz * bz,
-            ux * nx + uy * ny + uz * nz,
-        );
+        // The cells' frame, as the probes': onb of the normal (branch-free, it vectorises).
+        let n = Vec3::new(nx, ny, nz);
+        let (t, b) = onb(n);
+        let u = Vec3::new(ux, uy, uz);
+        cell[l] = cell_index(u.dot(t), u.dot(b), u.dot(n));
         share_x[l] = share_position(r, dom.free_min[l]);
     }
     // The cells' free distances and N(x, r) read from each lane's table.

@@ -138,16 +138,10 @@ pub fn free_distance(q: u8, free_min: f32) -> f32 {
     if q == FREE_NONE { f32::INFINITY } else { d }
 }
 
-/// The cell of direction `u` (not necessarily unit) in the frame (t, b, n): see [`cell_of`].
+/// The cell of direction `u` (not necessarily unit) in the frame (t, b, n): [`cell_index`].
 #[inline(always)]
 pub fn cell(u: Vec3, t: Vec3, b: Vec3, n: Vec3) -> usize {
-    cell_of(u.dot(t), u.dot(b), u.dot(n))
-}
-
-/// The cell of the direction with frame components (x, y, z): [`cell_index`].
-#[inline(always)]
-pub fn cell_of(x: f32, y: f32, z: f32) -> usize {
-    cell_index(x, y, z) as usize % PROBES
+    cell_index(u.dot(t), u.dot(b), u.dot(n)) as usize
 }
 
 /// The cell of the direction with frame components (x, y, z), below [`PROBES`]: the ring
@@ -295,14 +289,8 @@ pub fn visible_share(free: impl Fn(usize) -> f32, r: f32) -> f32 {
     sum
 }
 
-/// N(x, r) of one lane of `dom` from its table ([`DomainChunk::share`]), for r > free_min:
-/// interpolated at [`share_position`].
-#[inline(always)]
-pub fn share_at(dom: &DomainChunk, l: usize, r: f32) -> f32 {
-    share_from_row(&dom.share[l], share_position(r, dom.free_min[l]))
-}
-
-/// N(x, r) from a lane's share row at position `x` ([`share_position`]).
+/// N(x, r) from a lane's share row ([`DomainChunk::share`]) at position `x`
+/// ([`share_position`]; for r > free_min).
 #[inline(always)]
 pub fn share_from_row(row: &[u8; 16], x: f32) -> f32 {
     // x lies in [0, SHARE_RADII − 1] (share_position clamps it): a plain truncation.
@@ -424,7 +412,7 @@ mod tests {
             }
             let ring = (elevation > 30.0) as usize;
             let expected = ring * AZIMUTHS + (sector_f as usize) % AZIMUTHS;
-            assert_eq!(cell_of(u.x, u.y, u.z), expected, "{u}");
+            assert_eq!(cell_index(u.x, u.y, u.z) as usize, expected, "{u}");
             checked += 1;
         }
         assert!(checked > 19_000);

@@ -25,8 +25,8 @@ mod traverse;
 
 pub use domain::{
     AZIMUTHS, DomainChunk, FREE_NONE, FREE_STEPS_PER_OCTAVE, PROBE_ELEVATIONS_DEG, PROBES,
-    SHARE_RADII, cell, cell_index, cell_of, free_distance, planar_share, probe, quantise_free,
-    share_at, share_from_row, share_position, visible_share,
+    SHARE_RADII, cell, cell_index, free_distance, planar_share, probe, quantise_free,
+    share_from_row, share_position, visible_share,
 };
 pub use node::Node;
 pub use traverse::{clip, sphere_in_cone};
