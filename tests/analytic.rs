@@ -123,6 +123,7 @@ fn a_streamed_light_pass_hands_on_the_rays_of_a_stored_one() {
             seed: 9,
             first_photon: 1234,
             units: PathUnits { length: 0.7 },
+            guide: None,
         };
         let (stored, plan, streamed, waves) = pool.install(|| {
             let stored = light_pass(scene, &s);
@@ -152,6 +153,7 @@ fn a_streamed_light_pass_hands_on_the_rays_of_a_stored_one() {
         seed: 9,
         first_photon: 1234,
         units: PathUnits { length: 0.7 },
+        guide: None,
     };
     let plan = pool.install(|| plan_light_pass(&plane, &s));
     assert_eq!(plan.batch.stored[2], 0);
@@ -175,13 +177,14 @@ fn eq7_clamped_path_pdf_on_a_known_geometry() {
             seed: 3,
             first_photon: 0,
             units: PathUnits { length: unit },
+            guide: None,
         },
     );
     let area = side * side / (unit * unit);
     let (mut direct, mut bounced) = (0, 0);
     for r in &batch.rays {
         let d = (r.length * r.length / (unit * unit)).max(D_TILDE_FRACTION * D_TILDE_FRACTION);
-        match (r.class, r.bounce) {
+        match (r.class(), r.bounce()) {
             (PhotonClass::Direct, 0) => {
                 let cos = r.dir.dot(-Vec3::Y);
                 let expect = (1.0 / area) * (cos / PI) / d;
@@ -310,12 +313,13 @@ fn photons_leave_a_two_sided_light() {
             seed: 2,
             first_photon: 0,
             units: PathUnits { length: 1.0 },
+            guide: None,
         },
     );
     let direct: Vec<_> = batch
         .rays
         .iter()
-        .filter(|r| r.class == PhotonClass::Direct)
+        .filter(|r| r.class() == PhotonClass::Direct)
         .collect();
     assert!(
         direct.iter().all(|r| r.length > 0.5),
@@ -343,12 +347,13 @@ fn direct_rays_carry_the_light_power() {
             seed: 5,
             first_photon: 0,
             units: PathUnits { length: 1.0 },
+            guide: None,
         },
     );
     let sum: Vec3 = batch
         .rays
         .iter()
-        .filter(|r| r.class == PhotonClass::Direct)
+        .filter(|r| r.class() == PhotonClass::Direct)
         .map(|r| r.power)
         .sum();
     let total = scene.lights.total_power;

@@ -302,9 +302,13 @@ fn rendering_panel_emits_one_command_per_widget() {
         &mut h.state_mut().out,
         &[Command::SetSplatVisibility(false)],
     );
+    h.get_by_label("Photons where the camera looks").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::SetGuidedEmission(true)]);
     expected.render.direct = DirectMode::Photons;
     expected.render.radiance_map = DirectionalMode::Histogram;
     expected.render.splat_visibility = false;
+    expected.render.guided_emission = true;
     assert_eq!(h.state().settings, expected);
 }
 

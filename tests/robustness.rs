@@ -484,6 +484,7 @@ fn long_specular_chains_saturate_the_path_pdf() {
             seed: 3,
             first_photon: 0,
             units: PathUnits { length: 1e6 },
+            guide: None,
         },
     );
     assert_eq!(batch.invalid, 0, "photon rays dropped as non-finite");

@@ -95,6 +95,24 @@ impl StatsPanel {
                     "lobes sharper than the directional mode resolves are traced by the eye path",
                 );
             }
+            if m.splat_rays > 0 {
+                ui.separator();
+                let guide = match m.guide_batches {
+                    Some(0) => " (emission guide learning)".to_string(),
+                    Some(b) => format!(" (emission guided by {b} batches)"),
+                    None => String::new(),
+                };
+                ui.label(format!(
+                    "photon rays reaching an eye sample: {:.1}% of {}{guide}",
+                    100.0 * m.rays_reaching as f64 / m.splat_rays as f64,
+                    m.splat_rays
+                ))
+                .on_hover_text(
+                    "stored photon rays that splat onto at least one eye sample; with \
+                     'Photons where the camera looks' the lights emit more where they did \
+                     (docs/deviations.md §44)",
+                );
+            }
             if m.domain_tests > 0 {
                 ui.separator();
                 ui.label(format!(

@@ -224,6 +224,11 @@ pub struct MethodArgs {
     /// kernel domains, docs/deviations.md §40).
     #[arg(long)]
     pub no_splat_visibility: bool,
+    /// rs, rc: emit each photon batch where the batches so far found photons that reach the
+    /// camera's eye samples, weighted to stay unbiased, instead of in proportion to power (§3;
+    /// docs/deviations.md §44)
+    #[arg(long)]
+    pub guided_emission: bool,
     /// rs: keep the eye samples of the first eye pass for every batch instead of drawing
     /// them anew as batches go on (the paper's one eye pass per view; docs/deviations.md §41).
     #[arg(long)]
@@ -296,6 +301,7 @@ impl SettingsArgs {
             camera: self.run.camera.clone(),
             merge_targets: !method.no_merge,
             splat_visibility: !method.no_splat_visibility,
+            guided_emission: method.guided_emission,
             progressive_eye: !method.fixed_eye_samples,
             progressive_bandwidth: !method.paper_bandwidth_rate,
             method: kind,

@@ -152,7 +152,7 @@ fn print_table(scene: &str, kind: MethodKind, t: Timings, s: &MethodStats) {
         );
     }
     println!(
-        "{}: photons traced {}, photon rays {}, eye samples {}, passes {}, accepted/tested pairs {}/{} ({:.2}), domain-tested/outside {}/{}",
+        "{}: photons traced {}, photon rays {}, eye samples {}, passes {}, accepted/tested pairs {}/{} ({:.2}), domain-tested/outside {}/{}, rays reaching an eye sample {}/{} ({:.1}%)",
         kind.name(),
         s.photons_traced,
         s.photon_rays,
@@ -162,7 +162,10 @@ fn print_table(scene: &str, kind: MethodKind, t: Timings, s: &MethodStats) {
         s.tested_pairs,
         s.accepted_pairs as f64 / s.tested_pairs.max(1) as f64,
         s.domain_tests,
-        s.occluded_pairs
+        s.occluded_pairs,
+        s.rays_reaching,
+        s.splat_rays,
+        100.0 * s.rays_reaching as f64 / s.splat_rays.max(1) as f64
     );
 }
 
@@ -223,6 +226,11 @@ fn stats_json(
         "accepted_pairs": s.accepted_pairs,
         "domain_tests": s.domain_tests,
         "occluded_pairs": s.occluded_pairs,
+        "splat_rays": s.splat_rays,
+        "rays_reaching": s.rays_reaching,
+        "reaching_fraction": s.rays_reaching as f64 / s.splat_rays.max(1) as f64,
+        "guided_emission": settings.guided_emission,
+        "guide_batches": s.guide_batches,
         "peak_rss_mb": peak_rss_mb(),
         "memory": s.memory,
         "memory_total_bytes": s.memory.total(),

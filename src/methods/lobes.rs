@@ -223,7 +223,7 @@ impl LobeBatch {
         ] {
             if let Some(acc) = acc {
                 let mode = acc.mode;
-                prepare_and_splat(tree, rays, bw, classes, mode, scene, acc, Some(scene));
+                prepare_and_splat(tree, rays, bw, classes, mode, scene, acc, Some(scene), None);
             }
         }
     }

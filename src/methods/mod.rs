@@ -219,6 +219,13 @@ pub struct MethodStats {
     pub domain_tests: u64,
     /// Of those, the pairs outside it: light that would have leaked through a surface.
     pub occluded_pairs: u64,
+    /// Photon rays splatted onto the eye side (each class's splat counts its own rays).
+    pub splat_rays: u64,
+    /// Of those, the rays that splatted onto at least one eye sample.
+    pub rays_reaching: u64,
+    /// Batches the emission guide learned from (docs/deviations.md §44); `None` when
+    /// photons leave the lights in proportion to power.
+    pub guide_batches: Option<u32>,
     /// ⟨D⟩ of the pilot (§6), the unit of eq. 7's lengths.
     pub pilot_mean_length: Option<f32>,
     /// Rays per class (direct, indirect, caustic) at the bandwidth bounds h_min and h_max.

@@ -4,8 +4,8 @@
 //! data, so the store is what lets a new view or new C/S/R re-splat without re-tracing.
 
 use crate::pipeline::photon::{
-    Bandwidth, BandwidthParams, ClampCounts, ClassBudgets, LightPassPlan, LightPassSettings,
-    PhotonBatch, PhotonClass, PhotonRay, Pilot, light_pass, pilot,
+    Bandwidth, BandwidthParams, ClampCounts, ClassBudgets, EmissionGuide, LightPassPlan,
+    LightPassSettings, PhotonBatch, PhotonClass, PhotonRay, Pilot, light_pass, pilot,
 };
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
@@ -42,6 +42,8 @@ pub struct PhotonStore {
     pub invalid_photon_rays: u64,
     /// Photons whose rays were kept; the next batch's photon indices start here.
     photons_used: u64,
+    /// Photons the newest batch drew from the lights (the largest class's count).
+    last_batch_photons: u64,
     /// Keep at most this many photon rays; older batches are dropped ([`PhotonStore::fold`]).
     pub max_stored_rays: usize,
     /// [`PhotonStore::fold`] keeps the newest batch whatever the budget (false only for a
@@ -50,6 +52,9 @@ pub struct PhotonStore {
     /// Rays dropped by [`PhotonStore::fold`] while `keep_newest` was false: a headless rs
     /// render frees every batch once it is splatted, and its stats still count them.
     pub released: usize,
+    /// Photons where the camera looks (docs/deviations.md §44): the light passes emit as it
+    /// says; `None`, in proportion to power.
+    guide: Option<EmissionGuide>,
 }
 
 impl PhotonStore {
@@ -66,9 +71,60 @@ impl PhotonStore {
             photons_traced: 0,
             invalid_photon_rays: 0,
             photons_used: 0,
+            last_batch_photons: 0,
             max_stored_rays: usize::MAX,
             keep_newest: true,
             released: 0,
+            guide: None,
+        }
+    }
+
+    /// Emit the next light passes' photons where the camera looks, learning from each batch
+    /// ([`PhotonStore::learn`]), or in proportion to power (`on` false). Turning it on
+    /// starts a guide that has learned nothing.
+    pub fn set_guided(&mut self, scene: &Scene, on: bool) {
+        match (on, self.guide.is_some()) {
+            (true, false) => self.guide = Some(EmissionGuide::new(&scene.lights)),
+            (false, true) => self.guide = None,
+            _ => {}
+        }
+    }
+
+    /// The emission guide, when photons are guided.
+    pub fn guide(&self) -> Option<&EmissionGuide> {
+        self.guide.as_ref()
+    }
+
+    /// Cells of the emission guide (0 without one): the length of the `reach` counts that
+    /// [`PhotonStore::learn`] takes.
+    pub fn guide_cells(&self) -> usize {
+        self.guide.as_ref().map_or(0, |g| g.cells())
+    }
+
+    /// Teach the guide what the newest batch's rays reached: `reach[c]` rays of photons from
+    /// cell c splatted onto at least one eye sample.
+    pub fn learn(&mut self, reach: &[u32]) {
+        let photons = self.batches.last().map_or(0, |_| self.last_batch_photons);
+        if let Some(g) = self.guide.as_mut() {
+            g.learn(reach, photons);
+        }
+    }
+
+    /// Lend the emission guide out for a streamed light pass (the store changes meanwhile);
+    /// [`PhotonStore::put_guide`] gives it back.
+    pub fn take_guide(&mut self) -> Option<EmissionGuide> {
+        self.guide.take()
+    }
+
+    /// Give back the guide [`PhotonStore::take_guide`] lent.
+    pub fn put_guide(&mut self, guide: Option<EmissionGuide>) {
+        self.guide = guide;
+    }
+
+    /// Forget what the guide learned (a new view).
+    pub fn reset_guide(&mut self) {
+        if let Some(g) = self.guide.as_mut() {
+            g.reset();
         }
     }
 
@@ -85,17 +141,22 @@ impl PhotonStore {
     /// Trace one light pass of `settings.photons` stored rays (split by the fractions; direct
     /// photons only when `with_direct`) and store it; returns its index.
     pub fn trace(&mut self, scene: &Scene, settings: &RenderSettings, with_direct: bool) -> usize {
-        let batch = light_pass(scene, &self.light_pass_settings(settings, with_direct));
+        let lps = LightPassSettings {
+            guide: self.guide.as_ref(),
+            ..self.light_pass_settings(settings, with_direct)
+        };
+        let batch = light_pass(scene, &lps);
         self.add(batch, settings.photons)
     }
 
     /// The next light pass's settings: its class budgets, and photon indices after those of
-    /// the batches so far.
+    /// the batches so far; without the emission guide, which the caller lends
+    /// ([`PhotonStore::take_guide`]).
     pub fn light_pass_settings(
         &self,
         settings: &RenderSettings,
         with_direct: bool,
-    ) -> LightPassSettings {
+    ) -> LightPassSettings<'static> {
         LightPassSettings {
             budgets: ClassBudgets::from_fractions(
                 settings.photons,
@@ -106,6 +167,7 @@ impl PhotonStore {
             seed: settings.seed,
             first_photon: self.photons_used,
             units: self.pilot.units(),
+            guide: None,
         }
     }
 
@@ -129,7 +191,8 @@ impl PhotonStore {
     fn add(&mut self, batch: PhotonBatch, photons: u64) -> usize {
         self.photons_traced += batch.traced;
         self.invalid_photon_rays += batch.invalid;
-        self.photons_used += batch.emitted.iter().copied().max().unwrap_or(0);
+        self.last_batch_photons = batch.emitted.iter().copied().max().unwrap_or(0);
+        self.photons_used += self.last_batch_photons;
         for c in 0..3 {
             self.m_total[c] += batch.stored[c];
             if self.m_first[c] == 0 {

@@ -197,7 +197,7 @@ pub fn build_maps(batches: &[&[PhotonRay]], with_direct: bool) -> (PhotonMap, Ph
     let scale = 1.0 / batches.len().max(1) as f32;
     let (mut global, mut caustic) = (Vec::new(), Vec::new());
     for rays in batches {
-        for r in rays.iter().filter(|r| r.lands) {
+        for r in rays.iter().filter(|r| r.lands()) {
             let ph = MapPhoton {
                 position: r.origin + r.dir * r.length,
                 dir: r.dir,
@@ -205,7 +205,7 @@ pub fn build_maps(batches: &[&[PhotonRay]], with_direct: bool) -> (PhotonMap, Ph
                 // the path tracer integrates (Veach 1997, §5.3; 1 on flat-shaded surfaces).
                 power: r.power * (scale * r.end_shading_ratio),
             };
-            match r.class {
+            match r.class() {
                 PhotonClass::Caustic => caustic.push(ph),
                 PhotonClass::Indirect => global.push(ph),
                 PhotonClass::Direct if with_direct => global.push(ph),

@@ -52,6 +52,9 @@ pub enum Command {
     /// Test visibility inside the splat footprint (docs/deviations.md §40): shadow rays for
     /// pairs behind a nearby wall. The splat trees are probed anew: restarts tracing.
     SetSplatVisibility(bool),
+    /// Emit photons where the camera looks (docs/deviations.md §44), or by power: restarts
+    /// tracing.
+    SetGuidedEmission(bool),
     /// Resolve the radiance map through the radiance cache (§8.3) with these parameters: the
     /// cache pass re-runs over the current map, no re-trace and no re-splat.
     SetCache {

@@ -188,6 +188,7 @@ impl Worker {
             Command::SetRadianceMap(m) => s.radiance_map = m,
             Command::SetDirect(d) => s.direct = d,
             Command::SetSplatVisibility(on) => s.splat_visibility = on,
+            Command::SetGuidedEmission(on) => s.guided_emission = on,
             Command::SetCamera {
                 camera,
                 interactive,

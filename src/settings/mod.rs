@@ -142,6 +142,11 @@ pub struct RenderSettings {
     /// bandwidth for the total M, as in the paper.
     #[serde(default = "yes")]
     pub progressive_bandwidth: bool,
+    /// rs, rc: emit photons where the camera looks, learned from the batches so far
+    /// (docs/deviations.md §44); off (the default: on the scenes measured it cost more splat
+    /// time than it saved noise), every batch emits in proportion to power (§3).
+    #[serde(default)]
+    pub guided_emission: bool,
 }
 
 fn yes() -> bool {
@@ -175,6 +180,7 @@ impl Default for RenderSettings {
             cache_on: false,
             progressive_eye: true,
             progressive_bandwidth: true,
+            guided_emission: false,
             filter: FilterParams::default(),
         }
     }

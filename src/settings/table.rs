@@ -169,6 +169,12 @@ pub const SETTINGS: &[Setting] = &[
         Retrace,
         splat_visibility
     ),
+    setting!(
+        "guided_emission",
+        "photons where the camera looks",
+        Retrace,
+        guided_emission
+    ),
     setting!("method", "method", Retrace, method),
     setting!("pm_k", "K", Retrace, pm_k, Usize(PM_K)),
     setting!(
@@ -241,6 +247,7 @@ pub(super) fn classified(s: &RenderSettings) {
         filter: _,
         progressive_eye: _,
         progressive_bandwidth: _,
+        guided_emission: _,
     } = s;
 }
 

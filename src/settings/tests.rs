@@ -211,6 +211,7 @@ fn the_effects_are_the_documented_ones() {
             "max_emitted_factor",
             "merge_targets",
             "splat_visibility",
+            "guided_emission",
             "method",
             "pm_k",
             "pm_caustic_k",

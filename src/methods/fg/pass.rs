@@ -97,6 +97,7 @@ impl Pass {
                 seed: s.seed,
                 first_photon: 0,
                 units: pilot.units(),
+                guide: None,
             },
         );
         timings.t_light += t.elapsed().as_secs_f64();

@@ -4,7 +4,7 @@
 use super::PhotonCore;
 use crate::methods::eye_side::{EyeSide, LobeDraws};
 use crate::pipeline::directional::DirectionalMode;
-use crate::pipeline::photon::{Bandwidth, PhotonRay, plan_light_pass};
+use crate::pipeline::photon::{Bandwidth, LightPassSettings, PhotonRay, plan_light_pass};
 use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
 use crate::scene::Scene;
 use crate::settings::DirectMode;
@@ -29,7 +29,7 @@ impl PhotonCore {
             self.timings.t_light += t.elapsed().as_secs_f64();
 
             let t = Instant::now();
-            self.splat_stored(b);
+            self.splat_stored(b, true);
             self.timings.t_splat += t.elapsed().as_secs_f64();
             self.draw_lobes(b);
         }
@@ -52,9 +52,13 @@ impl PhotonCore {
     /// the same bandwidths as a stored batch; the second trace costs one more T_L.
     fn stream_batch(&mut self) {
         let t = Instant::now();
-        let lps = self
-            .store
-            .light_pass_settings(&self.settings, self.splat_direct());
+        let guide = self.store.take_guide();
+        let lps = LightPassSettings {
+            guide: guide.as_ref(),
+            ..self
+                .store
+                .light_pass_settings(&self.settings, self.splat_direct())
+        };
         let plan = plan_light_pass(&self.scene, &lps);
         let b = self.store.add_streamed(&plan, self.settings.photons);
         self.timings.t_light += t.elapsed().as_secs_f64();
@@ -78,10 +82,12 @@ impl PhotonCore {
         let (scene, side, counters) = (&self.scene, &mut self.side, &mut self.counters);
         let direct = self.settings.direct;
         let mode = self.settings.radiance_map;
+        let mut reach = vec![0u32; guide.as_ref().map_or(0, |g| g.cells())];
         plan.stream(scene, &lps, |rays| {
             let t = Instant::now();
             let photons = direct == DirectMode::Photons;
-            *counters += splat_rays(scene, side, rays, &bw, classes, photons, mode);
+            let r = Some(&mut reach[..]).filter(|r| !r.is_empty());
+            *counters += splat_rays(scene, side, rays, &bw, classes, photons, mode, r);
             if let Some(l) = lobes.as_mut() {
                 l.gather(scene, rays, &bw);
             }
@@ -92,15 +98,19 @@ impl PhotonCore {
         if let Some(l) = lobes {
             self.lobes.finish_batch(&self.scene, l);
         }
+        self.store.put_guide(guide);
+        self.store.learn(&reach);
         self.timings.t_splat += t_splat + t.elapsed().as_secs_f64();
         self.splatted += 1;
         self.generation += 1;
     }
 
-    /// Splat stored batch `b` with the bandwidth of its M under the current parameters.
-    pub(super) fn splat_stored(&mut self, b: usize) {
+    /// Splat stored batch `b` with the bandwidth of its M under the current parameters; a
+    /// `new` batch (just traced, not re-splatted) teaches the emission guide what it reached.
+    pub(super) fn splat_stored(&mut self, b: usize, new: bool) {
         let batch = &self.store.batches()[b];
         let bw = self.bandwidths(batch.m);
+        let mut reach = vec![0u32; if new { self.store.guide_cells() } else { 0 }];
         self.counters += splat_rays(
             &self.scene,
             &mut self.side,
@@ -109,7 +119,11 @@ impl PhotonCore {
             self.config.splatted.mask(),
             self.settings.direct == DirectMode::Photons,
             self.settings.radiance_map,
+            Some(&mut reach[..]).filter(|r| !r.is_empty()),
         );
+        if new {
+            self.store.learn(&reach);
+        }
         self.splatted += 1;
         self.generation += 1;
     }
@@ -137,7 +151,9 @@ impl PhotonCore {
 }
 
 /// Splat `rays` of the `classes` (direct, indirect, caustic) onto the eye side's targets
-/// (direct photons, when `direct_photons`, into their own accumulators).
+/// (direct photons, when `direct_photons`, into their own accumulators); with `reach`, count
+/// per emission cell the rays that reached a target (the emission guide's feedback).
+#[allow(clippy::too_many_arguments)]
 fn splat_rays(
     scene: &Scene,
     side: &mut EyeSide,
@@ -146,6 +162,7 @@ fn splat_rays(
     classes: [bool; 3],
     direct_photons: bool,
     mode: DirectionalMode,
+    mut reach: Option<&mut [u32]>,
 ) -> SplatCounters {
     let mut counters = SplatCounters::default();
     if classes == [false; 3] {
@@ -160,6 +177,7 @@ fn splat_rays(
         scene,
         &mut side.acc_indirect,
         Some(scene),
+        reach.as_deref_mut(),
     );
     if direct_photons {
         counters += prepare_and_splat(
@@ -171,6 +189,7 @@ fn splat_rays(
             scene,
             &mut side.acc_direct,
             Some(scene),
+            reach,
         );
     }
     counters

@@ -168,6 +168,11 @@ impl PhotonCore {
         let t = Instant::now();
         let mut store = PhotonStore::new(&scene, settings.seed);
         store.set_progressive_bandwidth(settings.progressive_bandwidth);
+        // Only a method that splats onto the eye samples learns where photons reach them.
+        store.set_guided(
+            &scene,
+            settings.guided_emission && config.splatted != Classes::NONE,
+        );
         store.set_batch_photons(settings.photons);
         timings.t_light = t.elapsed().as_secs_f64();
         Ok(Self {
@@ -285,7 +290,7 @@ impl PhotonCore {
     pub(crate) fn step(&mut self) -> Step {
         if let Some(b) = self.resplat_queue.pop() {
             let t = Instant::now();
-            self.splat_stored(b);
+            self.splat_stored(b, false);
             self.timings.t_splat += t.elapsed().as_secs_f64();
             self.draw_lobes(b);
             Step::Resplatted
@@ -390,6 +395,8 @@ impl PhotonCore {
         self.lobes = TracedLobes::new(&self.side.eye);
         self.settings = settings;
         self.camera = camera;
+        // What reached the old view's eye samples says little about the new one's.
+        self.store.reset_guide();
         self.begin_resplat(self.settings.bandwidth);
         Ok(())
     }

@@ -71,6 +71,9 @@ impl PhotonCore {
             accepted_pairs: self.counters.accepted,
             domain_tests: self.counters.domain_tests,
             occluded_pairs: self.counters.occluded,
+            splat_rays: self.counters.rays,
+            rays_reaching: self.counters.rays_reaching,
+            guide_batches: self.store.guide().map(|g| g.batches()),
             pilot_mean_length: Some(self.store.pilot().mean_length),
             bandwidth_clamps: Some(clamps),
             ..MethodStats::default()

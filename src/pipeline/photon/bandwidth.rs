@@ -112,7 +112,7 @@ impl Bandwidth {
     /// (docs/deviations.md §42; a cylinder of radius 0 splatted nothing there: −41%).
     #[inline]
     pub fn cone(&self, ray: &PhotonRay) -> (f32, f32) {
-        let hi = if !ray.from_afar() && ray.bounce == 0 {
+        let hi = if !ray.from_afar() && ray.bounce() == 0 {
             0.0 // h(x_0) = 0 (eq. 8); a ray from afar has pdf_start > 0: a cylinder
         } else {
             self.h(ray.pdf_start)
@@ -142,14 +142,14 @@ impl ClampCounts {
     /// Count the rays of `class` in `rays` under the bandwidth `bw`.
     pub fn count(rays: &[PhotonRay], bw: &Bandwidth, class: PhotonClass) -> Self {
         rays.par_iter()
-            .filter(|r| r.class == class)
+            .filter(|r| r.class() == class)
             .fold(Self::default, |mut c, r| {
                 let (h0, dh) = bw.cone(r);
                 let h_end = h0 + dh * r.length;
                 c.rays += 1;
                 // h(x_0) = 0 is eq. 8's own start, not a clamp: a ray leaving the light is at
                 // h_min when its end is.
-                c.at_min += (if r.bounce == 0 { h_end } else { h0 } <= bw.h_min) as u64;
+                c.at_min += (if r.bounce() == 0 { h_end } else { h0 } <= bw.h_min) as u64;
                 c.at_max += (h_end >= bw.h_max) as u64;
                 c
             })
@@ -323,9 +323,7 @@ mod tests {
             end_shading_ratio: 1.0,
             pdf_start: 4.0,
             pdf_end: 1.0,
-            bounce: 1,
-            class: PhotonClass::Indirect,
-            lands: true,
+            tag: crate::pipeline::photon::RayTag::new(1, PhotonClass::Indirect, true),
             end_normal: crate::pack::OctOrZero::new(-Vec3::X),
         };
         // §6: h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i)) / length.
@@ -338,7 +336,7 @@ mod tests {
         ray.pdf_end = 4.0;
         assert_eq!(bw.cone(&ray), (bw.h(4.0), 0.0));
         // h(x_0) = 0: the segment leaving the light starts as a point (eq. 8).
-        ray.bounce = 0;
+        ray.tag = crate::pipeline::photon::RayTag::new(0, ray.class(), ray.lands());
         ray.pdf_start = 0.0;
         let (h0, dh) = bw.cone(&ray);
         assert_eq!(h0, 0.0);

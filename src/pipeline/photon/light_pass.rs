@@ -1,5 +1,6 @@
 //! The light pass (§3, §6): photons traced until each class of Table 2 has its budget of rays.
 
+use super::guide::EmissionGuide;
 use super::trace::{PathUnits, TaggedRay, trace_photon};
 use super::{MAX_PATH_SEGMENTS, PhotonClass, PhotonRay};
 use crate::scene::Scene;
@@ -48,7 +49,7 @@ pub struct PhotonBatch {
 
 /// Settings of the light pass.
 #[derive(Clone, Copy, Debug)]
-pub struct LightPassSettings {
+pub struct LightPassSettings<'a> {
     /// Rays to store per class.
     pub budgets: ClassBudgets,
     /// Stop after this many photons per stored-photon budget even if a class never fills
@@ -61,6 +62,9 @@ pub struct LightPassSettings {
     pub first_photon: u64,
     /// Eq. 7's length unit, from the pilot ([`Pilot::units`](super::Pilot::units)).
     pub units: PathUnits,
+    /// Photons leave the lights as this guide says (docs/deviations.md §44), and their rays
+    /// carry its cells; without one, in proportion to power with no cells.
+    pub guide: Option<&'a EmissionGuide>,
 }
 
 /// Trace photons until every class has its budget of stored rays (Table 2's fractions), or
@@ -83,7 +87,7 @@ pub fn light_pass(scene: &Scene, s: &LightPassSettings) -> PhotonBatch {
     // is divided by the photons emitted for its class.
     let (emitted_per_class, mut invalid, mut stored) = (batch.emitted, 0u64, [0u64; 3]);
     rays.retain_mut(|ray| {
-        let c = ray.class as usize;
+        let c = ray.class() as usize;
         // Validity before the normalisation, as `plan_light_pass` must judge it (a tiny
         // negative power would divide to −0 and pass).
         let valid = ray.is_valid();
@@ -129,7 +133,7 @@ pub fn plan_light_pass(scene: &Scene, s: &LightPassSettings) -> LightPassPlan {
                 // dividing by the photons emitted is not known yet.
                 let valid = r.ray.is_valid();
                 invalid += !valid as u64;
-                stored[r.ray.class as usize] += valid as u64;
+                stored[r.ray.class() as usize] += valid as u64;
                 let local = r.photon - s.first_photon;
                 if valid && photons.last() != Some(&local) {
                     photons.push(local);
@@ -156,7 +160,7 @@ impl LightPassPlan {
             let (parts, _) = trace_wave(scene, s, photons, *want);
             rays.clear();
             for r in parts.into_iter().flatten() {
-                let c = r.ray.class as usize;
+                let c = r.ray.class() as usize;
                 if r.photon - s.first_photon < emitted[c] && r.ray.is_valid() {
                     let mut ray = r.ray;
                     ray.power /= emitted[c] as f32;
@@ -186,7 +190,7 @@ impl Fill {
     /// MAX_PATH_SEGMENTS more per class).
     #[inline]
     fn keeps(&self, r: &TaggedRay, first_photon: u64) -> bool {
-        let c = r.ray.class as usize;
+        let c = r.ray.class() as usize;
         self.keep[c] && self.full_at[c].is_none_or(|f| r.photon - first_photon < f)
     }
 }
@@ -226,7 +230,7 @@ fn drive(
         batch.invalid += invalid;
         // Find, in photon order, where each class reaches its budget.
         for r in parts.iter().flatten() {
-            let c = r.ray.class as usize;
+            let c = r.ray.class() as usize;
             if fill.full_at[c].is_none() {
                 counts[c] += 1;
                 if counts[c] >= budgets[c] {
@@ -271,6 +275,7 @@ fn trace_wave(
                     s.seed,
                     want,
                     s.units,
+                    s.guide,
                     &mut out,
                     &mut invalid,
                 );

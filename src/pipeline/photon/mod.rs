@@ -11,14 +11,17 @@
 //! | eq. 8's bandwidth, its parameters and clamp counts | `bandwidth` |
 //! | the pilot phase: ⟨D⟩ and ⟨r⟩ | `pilot` |
 //! | tracing one photon path, eq. 7's p̃ | `trace` |
+//! | photons where the camera looks: the emission guide | `guide` |
 //! | class budgets and the light pass | `light_pass` |
 
 mod bandwidth;
+mod guide;
 mod light_pass;
 mod pilot;
 mod trace;
 
 pub use bandwidth::{Bandwidth, BandwidthParams, ClampCounts};
+pub use guide::{EmissionGuide, GUIDE_MIX};
 pub use light_pass::{
     ClassBudgets, LightPassPlan, LightPassSettings, PhotonBatch, light_pass, plan_light_pass,
 };
@@ -94,23 +97,70 @@ pub struct PhotonRay {
     pub pdf_start: f32,
     /// p̃(x_{i+1} | x_i), eq. 7.
     pub pdf_end: f32,
-    /// i: 0 for the segment leaving the light.
-    pub bounce: u8,
-    /// Table 2's class of the segment.
-    pub class: PhotonClass,
-    /// The ray ends on a non-specular surface (where photon mapping stores a photon).
-    pub lands: bool,
+    /// The bounce, class and landing flag, and the emission cell of the photon
+    /// ([`RayTag`]: packed into one word so that a ray stays 64 bytes).
+    pub tag: RayTag,
     /// Geometric normal of the surface the ray hits, facing the ray (zero if it escapes;
     /// octahedral, within 10⁻⁴ rad).
     pub end_normal: OctOrZero,
 }
 
+/// What a [`PhotonRay`] is, packed in 32 bits: the bounce i (0 for the segment leaving the
+/// light; below [`MAX_PATH_SEGMENTS`] = 32, 5 bits), Table 2's class (2 bits), whether the ray
+/// ends on a non-specular surface (where photon mapping stores a photon; 1 bit), and the
+/// emission guide's cell of the photon it belongs to (24 bits, [`NO_CELL`] without one;
+/// docs/deviations.md §44).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RayTag(u32);
+
+/// The cell of a photon emitted without the emission guide's cells.
+pub const NO_CELL: u32 = (1 << 24) - 1;
+
+const _: () = assert!(MAX_PATH_SEGMENTS <= 32 && std::mem::size_of::<PhotonRay>() == 64);
+
+impl RayTag {
+    /// Bounce `bounce` (at most 31), class `class`, landing on a non-specular surface when
+    /// `lands`; no cell.
+    pub fn new(bounce: u32, class: PhotonClass, lands: bool) -> Self {
+        Self(bounce.min(31) | (class as u32) << 5 | (lands as u32) << 7 | NO_CELL << 8)
+    }
+
+    /// The same with emission cell `cell` (below [`NO_CELL`]; larger is none).
+    pub fn with_cell(self, cell: u32) -> Self {
+        Self(self.0 & 0xff | cell.min(NO_CELL) << 8)
+    }
+}
+
 impl PhotonRay {
+    /// i: 0 for the segment leaving the light.
+    #[inline]
+    pub fn bounce(&self) -> u8 {
+        (self.tag.0 & 31) as u8
+    }
+
+    /// Table 2's class of the segment.
+    #[inline]
+    pub fn class(&self) -> PhotonClass {
+        PhotonClass::ALL[(self.tag.0 >> 5 & 3) as usize]
+    }
+
+    /// The ray ends on a non-specular surface (where photon mapping stores a photon).
+    #[inline]
+    pub fn lands(&self) -> bool {
+        self.tag.0 & 128 != 0
+    }
+
+    /// The emission guide's cell of the photon ([`NO_CELL`]: none).
+    #[inline]
+    pub fn cell(&self) -> u32 {
+        self.tag.0 >> 8
+    }
+
     /// The first segment of a photon from the environment or the sun (docs/deviations.md,
     /// "Light from afar"): it starts on the bounding sphere's disc, not on a light.
     #[inline]
     pub fn from_afar(&self) -> bool {
-        self.bounce == 0 && self.pdf_start > 0.0
+        self.bounce() == 0 && self.pdf_start > 0.0
     }
 
     /// The ray hits nothing (it was clipped where it leaves the scene's bounds).
@@ -147,9 +197,7 @@ mod tests {
             end_shading_ratio: 1.0,
             pdf_start: 0.0,
             pdf_end: 1.0,
-            bounce: 0,
-            class: PhotonClass::Direct,
-            lands: true,
+            tag: RayTag::new(0, PhotonClass::Direct, true),
             end_normal: OctOrZero::new(-Vec3::Y),
         };
         assert!(good.is_valid());

@@ -64,6 +64,7 @@ pub fn pilot(scene: &Scene, seed: u64) -> Pilot {
                         seed ^ 0x005e_ed0f_9110,
                         [true; 3],
                         units,
+                        None,
                         &mut out,
                         &mut invalid,
                     );

@@ -1,7 +1,8 @@
 //! One photon path (§5): emission, BSDF sampling with Russian roulette, and eq. 7's clamped
 //! path density p̃ at every vertex.
 
-use super::{D_TILDE_FRACTION, MAX_PATH_SEGMENTS, PhotonClass, PhotonRay, SPECULAR_PDF};
+use super::guide::{EmissionGuide, NO_CELL};
+use super::{D_TILDE_FRACTION, MAX_PATH_SEGMENTS, PhotonClass, PhotonRay, RayTag, SPECULAR_PDF};
 use crate::bsdf::Bsdf;
 use crate::pack::OctOrZero;
 use crate::sampling::Rng;
@@ -40,18 +41,25 @@ fn clamped_sq_distance(length: f32, d_tilde: f32) -> f32 {
     (length * length).max(d_tilde * d_tilde)
 }
 
-/// Trace one photon path, pushing its segments (of classes wanted by `keep`).
+/// Trace one photon path, pushing its segments (of classes wanted by `keep`); emitted as
+/// `guide` says, with its cell on every ray, when one is given.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn trace_photon(
     scene: &Scene,
     photon: u64,
     seed: u64,
     keep: [bool; 3],
     units: PathUnits,
+    guide: Option<&EmissionGuide>,
     out: &mut Vec<TaggedRay>,
     invalid: &mut u64,
 ) -> bool {
     let mut rng = Rng::new(seed, photon);
-    let Some(e) = scene.lights.sample_emission(&mut rng) else {
+    let emitted = match guide {
+        Some(g) => g.sample(&scene.lights, &mut rng),
+        None => scene.lights.sample_emission(&mut rng).map(|e| (e, NO_CELL)),
+    };
+    let Some((e, cell)) = emitted else {
         return false;
     };
     // Eq. 7 without units: lengths in ⟨D⟩, so D̃ is a fraction of it.
@@ -179,9 +187,7 @@ pub(super) fn trace_photon(
                     end_shading_ratio,
                     pdf_start,
                     pdf_end,
-                    bounce: bounce.min(255) as u8,
-                    class,
-                    lands,
+                    tag: RayTag::new(bounce, class, lands).with_cell(cell),
                     end_normal: OctOrZero::new(end_normal),
                 },
             });

@@ -214,9 +214,11 @@ mod tests {
                     origin_normal: crate::pack::OctOrZero::new(Vec3::ZERO),
                     pdf_start: 0.0,
                     pdf_end: 1.0,
-                    bounce: 1,
-                    class: crate::pipeline::photon::PhotonClass::Indirect,
-                    lands: true,
+                    tag: crate::pipeline::photon::RayTag::new(
+                        1,
+                        crate::pipeline::photon::PhotonClass::Indirect,
+                        true,
+                    ),
                     end_normal: crate::pack::OctOrZero::new(Vec3::Y),
                 };
                 let sr = SplatRay::with_cone(&ray, h0, (h_end - h0) / len);
@@ -318,9 +320,7 @@ mod tests {
                     end_shading_ratio: 1.0,
                     pdf_start: 1.0,
                     pdf_end: 1.0,
-                    bounce: 1,
-                    class: PhotonClass::Indirect,
-                    lands: true,
+                    tag: crate::pipeline::photon::RayTag::new(1, PhotonClass::Indirect, true),
                     end_normal: crate::pack::OctOrZero::new(n),
                 };
                 rays.push(SplatRay::with_cone(&ray, h, 0.0));
@@ -363,9 +363,11 @@ mod tests {
             end_shading_ratio: 1.0,
             pdf_start: 1.0,
             pdf_end: 1.0,
-            bounce: 1,
-            class: crate::pipeline::photon::PhotonClass::Caustic,
-            lands: true,
+            tag: crate::pipeline::photon::RayTag::new(
+                1,
+                crate::pipeline::photon::PhotonClass::Caustic,
+                true,
+            ),
             end_normal: crate::pack::OctOrZero::new(Vec3::Y),
         };
         let end = ray.origin + ray.dir * ray.length;
@@ -375,7 +377,7 @@ mod tests {
         let landing = SplatRay::with_cone(&ray, 0.1, 0.0);
         assert!(landing.end_gain > 1.0);
         assert!(test_sample(&landing, past, Vec3::Y).feasible);
-        ray.lands = false;
+        ray.tag = crate::pipeline::photon::RayTag::new(ray.bounce().into(), ray.class(), false);
         let specular = SplatRay::with_cone(&ray, 0.1, 0.0);
         assert_eq!(specular.end_gain, 1.0);
         assert!(!test_sample(&specular, past, Vec3::Y).feasible);

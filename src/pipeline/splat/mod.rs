@@ -24,6 +24,7 @@ use crate::pipeline::splat_tree::{Cone, SplatTree, clip};
 use crate::scene::Scene;
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// A photon ray ready to splat: its cone from the current bandwidth (§6) and its power.
 #[derive(Clone, Copy, Debug)]
@@ -177,7 +178,7 @@ impl SplatRay {
         let cos_hit = -ray.dir.dot(end_normal);
         // Only a ray that lands on a surface that holds eye samples gets the hemisphere and
         // the end gain; a specular end has no samples on it to correct for.
-        let end_gain = if !ray.lands {
+        let end_gain = if !ray.lands() {
             1.0
         } else {
             // Never more than 4×: at grazing incidence on a steep cone the kept mass tends to 0.
@@ -190,7 +191,7 @@ impl SplatRay {
             end_normal: end_normal.into(),
             end_gain,
             end_plane: ray.length * ray.dir.dot(end_normal),
-            beyond: if ray.lands { 1.0 } else { 0.0 },
+            beyond: if ray.lands() { 1.0 } else { 0.0 },
             bounds_min,
             bounds_max,
         }
@@ -207,7 +208,9 @@ pub const SPLAT_CHUNK: usize = 1 << 14;
 /// Prepare and splat `rays` of the classes selected by `classes` (per-class bandwidths,
 /// directions in the basis of `mode`) onto `tree`'s accumulators `acc`, [`SPLAT_CHUNK`] rays
 /// at a time into one reused buffer. Each target receives the rays in the same order as from
-/// one [`prepare`] and [`splat`] of the whole slice.
+/// one [`prepare`] and [`splat`] of the whole slice. Counts the rays offered and those that
+/// splatted onto at least one target; with `reach`, adds each of those to its photon's
+/// emission cell (`reach[ray.cell()]`, docs/deviations.md §44).
 #[allow(clippy::too_many_arguments)]
 pub fn prepare_and_splat(
     tree: &SplatTree,
@@ -218,13 +221,31 @@ pub fn prepare_and_splat(
     scene: &Scene,
     acc: &mut Accumulators,
     visibility: Option<&Scene>,
+    mut reach: Option<&mut [u32]>,
 ) -> SplatCounters {
     let mut counters = SplatCounters::default();
     let mut batch = SplatBatch::default();
+    let mut reached: Vec<AtomicBool> = Vec::new();
     for chunk in rays.chunks(SPLAT_CHUNK) {
         prepare_into(chunk, bandwidths, classes, mode, scene, &mut batch);
-        if !batch.rays.is_empty() {
-            counters += splat(tree, &batch, acc, visibility);
+        if batch.rays.is_empty() {
+            continue;
+        }
+        reached.clear();
+        reached.resize_with(batch.rays.len(), || AtomicBool::new(false));
+        counters += pass::splat_marking(tree, &batch, acc, visibility, &reached);
+        counters.rays += batch.rays.len() as u64;
+        // The prepared rays are the chunk's rays of the classes splatted, in order.
+        let selected = chunk.iter().filter(|r| classes[r.class() as usize]);
+        for (ray, flag) in selected.zip(&reached) {
+            if flag.load(Ordering::Relaxed) {
+                counters.rays_reaching += 1;
+                if let Some(cells) = reach.as_deref_mut()
+                    && let Some(n) = cells.get_mut(ray.cell() as usize)
+                {
+                    *n += 1;
+                }
+            }
         }
     }
     counters
@@ -253,12 +274,12 @@ fn prepare_into(
     scene: &Scene,
     batch: &mut SplatBatch,
 ) {
-    let selected = || rays.par_iter().filter(|r| classes[r.class as usize]);
+    let selected = || rays.par_iter().filter(|r| classes[r.class() as usize]);
     let bounds = (scene.bounds_min, scene.bounds_max);
     batch.rays.clear();
     batch
         .rays
-        .par_extend(selected().map(|r| SplatRay::new(r, &bandwidths[r.class as usize], bounds)));
+        .par_extend(selected().map(|r| SplatRay::new(r, &bandwidths[r.class() as usize], bounds)));
     batch.directions.clear();
     if mode != DirectionalMode::Diffuse {
         batch
@@ -278,6 +299,10 @@ pub struct SplatCounters {
     pub domain_tests: u64,
     /// Of those, the pairs outside it (which splatted nothing).
     pub occluded: u64,
+    /// Photon rays offered to the eye side's splat targets ([`prepare_and_splat`]).
+    pub rays: u64,
+    /// Of those, the rays that splatted onto at least one target.
+    pub rays_reaching: u64,
 }
 
 impl std::ops::AddAssign for SplatCounters {
@@ -286,5 +311,7 @@ impl std::ops::AddAssign for SplatCounters {
         self.accepted += o.accepted;
         self.domain_tests += o.domain_tests;
         self.occluded += o.occluded;
+        self.rays += o.rays;
+        self.rays_reaching += o.rays_reaching;
     }
 }

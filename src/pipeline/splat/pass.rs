@@ -12,6 +12,7 @@ use crate::sampling::onb;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Splat `batch` into `acc` (slot order). With `scene`, and a tree that knows its targets'
 /// visible domains ([`SplatTree::probe_domains`]), each kernel is kept to the part of its
@@ -26,6 +27,24 @@ pub fn splat(
     acc: &mut Accumulators,
     scene: Option<&Scene>,
 ) -> SplatCounters {
+    splat_marking(tree, batch, acc, scene, &[])
+}
+
+/// [`splat`], setting `reached[i]` for each ray i of the batch that splatted onto at least
+/// one target (an empty `reached` marks nothing): the emission guide's feedback
+/// (docs/deviations.md §44). The flags do not depend on the number of threads.
+pub(super) fn splat_marking(
+    tree: &SplatTree,
+    batch: &SplatBatch,
+    acc: &mut Accumulators,
+    scene: Option<&Scene>,
+    reached: &[AtomicBool],
+) -> SplatCounters {
+    let reached = if reached.len() == batch.rays.len() {
+        reached
+    } else {
+        &[]
+    };
     let scene = scene.filter(|_| tree.has_domains());
     assert_eq!(acc.len(), tree.slots());
     // Without directions (diffuse mode, or rays prepared without them) nothing directional is
@@ -36,12 +55,13 @@ pub fn splat(
         DirectionalMode::Diffuse
     };
     let (rays, dirs) = (&batch.rays[..], &batch.directions[..]);
-    let job = |rays, dirs| Job {
+    let job = |rays, dirs, reached| Job {
         tree,
         rays,
         dirs,
         mode,
         scene,
+        reached,
     };
     // At most 8 parts, each with its own zeroed accumulators: the part size follows the ray
     // count only, never the thread count, so the sums do not depend on the threads.
@@ -58,7 +78,12 @@ pub fn splat(
                 } else {
                     &dirs[k * chunk..k * chunk + part.len()]
                 };
-                let c = splat_into(&job(part, d), &mut local, false);
+                let r = if reached.is_empty() {
+                    reached
+                } else {
+                    &reached[k * chunk..k * chunk + part.len()]
+                };
+                let c = splat_into(&job(part, d, r), &mut local, false);
                 (local, c)
             })
             .collect();
@@ -69,7 +94,7 @@ pub fn splat(
         }
         return counters;
     }
-    splat_into(&job(rays, dirs), acc, true)
+    splat_into(&job(rays, dirs, reached), acc, true)
 }
 
 /// What every subtree of one splat pass shares: the tree, the rays (with their directions when
@@ -80,6 +105,8 @@ struct Job<'a> {
     dirs: &'a [RayDirection],
     mode: DirectionalMode,
     scene: Option<&'a Scene>,
+    /// One flag per ray, set where it splatted onto a target (empty: none kept).
+    reached: &'a [AtomicBool],
 }
 
 fn splat_into(job: &Job, acc: &mut Accumulators, parallel: bool) -> SplatCounters {
@@ -144,6 +171,7 @@ fn splat_subtree_impl<const VIS: bool>(job: &Job, st: &Subtree, acc: AccView) ->
         dirs,
         mode,
         scene,
+        reached,
     } = *job;
     let mut c = SplatCounters::default();
     let base = st.first as usize / LANES;
@@ -154,6 +182,7 @@ fn splat_subtree_impl<const VIS: bool>(job: &Job, st: &Subtree, acc: AccView) ->
             continue;
         }
         tree.traverse(st, &ray.cone, &mut leaves);
+        let mut any = false;
         for &(first, count) in &leaves {
             let (first, end) = (first as usize, (first + count) as usize);
             let mut slot = first;
@@ -173,6 +202,7 @@ fn splat_subtree_impl<const VIS: bool>(job: &Job, st: &Subtree, acc: AccView) ->
                     c.accepted += lanes.accepted as u64;
                     c.domain_tests += lanes.domain_tests as u64;
                     c.occluded += lanes.occluded as u64;
+                    any |= lanes.accepted > 0;
                     if lanes.accepted > 0
                         && mode != DirectionalMode::Diffuse
                         && acc.chunk_has_record[k - base]
@@ -191,6 +221,9 @@ fn splat_subtree_impl<const VIS: bool>(job: &Job, st: &Subtree, acc: AccView) ->
                 }
                 slot += LANES;
             }
+        }
+        if any && let Some(flag) = reached.get(ri) {
+            flag.store(true, Ordering::Relaxed);
         }
     }
     c

@@ -12,12 +12,40 @@ use std::f32::consts::PI;
 impl Lights {
     /// Sample a photon leaving a light, chosen by power.
     pub fn sample_emission(&self, rng: &mut Rng) -> Option<EmittedPhoton> {
-        let dist = self.dist.as_ref()?;
-        let (i, p_sel) = dist.sample(rng.next_f32());
+        let (i, p_sel) = self.select(rng.next_f32())?;
         let u_pos = rng.next_2d();
         let u_dir = rng.next_2d();
         let u_side = rng.next_f32();
-        let photon = match self.lights[i] {
+        self.emit(i, p_sel, u_pos, u_dir, u_side)
+    }
+
+    /// The light `u` ∈ [0, 1) chooses in proportion to power, with its probability.
+    #[inline]
+    pub fn select(&self, u: f32) -> Option<(usize, f32)> {
+        Some(self.dist.as_ref()?.sample(u))
+    }
+
+    /// The probability that [`Lights::select`] chooses light `i`.
+    pub fn selection_pmf(&self, i: usize) -> f32 {
+        self.dist.as_ref().map_or(0.0, |d| d.pmf(i))
+    }
+
+    /// The photon that leaves light `i` from the primary sample (`u_pos`, `u_dir`, `u_side`),
+    /// drawn with density `p_sel` in that sample space (the light's selection probability
+    /// when the sample is uniform; an emission guide's density otherwise): its power is
+    /// divided by `p_sel` and its eq. 7 density multiplied by it.
+    pub fn emit(
+        &self,
+        i: usize,
+        p_sel: f32,
+        u_pos: Vec2,
+        u_dir: Vec2,
+        u_side: f32,
+    ) -> Option<EmittedPhoton> {
+        if p_sel.is_nan() || p_sel <= 0.0 {
+            return None;
+        }
+        let photon = match *self.lights.get(i)? {
             Light::Area {
                 v0,
                 e1,
