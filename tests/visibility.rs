@@ -317,8 +317,7 @@ fn guided_emission_is_unbiased_in_a_furnace() {
 
 /// In the room lit through its window (`builtin:room`, the uniform sky), few of the sky's
 /// photons enter; the guide finds the window: the share of splatted rays that reach an eye
-/// sample of the back wall's view rises from 1.3% to 5% and more over 8 batches (measured
-/// 1.3% → 6.7% at 40 × 30).
+/// sample of the back wall's view more than triples over 8 batches (measured 1.44% → 5.87%).
 #[test]
 fn guided_emission_finds_the_window() {
     let mut scene = Scene::builtin(raysplat::scene::BuiltinScene::WindowRoom);

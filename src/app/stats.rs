@@ -98,7 +98,7 @@ impl StatsPanel {
             if m.splat_rays > 0 {
                 ui.separator();
                 let guide = match m.guide_batches {
-                    Some(0) => " (emission guide learning)".to_string(),
+                    Some(0) => " (emission guide: nothing reached yet)".to_string(),
                     Some(b) => format!(" (emission guided by {b} batches)"),
                     None => String::new(),
                 };
@@ -108,7 +108,8 @@ impl StatsPanel {
                     m.splat_rays
                 ))
                 .on_hover_text(
-                    "stored photon rays that splat onto at least one eye sample; with \
+                    "photon rays (of new batches and re-splats) that splat onto at least one \
+                     eye sample; with \
                      'Photons where the camera looks' the lights emit more where they did \
                      (docs/deviations.md §44)",
                 );

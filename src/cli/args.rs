@@ -224,7 +224,7 @@ pub struct MethodArgs {
     /// kernel domains, docs/deviations.md §40).
     #[arg(long)]
     pub no_splat_visibility: bool,
-    /// rs, rc: emit each photon batch where the batches so far found photons that reach the
+    /// rs: emit each photon batch where the batches so far found photons that reach the
     /// camera's eye samples, weighted to stay unbiased, instead of in proportion to power (§3;
     /// docs/deviations.md §44)
     #[arg(long)]

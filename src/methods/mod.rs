@@ -145,7 +145,7 @@ pub struct MemoryBreakdown {
     pub accumulators: usize,
     /// Directional records at glossy targets (§8.1).
     pub directional_records: usize,
-    /// Stored photon rays.
+    /// Stored photon rays and the emission guide (docs/deviations.md §44).
     pub photon_rays: usize,
     /// Per-pixel sums: emission and NEE light, traced lobes, finished eye passes.
     pub pixel_sums: usize,

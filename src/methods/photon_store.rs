@@ -244,9 +244,10 @@ impl PhotonStore {
         self.m_total
     }
 
-    /// Bytes of the stored rays.
+    /// Bytes of the stored rays and of the emission guide.
     pub fn memory_bytes(&self) -> usize {
         self.rays() * std::mem::size_of::<PhotonRay>()
+            + self.guide.as_ref().map_or(0, |g| g.bytes())
     }
 
     /// The bandwidth per class that a batch with class sizes `m` (over every batch up to it)

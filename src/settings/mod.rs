@@ -142,7 +142,7 @@ pub struct RenderSettings {
     /// bandwidth for the total M, as in the paper.
     #[serde(default = "yes")]
     pub progressive_bandwidth: bool,
-    /// rs, rc: emit photons where the camera looks, learned from the batches so far
+    /// rs: emit photons where the camera looks, learned from the batches so far
     /// (docs/deviations.md §44); off (the default: on the scenes measured it cost more splat
     /// time than it saved noise), every batch emits in proportion to power (§3).
     #[serde(default)]

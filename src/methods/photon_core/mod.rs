@@ -168,11 +168,9 @@ impl PhotonCore {
         let t = Instant::now();
         let mut store = PhotonStore::new(&scene, settings.seed);
         store.set_progressive_bandwidth(settings.progressive_bandwidth);
-        // Only a method that splats onto the eye samples learns where photons reach them.
-        store.set_guided(
-            &scene,
-            settings.guided_emission && config.splatted != Classes::NONE,
-        );
+        // Only a method that splats its indirect light onto the eye samples learns where
+        // photons reach them (rs): rc splats only caustics there, pm gathers.
+        store.set_guided(&scene, settings.guided_emission && config.splatted.indirect);
         store.set_batch_photons(settings.photons);
         timings.t_light = t.elapsed().as_secs_f64();
         Ok(Self {

@@ -83,7 +83,7 @@ pub struct EmissionGuide {
     reached: Vec<f32>,
     /// Photons drawn per cell (expected: photons × its probability), summed likewise.
     drawn: Vec<f32>,
-    /// Batches learned from.
+    /// Batches after which something had reached an eye sample ([`EmissionGuide::batches`]).
     batches: u32,
 }
 
@@ -132,7 +132,8 @@ impl EmissionGuide {
         self.reached.len()
     }
 
-    /// Batches learned from (0: photons leave the lights by power).
+    /// Batches after which the guide emitted by what reached the eye samples (0: photons
+    /// still leave the lights by power, nothing having reached one).
     pub fn batches(&self) -> u32 {
         self.batches
     }
@@ -140,6 +141,12 @@ impl EmissionGuide {
     /// Bytes held.
     pub fn bytes(&self) -> usize {
         self.reached.len() * 8
+            + self
+                .within
+                .iter()
+                .flatten()
+                .map(|d| d.len() * 4)
+                .sum::<usize>()
             + self.lights.len() * std::mem::size_of::<LightCells>()
             + self.p_sel.len() * 4
             + self
@@ -251,7 +258,6 @@ impl EmissionGuide {
                 self.reached[c] += reached[c] as f32;
             }
         }
-        self.batches += 1;
         let (total_reached, total_drawn) = (
             self.reached.iter().map(|&r| r as f64).sum::<f64>(),
             self.drawn.iter().map(|&d| d as f64).sum::<f64>(),
@@ -262,6 +268,7 @@ impl EmissionGuide {
             self.within.iter_mut().for_each(|w| *w = None);
             return;
         }
+        self.batches += 1;
         let mean = total_reached / total_drawn;
         let alpha = GUIDE_MIX as f64;
         let mut light_rates = Vec::with_capacity(self.lights.len());
