@@ -73,7 +73,11 @@ fn shed() -> Scene {
         v(-0.6, 0.0, -0.9),
         60f32.to_radians(),
     );
-    let mut scene = Scene::from_glb_bytes(&g.to_glb(), "shed").expect("the shed loads");
+    under_the_uniform_sky(Scene::from_glb_bytes(&g.to_glb(), "shed").expect("the shed loads"))
+}
+
+/// `scene` lit by the uniform environment of radiance 1.
+fn under_the_uniform_sky(mut scene: Scene) -> Scene {
     scene
         .set_environment(&EnvironmentSettings {
             kind: EnvironmentKind::Uniform,
@@ -320,15 +324,9 @@ fn guided_emission_is_unbiased_in_a_furnace() {
 /// sample of the back wall's view more than triples over 8 batches (measured 1.44% → 5.87%).
 #[test]
 fn guided_emission_finds_the_window() {
-    let mut scene = Scene::builtin(raysplat::scene::BuiltinScene::WindowRoom);
-    scene
-        .set_environment(&EnvironmentSettings {
-            kind: EnvironmentKind::Uniform,
-            strength: 1.0,
-            ..Default::default()
-        })
-        .unwrap();
-    let scene = Arc::new(scene);
+    let scene = Arc::new(under_the_uniform_sky(Scene::builtin(
+        raysplat::scene::BuiltinScene::WindowRoom,
+    )));
     let reaching = |guided: bool| {
         let s = RenderSettings {
             width: 32,

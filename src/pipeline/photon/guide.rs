@@ -141,12 +141,6 @@ impl EmissionGuide {
     /// Bytes held.
     pub fn bytes(&self) -> usize {
         self.reached.len() * 8
-            + self
-                .within
-                .iter()
-                .flatten()
-                .map(|d| d.len() * 4)
-                .sum::<usize>()
             + self.lights.len() * std::mem::size_of::<LightCells>()
             + self.p_sel.len() * 4
             + self
@@ -159,11 +153,16 @@ impl EmissionGuide {
 
     /// Forget what was learned (a new view): photons leave the lights by power again.
     pub fn reset(&mut self) {
-        self.select = None;
-        self.within.iter_mut().for_each(|w| *w = None);
+        self.emit_by_power();
         self.reached.iter_mut().for_each(|r| *r = 0.0);
         self.drawn.iter_mut().for_each(|d| *d = 0.0);
         self.batches = 0;
+    }
+
+    /// Drop the guided distributions: the next photons leave the lights by power.
+    fn emit_by_power(&mut self) {
+        self.select = None;
+        self.within.iter_mut().for_each(|w| *w = None);
     }
 
     /// The probability that a photon comes from cell `c` of light `i` (cell `local`).
@@ -201,10 +200,7 @@ impl EmissionGuide {
         let lc = self.lights[i];
         let n = lc.count();
         let (local, p_cell) = match &self.within[i] {
-            Some(d) => {
-                let (c, p) = d.sample(rng.next_f32());
-                (c, p)
-            }
+            Some(d) => d.sample(rng.next_f32()),
             None => {
                 let c = ((rng.next_f32() * n as f32) as usize).min(n - 1);
                 (c, 1.0 / n as f32)
@@ -264,8 +260,7 @@ impl EmissionGuide {
         );
         if total_reached <= 0.0 || total_drawn <= 0.0 {
             // Nothing reached the eye samples yet: keep emitting by power.
-            self.select = None;
-            self.within.iter_mut().for_each(|w| *w = None);
+            self.emit_by_power();
             return;
         }
         self.batches += 1;

@@ -188,8 +188,7 @@ impl Lights {
 
     /// Sample a point on a light as seen from `p` for next-event estimation.
     pub fn sample_direct(&self, p: Vec3, u_light: f32, u: Vec2) -> Option<LightSample> {
-        let dist = self.dist.as_ref()?;
-        let (i, p_sel) = dist.sample(u_light);
+        let (i, p_sel) = self.select(u_light)?;
         match self.lights[i] {
             Light::Area {
                 v0,
