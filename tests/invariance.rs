@@ -217,6 +217,7 @@ fn ceiling_sample(hit: &Hit, albedo: f32, pixel: u32) -> EyeSample {
         weight: Vec3::ONE,
         albedo: Vec3::splat(albedo),
         specular: Vec3::ZERO,
+        exponent: 1.0,
         primary: true,
         lobe_traced: false,
     }

@@ -200,3 +200,22 @@ fn shared_scenes_load_when_present() {
     }
     eprintln!("checked {checked} shared scenes");
 }
+
+/// A ray whose direction has −0 components (`-Vec3::Y` is (−0, −1, −0)) hits what lies
+/// ahead: the BVH's traversal missed everything along it.
+#[test]
+fn a_direction_with_negative_zeros_hits() {
+    let mut g = GlbBuilder::default();
+    let floor = common::white(&mut g);
+    common::plane(&mut g, 2.0, floor);
+    let s = Scene::from_glb_bytes(&g.to_glb(), "floor").expect("loads");
+    let o = Vec3::new(0.1, 3.0, 0.2);
+    for d in [-Vec3::Y, Vec3::new(0.0, -1.0, 0.0)] {
+        assert_eq!(
+            s.intersect(o, d, f32::INFINITY).map(|h| h.t),
+            Some(3.0),
+            "{d}"
+        );
+        assert!(s.occluded(o, d, 4.0), "{d}");
+    }
+}

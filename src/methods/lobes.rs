@@ -100,7 +100,7 @@ impl TracedLobes {
         };
         let t = Instant::now();
         batch.gather(scene, rays, bw);
-        self.finish_batch(scene, batch);
+        self.finish_batch(batch);
         timings.t_splat += t.elapsed().as_secs_f64();
     }
 
@@ -167,7 +167,7 @@ impl TracedLobes {
 
     /// The last part of [`TracedLobes::add_batch`]: add the light `batch` gathered to the
     /// sums.
-    pub fn finish_batch(&mut self, scene: &Scene, batch: LobeBatch) {
+    pub fn finish_batch(&mut self, batch: LobeBatch) {
         let target_slot = &batch.tree.target_slot;
         let pixels = &self.pixels;
         let samples = &batch.samples;
@@ -179,7 +179,7 @@ impl TracedLobes {
             if let Some(acc) = acc {
                 // Straight into the sums (a full-size radiance map per gather was +8 MB at
                 // the peak of a 500×500 render: docs/benchmarks.md, "Memory").
-                self.invalid += add_radiance_at(scene, samples, target_slot, acc, 1, sums, at);
+                self.invalid += add_radiance_at(samples, target_slot, acc, 1, sums, at);
             }
         }
     }

@@ -1,7 +1,7 @@
 //! Hit records, per-triangle shading data, and spawn offsets that keep rays off their surface
 //! at any scene scale (pbrt-v4 §6.8).
 
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec3A, Vec4};
 use obvhs::triangle::Triangle;
 
 /// Per-triangle shading data (vertex normals and texture coordinates).
@@ -13,6 +13,25 @@ pub struct TriShading {
     pub uvs: [Vec2; 3],
     /// Index into [`Scene::materials`](super::Scene::materials).
     pub material: u32,
+    /// Index into [`Scene::extras`](super::Scene::extras) when the triangle has vertex data
+    /// beyond these (`NO_EXTRA` otherwise).
+    pub extra: u32,
+}
+
+/// [`TriShading::extra`] of a triangle with no further vertex data.
+pub const NO_EXTRA: u32 = u32::MAX;
+
+/// Vertex data only some triangles have (kept apart so that the rest stay small):
+/// TEXCOORD_1, COLOR_0 and tangents for normal mapping.
+#[derive(Clone, Copy, Debug)]
+pub struct TriExtra {
+    /// TEXCOORD_1 (zero where the mesh has none).
+    pub uv1: [Vec2; 3],
+    /// COLOR_0 as linear RGBA (white where the mesh has none).
+    pub color: [Vec4; 3],
+    /// Tangents (xyz unit, w the bitangent's sign: glTF §3.7.2.1), the file's TANGENT or
+    /// computed from the normal texture's coordinates; zero without a normal texture.
+    pub tangent: [Vec4; 3],
 }
 
 /// A ray–surface intersection.
@@ -24,10 +43,15 @@ pub struct Hit {
     pub position: Vec3,
     /// Geometric normal from the winding (unit, not flipped towards the ray).
     pub geo_normal: Vec3,
-    /// Interpolated shading normal, on the same side as `geo_normal`.
+    /// Shading normal (interpolated, then perturbed by the material's normal texture), on
+    /// the same side as `geo_normal`.
     pub normal: Vec3,
-    /// Interpolated texture coordinates.
+    /// Interpolated texture coordinates (TEXCOORD_0).
     pub uv: Vec2,
+    /// Interpolated TEXCOORD_1 (zero where the mesh has none).
+    pub uv1: Vec2,
+    /// Interpolated COLOR_0 (linear RGBA; white where the mesh has none).
+    pub color: Vec4,
     /// Index of the triangle hit.
     pub triangle: u32,
     /// Its material index.

@@ -1,8 +1,10 @@
-//! Materials and textures, and what a hit's material means: its BSDF, albedo and emission.
+//! Materials and textures, and what a hit's material means: its BSDF, albedo, alpha and
+//! emission (glTF 2.0 §3.9: the metallic-roughness model and its five textures).
 
 use super::{Hit, Scene};
 use crate::bsdf::Bsdf;
-use glam::{Affine2, Vec2, Vec3};
+use glam::{Affine2, Vec2, Vec3, Vec4, Vec4Swizzles};
+use std::sync::LazyLock;
 
 /// How a material scatters; glTF's metallic/roughness model mapped onto the models we render.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,13 +28,93 @@ pub enum MaterialKind {
     },
 }
 
-/// A material's base-colour texture and its KHR_texture_transform.
-#[derive(Clone, Debug)]
+impl MaterialKind {
+    /// The model a metallic-roughness surface point is rendered with (not transmissive).
+    pub fn classify(metallic: f32, roughness: f32, specular_off: bool) -> Self {
+        if metallic > 0.5 && roughness < 0.05 {
+            MaterialKind::Mirror
+        } else if specular_off || (roughness >= 0.9 && metallic < 0.5) {
+            MaterialKind::Diffuse
+        } else {
+            MaterialKind::Glossy {
+                roughness,
+                metallic,
+            }
+        }
+    }
+}
+
+/// How texture coordinates outside [0, 1] wrap (glTF sampler `wrapS`, `wrapT`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    /// REPEAT (10497), the default.
+    Repeat,
+    /// CLAMP_TO_EDGE (33071).
+    Clamp,
+    /// MIRRORED_REPEAT (33648).
+    Mirror,
+}
+
+impl Wrap {
+    #[inline]
+    fn index(self, i: i64, n: u32) -> usize {
+        let n = n as i64;
+        (match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::Clamp => i.clamp(0, n - 1),
+            Wrap::Mirror => {
+                let m = i.rem_euclid(2 * n);
+                if m >= n { 2 * n - 1 - m } else { m }
+            }
+        }) as usize
+    }
+}
+
+/// One of a material's textures: its image, the KHR_texture_transform, the TEXCOORD set it
+/// reads and its sampler.
+#[derive(Clone, Debug, PartialEq)]
 pub struct TextureRef {
     /// Index into [`Scene::textures`].
     pub image: usize,
     /// Maps the mesh's texture coordinates to the texture's.
     pub transform: Affine2,
+    /// The TEXCOORD set (0 or 1; KHR_texture_transform's `texCoord` overrides the info's).
+    pub set: u8,
+    /// Wrap modes along u and v.
+    pub wrap: [Wrap; 2],
+    /// The sampler's magFilter is NEAREST: one texel, not bilinear.
+    pub nearest: bool,
+}
+
+impl TextureRef {
+    /// A texture read through TEXCOORD_0 with the default sampler (repeat, bilinear).
+    pub fn plain(image: usize) -> Self {
+        Self {
+            image,
+            transform: Affine2::IDENTITY,
+            set: 0,
+            wrap: [Wrap::Repeat; 2],
+            nearest: false,
+        }
+    }
+
+    /// The texture coordinates this texture reads at `hit`.
+    #[inline]
+    pub fn uv(&self, hit: &Hit) -> Vec2 {
+        self.transform
+            .transform_point2(if self.set == 1 { hit.uv1 } else { hit.uv })
+    }
+}
+
+/// glTF `alphaMode` with its cutoff.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha ignored (the default).
+    Opaque,
+    /// Cut out where alpha < the cutoff (0.5 by default).
+    Mask(f32),
+    /// Partly transparent: rendered as stochastic coverage.
+    Blend,
 }
 
 /// A material: what the scene's triangles are made of.
@@ -42,12 +124,28 @@ pub struct Material {
     pub name: String,
     /// Linear RGB base colour (glTF baseColorFactor).
     pub base_color: Vec3,
-    /// Base-colour texture, multiplied with `base_color`.
+    /// baseColorFactor's alpha.
+    pub base_alpha: f32,
+    /// Base-colour texture (sRGB colour, linear alpha), multiplied with the factor.
     pub base_texture: Option<TextureRef>,
-    /// How it scatters.
+    /// How it scatters where no metallic-roughness texture varies it.
     pub kind: MaterialKind,
+    /// metallicFactor.
+    pub metallic: f32,
+    /// roughnessFactor.
+    pub roughness: f32,
+    /// KHR_materials_specular with a zero factor: no specular layer.
+    pub specular_off: bool,
+    /// metallicRoughnessTexture (linear; B metal, G rough), multiplied with the factors.
+    pub metal_rough_texture: Option<TextureRef>,
+    /// normalTexture (linear, tangent space) and its `scale`.
+    pub normal_texture: Option<(TextureRef, f32)>,
     /// Emitted radiance, emissiveFactor × KHR_materials_emissive_strength.
     pub emission: Vec3,
+    /// emissiveTexture (sRGB), multiplied with `emission`.
+    pub emissive_texture: Option<TextureRef>,
+    /// alphaMode and alphaCutoff.
+    pub alpha: AlphaMode,
     /// glTF doubleSided: an emissive material emits from both faces.
     pub double_sided: bool,
 }
@@ -58,47 +156,172 @@ impl Material {
         Self {
             name: name.to_string(),
             base_color: color,
+            base_alpha: 1.0,
             base_texture: None,
             kind: MaterialKind::Diffuse,
+            metallic: 0.0,
+            roughness: 1.0,
+            specular_off: false,
+            metal_rough_texture: None,
+            normal_texture: None,
             emission: Vec3::ZERO,
+            emissive_texture: None,
+            alpha: AlphaMode::Opaque,
             double_sided: false,
         }
     }
 
-    /// A mirror or glass (a Dirac-delta BSDF): eye paths and photons pass on from it rather
-    /// than being stored there.
-    pub fn is_specular(&self) -> bool {
-        matches!(
-            self.kind,
-            MaterialKind::Mirror | MaterialKind::Dielectric { .. }
-        )
+    /// The material emits somewhere (a positive factor; a texture may still be black).
+    pub fn emits(&self) -> bool {
+        self.emission.is_finite() && self.emission.max_element() > 0.0
+    }
+
+    /// Rays may pass through it where its alpha says so (MASK or BLEND).
+    pub fn alpha_tested(&self) -> bool {
+        self.alpha != AlphaMode::Opaque
+    }
+
+    /// The vertex data beyond TEXCOORD_0 that its textures need: TEXCOORD_1 or tangents.
+    pub fn needs_extra(&self) -> bool {
+        let refs = [
+            &self.base_texture,
+            &self.metal_rough_texture,
+            &self.emissive_texture,
+        ];
+        self.normal_texture.is_some() || refs.iter().any(|t| t.as_ref().is_some_and(|t| t.set == 1))
     }
 }
 
-/// A decoded base-colour texture, stored as linear RGB.
+/// The sRGB transfer function's inverse (IEC 61966-2-1) for the 256 8-bit codes.
+static SRGB_TO_LINEAR: LazyLock<[f32; 256]> = LazyLock::new(|| {
+    std::array::from_fn(|c| {
+        let c = c as f32 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    })
+});
+
+/// A decoded texture image: 8-bit RGBA as the file stores it; a material slot decides
+/// whether its colour channels are sRGB (base colour, emissive) or linear (the others).
 #[derive(Clone, Debug)]
 pub struct Texture {
     /// Width (texels).
     pub width: u32,
     /// Height (texels).
     pub height: u32,
-    /// Linear RGB texels, row by row (index y·width + x).
-    pub texels: Vec<Vec3>,
+    /// RGBA texels, row by row from the top (index y·width + x).
+    pub texels: Vec<[u8; 4]>,
 }
 
 impl Texture {
-    /// Nearest-texel lookup with repeat wrapping.
-    pub fn sample(&self, uv: Vec2) -> Vec3 {
-        let u = uv.x - uv.x.floor();
-        let v = uv.y - uv.y.floor();
-        let x = ((u * self.width as f32) as u32).min(self.width - 1);
-        let y = ((v * self.height as f32) as u32).min(self.height - 1);
-        self.texels[(y * self.width + x) as usize]
+    #[inline]
+    fn texel(&self, x: i64, y: i64, wrap: [Wrap; 2], srgb: bool) -> Vec4 {
+        let t = self.texels
+            [wrap[1].index(y, self.height) * self.width as usize + wrap[0].index(x, self.width)];
+        let a = t[3] as f32 / 255.0;
+        if srgb {
+            let lut = &*SRGB_TO_LINEAR;
+            Vec4::new(
+                lut[t[0] as usize],
+                lut[t[1] as usize],
+                lut[t[2] as usize],
+                a,
+            )
+        } else {
+            Vec4::new(t[0] as f32, t[1] as f32, t[2] as f32, 255.0 * a) / 255.0
+        }
+    }
+
+    /// The texture at texture coordinates `uv` (already transformed) through `r`'s sampler:
+    /// bilinear between the four nearest texel centres (filtered in linear space), or the
+    /// nearest texel; `srgb` decodes the colour channels, alpha is always linear.
+    #[inline]
+    pub fn lookup(&self, uv: Vec2, r: &TextureRef, srgb: bool) -> Vec4 {
+        if !uv.is_finite() {
+            return self.texel(0, 0, r.wrap, srgb);
+        }
+        let x = uv.x as f64 * self.width as f64 - 0.5;
+        let y = uv.y as f64 * self.height as f64 - 0.5;
+        if r.nearest {
+            return self.texel(
+                (x + 0.5).floor() as i64,
+                (y + 0.5).floor() as i64,
+                r.wrap,
+                srgb,
+            );
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let t = |dx, dy| self.texel(x0 + dx, y0 + dy, r.wrap, srgb);
+        let top = t(0, 0).lerp(t(1, 0), fx);
+        let bottom = t(0, 1).lerp(t(1, 1), fx);
+        top.lerp(bottom, fy)
+    }
+
+    /// Largest luminance of `scale` × the sRGB-decoded colour over the texels a lookup
+    /// through `r`'s sampler anywhere in the texture-coordinate box [`lo`, `hi`] can read
+    /// (bilinear: a one-texel margin; nearest: the texels under the box, widened by a
+    /// rounding's worth); `None` when the box spans more than `max_texels` texels (the
+    /// caller then bounds by [`Texture::max_channel`]).
+    pub fn max_luminance_in(
+        &self,
+        lo: Vec2,
+        hi: Vec2,
+        r: &TextureRef,
+        scale: Vec3,
+        max_texels: u64,
+    ) -> Option<f32> {
+        if !(lo.is_finite() && hi.is_finite()) {
+            return None;
+        }
+        let nearest = r.nearest;
+        let cover = |a: f32, b: f32, n: u32| {
+            if nearest {
+                let eps = 1e-4;
+                let lo = (a as f64 * n as f64 - eps).floor() as i64;
+                let hi = (b as f64 * n as f64 + eps).floor() as i64;
+                (lo, hi)
+            } else {
+                let lo = (a as f64 * n as f64 - 0.5).floor() as i64;
+                let hi = (b as f64 * n as f64 - 0.5).floor() as i64 + 1;
+                (lo, hi)
+            }
+        };
+        let wrap = r.wrap;
+        let (x0, x1) = cover(lo.x, hi.x, self.width);
+        let (y0, y1) = cover(lo.y, hi.y, self.height);
+        let count = (x1 - x0 + 1) as u64 * (y1 - y0 + 1) as u64;
+        if count > max_texels {
+            return None;
+        }
+        let mut m = 0.0f32;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let c = scale * self.texel(x, y, wrap, true).xyz();
+                m = m.max(crate::sampling::luminance(c));
+            }
+        }
+        Some(m)
+    }
+
+    /// Largest sRGB-decoded colour channel of any texel.
+    pub fn max_channel(&self) -> f32 {
+        let top = self
+            .texels
+            .iter()
+            .map(|t| t[0].max(t[1]).max(t[2]))
+            .max()
+            .unwrap_or(0);
+        SRGB_TO_LINEAR[top as usize]
     }
 }
 
 impl Scene {
-    /// Phong exponent of a glossy material (1 for any other).
+    /// Phong exponent of a glossy material (1 for any other), where no texture varies it.
     #[inline]
     pub fn glossy_exponent(&self, material: u32) -> f32 {
         match self.materials[material as usize].kind {
@@ -107,16 +330,38 @@ impl Scene {
         }
     }
 
-    /// Diffuse albedo at a hit (base colour × texture).
+    #[inline]
+    fn read(&self, t: &TextureRef, uv: Vec2, srgb: bool) -> Vec4 {
+        self.textures[t.image].lookup(uv, t, srgb)
+    }
+
+    /// Linear RGBA base colour at a hit: factor × texture × COLOR_0 (glTF §3.9.2).
+    #[inline]
+    pub fn base_color(&self, hit: &Hit) -> Vec4 {
+        let m = &self.materials[hit.material as usize];
+        let mut c = m.base_color.extend(m.base_alpha) * hit.color;
+        if let Some(t) = &m.base_texture {
+            c *= self.read(t, t.uv(hit), true);
+        }
+        c
+    }
+
+    /// Diffuse albedo at a hit (the base colour's RGB).
     #[inline]
     pub fn albedo(&self, hit: &Hit) -> Vec3 {
+        self.base_color(hit).xyz()
+    }
+
+    /// (metallic, roughness) at a hit: the factors × the texture's B and G channels.
+    #[inline]
+    pub fn metal_rough(&self, hit: &Hit) -> (f32, f32) {
         let m = &self.materials[hit.material as usize];
-        match &m.base_texture {
+        match &m.metal_rough_texture {
             Some(t) => {
-                let uv = t.transform.transform_point2(hit.uv);
-                m.base_color * self.textures[t.image].sample(uv)
+                let s = self.read(t, t.uv(hit), false);
+                (m.metallic * s.z, m.roughness * s.y)
             }
-            None => m.base_color,
+            None => (m.metallic, m.roughness),
         }
     }
 
@@ -124,7 +369,15 @@ impl Scene {
     #[inline]
     pub fn bsdf(&self, hit: &Hit) -> Bsdf {
         let m = &self.materials[hit.material as usize];
-        match m.kind {
+        let kind = match m.kind {
+            MaterialKind::Dielectric { .. } => m.kind,
+            _ if m.metal_rough_texture.is_some() => {
+                let (metallic, roughness) = self.metal_rough(hit);
+                MaterialKind::classify(metallic, roughness, m.specular_off)
+            }
+            k => k,
+        };
+        match kind {
             MaterialKind::Diffuse => Bsdf::Lambert {
                 albedo: self.albedo(hit),
             },
@@ -142,17 +395,99 @@ impl Scene {
         }
     }
 
+    /// A hit's BSDF is all Dirac deltas (a mirror or glass there).
+    #[inline]
+    pub fn specular_at(&self, hit: &Hit) -> bool {
+        let m = &self.materials[hit.material as usize];
+        if m.metal_rough_texture.is_none() {
+            return m.is_specular();
+        }
+        self.bsdf(hit).is_specular()
+    }
+
+    /// Emitted radiance of a material at texture coordinates: factor × emissive texture
+    /// (glTF §3.9.3; `uv0`, `uv1` the hit's two sets).
+    #[inline]
+    pub fn emission_at(&self, material: u32, uv0: Vec2, uv1: Vec2) -> Vec3 {
+        let m = &self.materials[material as usize];
+        match &m.emissive_texture {
+            Some(t) => {
+                let uv = t
+                    .transform
+                    .transform_point2(if t.set == 1 { uv1 } else { uv0 });
+                m.emission * self.read(t, uv, true).xyz()
+            }
+            None => m.emission,
+        }
+    }
+
     /// Radiance emitted from a hit towards `wo` (one-sided along the winding unless double-sided).
     #[inline]
     pub fn emitted(&self, hit: &Hit, wo: Vec3) -> Vec3 {
         let m = &self.materials[hit.material as usize];
-        if m.emission == Vec3::ZERO {
+        if !m.emits() {
             return Vec3::ZERO;
         }
         if m.double_sided || hit.geo_normal.dot(wo) > 0.0 {
-            m.emission
+            self.emission_at(hit.material, hit.uv, hit.uv1)
         } else {
             Vec3::ZERO
         }
+    }
+}
+
+impl Material {
+    /// A mirror or glass (a Dirac-delta BSDF) wherever no texture varies it: eye paths and
+    /// photons pass on from it rather than being stored there.
+    pub fn is_specular(&self) -> bool {
+        matches!(
+            self.kind,
+            MaterialKind::Mirror | MaterialKind::Dielectric { .. }
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Four texels in a row, linear values 0, 1/255·{60, 120, 180}.
+    fn row() -> Texture {
+        Texture {
+            width: 4,
+            height: 1,
+            texels: [0u8, 60, 120, 180].map(|v| [v, v, v, 255]).to_vec(),
+        }
+    }
+
+    #[test]
+    fn wrap_modes_pick_the_texel_the_sampler_names() {
+        let t = row();
+        // u = 1.25 lands on texel 5 of the repeated row: repeat 1, clamp 3, mirror 2.
+        for (wrap, texel) in [(Wrap::Repeat, 60), (Wrap::Clamp, 180), (Wrap::Mirror, 120)] {
+            let r = TextureRef {
+                wrap: [wrap; 2],
+                nearest: true,
+                ..TextureRef::plain(0)
+            };
+            let v = t.lookup(Vec2::new(1.25 + 0.125, 0.5), &r, false).x;
+            assert_eq!(v, texel as f32 / 255.0, "{wrap:?}");
+        }
+    }
+
+    #[test]
+    fn bilinear_filtering_blends_decoded_texels() {
+        let t = row();
+        let r = TextureRef::plain(0);
+        // Halfway between the centres of texels 1 and 2.
+        let v = t.lookup(Vec2::new(0.5, 0.5), &r, true).x;
+        let lut = &*SRGB_TO_LINEAR;
+        assert!((v - 0.5 * (lut[60] + lut[120])).abs() < 1e-6, "{v}");
+        // Linear channels are not decoded; alpha never is.
+        let l = t.lookup(Vec2::new(0.5, 0.5), &r, false);
+        assert!((l.x - 90.0 / 255.0).abs() < 1e-6 && l.w == 1.0);
+        // Repeat wraps the filter across the edge: between texel 3 and texel 0.
+        let e = t.lookup(Vec2::new(0.0, 0.5), &r, false).x;
+        assert!((e - 90.0 / 255.0).abs() < 1e-6, "{e}");
     }
 }

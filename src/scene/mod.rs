@@ -19,9 +19,12 @@ pub use camera::Camera;
 use camera::framing_camera;
 pub use environment::{Environment, EnvironmentKind, EnvironmentSettings, Sun};
 pub(crate) use geometry::tri;
-pub use geometry::{Hit, SHADOW_EPSILON, TriShading, gamma, offset_ray_origin, surface_offset};
-pub use light::{EmittedPhoton, Light, LightSample, Lights};
-pub use material::{Material, MaterialKind, Texture, TextureRef};
+pub use geometry::{
+    Hit, NO_EXTRA, SHADOW_EPSILON, TriExtra, TriShading, gamma, offset_ray_origin, surface_offset,
+};
+use light::Surfaces;
+pub use light::{EmittedPhoton, Light, LightSample, Lights, NO_TEXTURE};
+pub use material::{AlphaMode, Material, MaterialKind, Texture, TextureRef, Wrap};
 
 use glam::Vec3;
 use obvhs::{
@@ -29,7 +32,7 @@ use obvhs::{
     cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
     triangle::Triangle,
 };
-use std::{path::Path, time::Duration};
+use std::{path::Path, sync::Arc, time::Duration};
 
 /// A scene that could not be loaded: which file, and why. The kinds are what a caller
 /// branches on: the command line's exit status is the same for all three (the input is at
@@ -87,10 +90,12 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     /// Shading data of each triangle.
     pub shading: Vec<TriShading>,
+    /// Vertex data beyond [`TriShading`]'s, for the triangles that have it.
+    pub extras: Vec<TriExtra>,
     /// Materials; the last is the default for primitives without one.
     pub materials: Vec<Material>,
-    /// Decoded base-colour textures.
-    pub textures: Vec<Texture>,
+    /// Decoded texture images, shared with the lights (emissive textures).
+    pub textures: Arc<[Texture]>,
     /// The lights (emissive triangles, punctual lights, the environment and the sun).
     pub lights: Lights,
     /// The environment the lights hold, as chosen (never `Auto`: resolved).
@@ -110,6 +115,8 @@ pub struct Scene {
     pub bounds_max: Vec3,
     /// Things the loader skipped or repaired, for the user to read.
     pub warnings: Vec<String>,
+    /// Some material is alpha-tested (MASK or BLEND): ray queries then read alpha.
+    has_alpha: bool,
     bvh: CwBvh,
 }
 
@@ -118,6 +125,7 @@ pub(crate) struct SceneParts {
     pub name: String,
     pub triangles: Vec<Triangle>,
     pub shading: Vec<TriShading>,
+    pub extras: Vec<TriExtra>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub punctual: Vec<Light>,
@@ -132,6 +140,8 @@ impl Scene {
         use std::mem::size_of_val;
         size_of_val(&self.triangles[..])
             + size_of_val(&self.shading[..])
+            + size_of_val(&self.extras[..])
+            + self.lights.memory_bytes()
             + self
                 .textures
                 .iter()
@@ -193,10 +203,16 @@ impl Scene {
                 "the scene's geometry is degenerate (zero or infinite extent)".into(),
             ));
         }
+        let textures: Arc<[Texture]> = parts.textures.into();
         let lights = Lights::build(
-            &parts.triangles,
-            &parts.shading,
-            &parts.materials,
+            &Surfaces {
+                triangles: &parts.triangles,
+                shading: &parts.shading,
+                extras: &parts.extras,
+                materials: &parts.materials,
+                textures: &textures,
+            },
+            None,
             parts.punctual.clone(),
             Environment::default(),
             bounds_min,
@@ -211,12 +227,15 @@ impl Scene {
         if cameras.is_empty() {
             cameras.push(framing_camera(bounds_min, bounds_max));
         }
+        let has_alpha = parts.materials.iter().any(Material::alpha_tested);
         let mut scene = Self {
             name: parts.name,
+            has_alpha,
             triangles: parts.triangles,
             shading: parts.shading,
+            extras: parts.extras,
             materials: parts.materials,
-            textures: parts.textures,
+            textures,
             lights,
             environment: EnvironmentSettings {
                 kind: EnvironmentKind::None,
@@ -231,7 +250,7 @@ impl Scene {
             warnings: parts.warnings,
             bvh,
         };
-        if scene.lights.is_empty() {
+        if !scene.has_own_lights() {
             scene
                 .set_environment(&EnvironmentSettings::default())
                 .map_err(err)?;
@@ -239,12 +258,16 @@ impl Scene {
         Ok(scene)
     }
 
-    /// The file's own lights (emissive triangles with power, punctual lights) light it.
+    /// The file's own lights light it: punctual lights, or emissive triangles with power
+    /// whose emission is not a texture's. Emissive textures (a lamp's bulb, a display, the
+    /// trim of a model) emit, but a file lit by nothing else is a model made to be seen under
+    /// an environment, as glTF viewers show it.
     pub fn has_own_lights(&self) -> bool {
-        self.lights
-            .lights
-            .iter()
-            .any(|l| !matches!(l, Light::Environment { .. } | Light::Sun(_)))
+        self.lights.lights.iter().any(|l| match l {
+            Light::Environment { .. } | Light::Sun(_) => false,
+            Light::Area { texture, .. } => *texture == NO_TEXTURE,
+            _ => true,
+        })
     }
 
     /// Light the scene with the environment `settings` ask for, rebuilding its lights. `Auto`
@@ -259,18 +282,34 @@ impl Scene {
             resolved.kind = if own {
                 EnvironmentKind::None
             } else {
-                notice = Some(format!(
-                    "the file has no light of its own: lit by the uniform environment at strength {}",
-                    resolved.strength
-                ));
+                let textured =
+                    self.lights.lights.iter().any(
+                        |l| matches!(l, Light::Area { texture, .. } if *texture != NO_TEXTURE),
+                    );
+                notice = Some(if textured {
+                    format!(
+                        "the file's only lights are emissive textures: lit by the uniform environment as well, at strength {}",
+                        resolved.strength
+                    )
+                } else {
+                    format!(
+                        "the file has no light of its own: lit by the uniform environment at strength {}",
+                        resolved.strength
+                    )
+                });
                 EnvironmentKind::Uniform
             };
         }
         let environment = Environment::build(&resolved)?;
         let lights = Lights::build(
-            &self.triangles,
-            &self.shading,
-            &self.materials,
+            &Surfaces {
+                triangles: &self.triangles,
+                shading: &self.shading,
+                extras: &self.extras,
+                materials: &self.materials,
+                textures: &self.textures,
+            },
+            Some(self.lights.textured_emitters()),
             self.punctual.clone(),
             environment,
             self.bounds_min,

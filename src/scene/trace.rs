@@ -1,7 +1,9 @@
 //! Ray queries against the scene's BVH: closest hits, occlusion, shadow rays and spawning.
 
-use super::{Hit, LightSample, SHADOW_EPSILON, Scene, offset_ray_origin, surface_offset};
-use glam::Vec3;
+use super::{
+    AlphaMode, Hit, LightSample, NO_EXTRA, SHADOW_EPSILON, Scene, offset_ray_origin, surface_offset,
+};
+use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 use obvhs::ray::{Ray, RayHit};
 
 impl Scene {
@@ -17,7 +19,7 @@ impl Scene {
     /// ones only).
     #[inline]
     pub fn intersect_except(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> Option<Hit> {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
+        let ray = query(origin, dir, tmax);
         let mut hit = RayHit::none();
         let tris = &self.triangles;
         let idx = &self.bvh.primitive_indices;
@@ -26,7 +28,7 @@ impl Scene {
             if t == skip {
                 f32::INFINITY
             } else {
-                tris[t as usize].intersect(r)
+                self.cut_out(r, t, tris[t as usize].intersect(r))
             }
         }) {
             return None;
@@ -45,24 +47,26 @@ impl Scene {
     /// test the BVH traversal uses); false for an index out of range.
     #[inline]
     pub fn segment_meets(&self, origin: Vec3, dir: Vec3, tmax: f32, tri: u32) -> bool {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
+        let ray = query(origin, dir, tmax);
         self.triangles
             .get(tri as usize)
-            .is_some_and(|t| t.intersect(&ray) < tmax)
+            .is_some_and(|t| self.cut_out(&ray, tri, t.intersect(&ray)) < tmax)
     }
 
     /// Whether the ray from `origin` along `dir` meets any of the triangles `tris` (by the same
     /// test the BVH traversal uses).
     pub fn meets_any(&self, origin: Vec3, dir: Vec3, tris: &[u32]) -> bool {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, f32::INFINITY);
-        tris.iter()
-            .any(|&t| self.triangles[t as usize].intersect(&ray).is_finite())
+        let ray = query(origin, dir, f32::INFINITY);
+        tris.iter().any(|&t| {
+            self.cut_out(&ray, t, self.triangles[t as usize].intersect(&ray))
+                .is_finite()
+        })
     }
 
     /// [`Scene::occluded`], never counting the triangle `skip` as an occluder.
     #[inline]
     pub fn occluded_except(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> bool {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
+        let ray = query(origin, dir, tmax);
         let tris = &self.triangles;
         let idx = &self.bvh.primitive_indices;
         !self.bvh.ray_traverse_miss(ray, |r, id| {
@@ -70,7 +74,7 @@ impl Scene {
             if t == skip {
                 f32::INFINITY
             } else {
-                tris[t as usize].intersect(r)
+                self.cut_out(r, t, tris[t as usize].intersect(r))
             }
         })
     }
@@ -111,22 +115,89 @@ impl Scene {
             .max_element();
         let offset = surface_offset(coord_max);
         let sh = &self.shading[tri_id as usize];
+        let uv = sh.uvs[0] * b0 + sh.uvs[1] * b1 + sh.uvs[2] * b2;
+        let (uv1, color, tangent) = self.extra_at(sh.extra, b0, b1, b2);
         let mut normal =
             (sh.normals[0] * b0 + sh.normals[1] * b1 + sh.normals[2] * b2).normalize_or(geo_normal);
+        if let Some((tex, scale)) = &self.materials[sh.material as usize].normal_texture {
+            let uv = tex
+                .transform
+                .transform_point2(if tex.set == 1 { uv1 } else { uv });
+            let s = self.textures[tex.image].lookup(uv, tex, false).xyz() * 2.0 - 1.0;
+            normal = perturbed(
+                normal,
+                geo_normal,
+                tangent,
+                s * Vec3::new(*scale, *scale, 1.0),
+            );
+        }
         if normal.dot(geo_normal) < 0.0 {
             normal = -normal;
         }
-        let uv = sh.uvs[0] * b0 + sh.uvs[1] * b1 + sh.uvs[2] * b2;
         Hit {
             t,
             position: p,
             geo_normal,
             normal,
             uv,
+            uv1,
+            color,
             triangle: tri_id,
             material: sh.material,
             offset,
         }
+    }
+
+    /// TEXCOORD_1, COLOR_0 and the tangent at barycentrics (b0, b1, b2) of a triangle whose
+    /// extra vertex data is `extra` (zero, white and zero without).
+    #[inline]
+    fn extra_at(&self, extra: u32, b0: f32, b1: f32, b2: f32) -> (Vec2, Vec4, Vec4) {
+        if extra == NO_EXTRA {
+            return (Vec2::ZERO, Vec4::ONE, Vec4::ZERO);
+        }
+        let e = &self.extras[extra as usize];
+        let tangent = (e.tangent[0] * b0 + e.tangent[1] * b1 + e.tangent[2] * b2)
+            .xyz()
+            .extend(e.tangent[0].w);
+        (
+            e.uv1[0] * b0 + e.uv1[1] * b1 + e.uv1[2] * b2,
+            e.color[0] * b0 + e.color[1] * b1 + e.color[2] * b2,
+            tangent,
+        )
+    }
+
+    /// `t`, the distance at which ray `r` meets triangle `tri`, or infinity where the
+    /// triangle's material is cut out there (glTF §3.9.4): alpha below the cutoff (`MASK`),
+    /// or, for `BLEND`, a hash of the ray and the triangle at or above its alpha (stochastic
+    /// coverage: a share α of rays is stopped, the rest pass).
+    #[inline]
+    fn cut_out(&self, r: &Ray, tri: u32, t: f32) -> f32 {
+        if !t.is_finite() || !self.has_alpha {
+            return t;
+        }
+        let sh = &self.shading[tri as usize];
+        let m = &self.materials[sh.material as usize];
+        let cover = match m.alpha {
+            AlphaMode::Opaque => return t,
+            AlphaMode::Mask(cutoff) => cutoff,
+            AlphaMode::Blend => coverage_hash(r, tri),
+        };
+        let tr = &self.triangles[tri as usize];
+        let v0: Vec3 = tr.v0.into();
+        let p = Vec3::from(r.origin) + t * Vec3::from(r.direction) - v0;
+        let (b1, b2) =
+            super::light::barycentrics(p, Vec3::from(tr.v1) - v0, Vec3::from(tr.v2) - v0);
+        let b0 = 1.0 - b1 - b2;
+        let (uv1, color, _) = self.extra_at(sh.extra, b0, b1, b2);
+        let mut alpha = m.base_alpha * color.w;
+        if let Some(tex) = &m.base_texture {
+            let uv = sh.uvs[0] * b0 + sh.uvs[1] * b1 + sh.uvs[2] * b2;
+            let uv = tex
+                .transform
+                .transform_point2(if tex.set == 1 { uv1 } else { uv });
+            alpha *= self.textures[tex.image].lookup(uv, tex, false).w;
+        }
+        if alpha < cover { f32::INFINITY } else { t }
     }
 
     /// A spawn point just off the surface on the side of `dir` ([`offset_ray_origin`]).
@@ -144,4 +215,47 @@ impl Scene {
         let s = wo.dot(hit.geo_normal) * dir.dot(hit.geo_normal);
         if transmit { s < 0.0 } else { s > 0.0 }
     }
+}
+
+/// The shading normal `n` bent by a tangent-space normal `s` (already scaled: glTF §3.9.3,
+/// normalTexture), in the frame of the interpolated `tangent` (w the bitangent's sign)
+/// made orthogonal to `n`. `n` is kept where the tangent is missing or degenerate, and where
+/// the bent normal would face the other side of the surface (`geo` the geometric normal).
+#[inline]
+pub(crate) fn perturbed(n: Vec3, geo: Vec3, tangent: Vec4, s: Vec3) -> Vec3 {
+    let t = (tangent.xyz() - n * n.dot(tangent.xyz())).normalize_or_zero();
+    if t == Vec3::ZERO || !s.is_finite() {
+        return n;
+    }
+    let b = n.cross(t) * if tangent.w < 0.0 { -1.0 } else { 1.0 };
+    let bent = (t * s.x + b * s.y + n * s.z).normalize_or_zero();
+    if bent.dot(geo) * n.dot(geo) > 0.0 {
+        bent
+    } else {
+        n
+    }
+}
+
+/// A uniform number in [0, 1) from the ray and the triangle (SplitMix64 over their bits):
+/// the same ray always meets the same coverage, different rays sample it independently.
+#[inline]
+fn coverage_hash(r: &Ray, tri: u32) -> f32 {
+    let o = Vec3::from(r.origin);
+    let d = Vec3::from(r.direction);
+    let mut h = (tri as u64) ^ 0x9E37_79B9_7F4A_7C15;
+    for x in [o.x, o.y, o.z, d.x, d.y, d.z] {
+        h = (h ^ x.to_bits() as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h ^= h >> 31;
+    }
+    h = (h ^ (h >> 30)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    h ^= h >> 31;
+    (h >> 40) as f32 / (1u64 << 24) as f32
+}
+
+/// The BVH's ray for `origin + t·dir`, t ∈ (0, tmax), with every −0 component of `dir` made
+/// +0: obvhs's traversal misses everything along a direction such as (−0, −1, −0), which
+/// `-Vec3::Y` is (adding +0 turns −0 into +0 and leaves every other value alone).
+#[inline]
+fn query(origin: Vec3, dir: Vec3, tmax: f32) -> Ray {
+    Ray::new(origin.into(), (dir + Vec3::ZERO).into(), 0.0, tmax)
 }

@@ -163,3 +163,12 @@ pub fn base64(b: &[u8]) -> String {
     }
     out
 }
+
+/// A PNG of `w`×`h` RGBA pixels, row by row from the top.
+pub fn png_rgba(w: u32, h: u32, pixels: &[[u8; 4]]) -> Vec<u8> {
+    let img = image::RgbaImage::from_raw(w, h, pixels.concat()).expect("w·h pixels");
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png)
+        .expect("PNG encodes");
+    out.into_inner()
+}

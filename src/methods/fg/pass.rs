@@ -169,7 +169,7 @@ impl Pass {
         let t = Instant::now();
         let band_eye = eye_range(&self.eye, lo, hi);
         let (maps, caustic_rays, r_max) = (&self.maps, &self.caustic_rays, self.r_max);
-        let caustic = estimate_at(&band_eye, n_pixels, w, h, scene, |tree, acc| {
+        let caustic = estimate_at(&band_eye, n_pixels, w, h, |tree, acc| {
             if let Some((_, caustic_map)) = maps {
                 let empty = PhotonMap::build(Vec::new());
                 estimate_targets(
@@ -195,7 +195,7 @@ impl Pass {
         timings.t_eye += tg.elapsed().as_secs_f64();
         let t = Instant::now();
         let (maps, all_rays, r_max) = (&self.maps, &self.all_rays, self.r_max);
-        let indirect = estimate_at(&band, n_pixels, w, h, scene, |tree, acc| {
+        let indirect = estimate_at(&band, n_pixels, w, h, |tree, acc| {
             if let Some((global, caustic_map)) = maps {
                 estimate_targets(
                     global,
@@ -235,6 +235,7 @@ fn eye_range(eye: &EyeSamples, lo: u32, hi: u32) -> EyeSamples {
         weight: eye.weight[r.clone()].to_vec(),
         albedo: eye.albedo[r.clone()].to_vec(),
         specular: eye.specular[r.clone()].to_vec(),
+        exponent: eye.exponent[r.clone()].to_vec(),
         flags: eye.flags[r.clone()].to_vec(),
         target: (0..r.len() as u32).collect(),
     }
@@ -247,7 +248,6 @@ fn estimate_at(
     n_pixels: usize,
     w: u32,
     h: u32,
-    scene: &Scene,
     fill: impl FnOnce(&SplatTree, &mut Accumulators),
 ) -> Vec<Vec3> {
     if samples.is_empty() {
@@ -257,7 +257,7 @@ fn estimate_at(
     let mut acc = Accumulators::new(tree.slots());
     fill(&tree, &mut acc);
     let mut map = RadianceMap::new(w, h);
-    map.resolve_from(scene, samples, &tree.target_slot, &acc, 1);
+    map.resolve_from(samples, &tree.target_slot, &acc, 1);
     map.radiance
 }
 
@@ -297,7 +297,7 @@ fn gather_from(
 ) {
     let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
     let (p, nrm) = (eye.position[i], eye.normal[i].get());
-    let bsdf = eye.bsdf(i, scene);
+    let bsdf = eye.bsdf(i);
     let (ng, offset) = (eye.geo_normal[i].get(), eye.offset[i].get());
     for _ in 0..n {
         // BSDF sampling (cosine sampling for a Lambertian: f·cos/pdf = ρ).
@@ -312,7 +312,7 @@ fn gather_from(
         let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
             continue;
         };
-        if scene.materials[hit.material as usize].is_specular() {
+        if scene.specular_at(&hit) {
             continue;
         }
         let (facing, geo_facing) = if hit.geo_normal.dot(dir) <= 0.0 {
@@ -336,6 +336,7 @@ fn gather_from(
                 _ => scene.albedo(&hit),
             },
             specular: Vec3::ZERO,
+            exponent: 1.0,
             primary: false,
             lobe_traced: false,
         });

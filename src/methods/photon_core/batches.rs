@@ -96,7 +96,7 @@ impl PhotonCore {
         self.timings.t_light += t.elapsed().as_secs_f64() - t_splat;
         let t = Instant::now();
         if let Some(l) = lobes {
-            self.lobes.finish_batch(&self.scene, l);
+            self.lobes.finish_batch(l);
         }
         self.store.put_guide(guide);
         self.store.learn(&reach);

@@ -63,7 +63,6 @@ impl PhotonCore {
         let side = &self.side;
         let mut map = RadianceMap::new(self.settings.width, self.settings.height);
         map.resolve_from(
-            &self.scene,
             &side.eye,
             &side.tree.target_slot,
             &side.acc_indirect,
@@ -105,7 +104,7 @@ impl PhotonCore {
             );
         }
         let add = light.combine == Combine::Add;
-        map.resolve_interpolated(&self.scene, &side.eye, &values, mode, add);
+        map.resolve_interpolated(&side.eye, &values, mode, add);
     }
 
     /// Compose the film: emission + direct light (NEE, and the direct photons' accumulators
@@ -125,7 +124,6 @@ impl PhotonCore {
         }
         if direct_photons == DirectPhotons::Splatted {
             film.invalid_contributions += add_radiance_at(
-                &self.scene,
                 &side.eye,
                 &side.tree.target_slot,
                 &side.acc_direct,

@@ -94,11 +94,11 @@ pub(super) fn trace_chain(
         }
         let bsdf = scene.bsdf(&hit);
         let surface = match bsdf {
-            Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO)),
-            Bsdf::Glossy { kd, ks, .. } => Some((kd, ks)),
+            Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO, 1.0)),
+            Bsdf::Glossy { kd, ks, exponent } => Some((kd, ks, exponent)),
             _ => None,
         };
-        if let Some((albedo, specular)) = surface {
+        if let Some((albedo, specular, exponent)) = surface {
             // Face the viewer: flip both normals to the side the ray came from.
             let (n, ng) = if hit.geo_normal.dot(wo) >= 0.0 {
                 (hit.normal, hit.geo_normal)
@@ -117,6 +117,7 @@ pub(super) fn trace_chain(
                     weight: w,
                     albedo,
                     specular,
+                    exponent,
                     primary: depth == 0,
                     lobe_traced: false,
                 },

@@ -3,8 +3,8 @@
 
 use crate::bsdf::Bsdf;
 use crate::pack::{Bound16, Oct, Rgb16};
-use crate::scene::Scene;
 use glam::Vec3;
+use half::f16;
 
 /// Eye samples, structure of arrays, in pixel order. Photon rays splat onto their splat
 /// targets (`target`), whose positions and normals the splat tree copies into slot order.
@@ -33,6 +33,9 @@ pub struct EyeSamples {
     pub albedo: Vec<Rgb16>,
     /// Glossy-lobe reflectance ks (zero for Lambertian samples; f16).
     pub specular: Vec<Rgb16>,
+    /// The glossy lobe's Phong exponent at the sample (its material's roughness, or its
+    /// metallic-roughness texture's there; 1 for Lambertian samples; f16).
+    pub exponent: Vec<f16>,
     /// [`EyeSamples::primary`] and [`EyeSamples::lobe_traced`], one bit each.
     pub flags: Vec<u8>,
     /// The splat target whose splatted irradiance this sample uses.
@@ -87,9 +90,10 @@ const PRIMARY: u8 = 1;
 const LOBE_TRACED: u8 = 2;
 
 /// Bytes of one eye sample in [`EyeSamples`]: position 12, the shading and geometric normals
-/// and wo 4 (octahedral), three colours 6 (f16), the offset 2 (f16), material, pixel and
-/// target 4, one byte of flags (102 with every vector and colour in f32).
-pub const EYE_SAMPLE_BYTES: usize = 12 + 3 * 4 + 3 * 6 + 2 + 3 * 4 + 1;
+/// and wo 4 (octahedral), three colours 6 (f16), the offset and the Phong exponent 2 (f16),
+/// material, pixel and target 4, one byte of flags (106 with every vector, colour and number
+/// in f32).
+pub const EYE_SAMPLE_BYTES: usize = 12 + 3 * 4 + 3 * 6 + 2 * 2 + 3 * 4 + 1;
 
 impl EyeSamples {
     /// Number of eye samples.
@@ -179,14 +183,14 @@ impl EyeSamples {
         }
     }
 
-    /// The sample's BSDF: Lambertian, or glossy with the material's Phong exponent.
+    /// The sample's BSDF: Lambertian, or glossy with its Phong exponent.
     #[inline]
-    pub fn bsdf(&self, i: usize, scene: &Scene) -> Bsdf {
+    pub fn bsdf(&self, i: usize) -> Bsdf {
         if self.is_glossy(i) {
             Bsdf::Glossy {
                 kd: self.albedo[i].get(),
                 ks: self.specular[i].get(),
-                exponent: scene.glossy_exponent(self.material[i]),
+                exponent: self.exponent[i].to_f32(),
             }
         } else {
             Bsdf::Lambert {
@@ -209,6 +213,7 @@ impl EyeSamples {
         self.weight.push(s.weight);
         self.albedo.push(s.albedo);
         self.specular.push(s.specular);
+        self.exponent.push(s.exponent);
         self.flags.push(s.flags);
     }
 }
@@ -228,6 +233,7 @@ pub(super) struct PackedSample {
     pub(super) weight: Rgb16,
     pub(super) albedo: Rgb16,
     pub(super) specular: Rgb16,
+    pub(super) exponent: f16,
     pub(super) flags: u8,
 }
 
@@ -244,6 +250,7 @@ impl PackedSample {
             weight: Rgb16::new(s.weight),
             albedo: Rgb16::new(s.albedo),
             specular: Rgb16::new(s.specular),
+            exponent: f16::from_f32(s.exponent),
             flags: (u8::from(s.primary) * PRIMARY) | (u8::from(s.lobe_traced) * LOBE_TRACED),
         }
     }
@@ -273,6 +280,8 @@ pub struct EyeSample {
     pub albedo: Vec3,
     /// Glossy-lobe reflectance ks (zero for Lambertian samples).
     pub specular: Vec3,
+    /// The glossy lobe's Phong exponent (1 for Lambertian samples).
+    pub exponent: f32,
     /// Seen directly from the camera (no specular bounce on the way).
     pub primary: bool,
     /// The glossy lobe is traced by the eye path ([`EyeSamples::lobe_traced`]).

@@ -141,9 +141,7 @@ pub(super) fn trace_photon(
             PhotonClass::Indirect => (u_here, u_next),
             PhotonClass::Caustic => (c_here, c_next),
         };
-        let lands = hit
-            .as_ref()
-            .is_some_and(|h| !scene.materials[h.material as usize].is_specular());
+        let lands = hit.as_ref().is_some_and(|h| !scene.specular_at(h));
         let end_normal = hit.as_ref().map_or(Vec3::ZERO, |h| {
             if h.geo_normal.dot(dir) <= 0.0 {
                 h.geo_normal

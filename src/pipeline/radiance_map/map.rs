@@ -7,7 +7,6 @@ use crate::pipeline::directional::{
 };
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::splat_tree::LANES;
-use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
@@ -49,7 +48,6 @@ impl RadianceMap {
     /// parallel: `eye`'s samples must be in pixel order (as every eye pass makes them).
     pub fn resolve_from(
         &mut self,
-        scene: &Scene,
         eye: &EyeSamples,
         target_slot: &[u32],
         acc: &Accumulators,
@@ -82,7 +80,7 @@ impl RadianceMap {
                     let l = slot % LANES;
                     let get = |c: Channel| a[c as usize][l];
                     let px = eye.pixel[i] as usize - y * w;
-                    let out = sample_radiance(scene, eye, i, slot, acc, inv_b);
+                    let out = sample_radiance(eye, i, slot, acc, inv_b);
                     if !out.is_finite() {
                         invalid += 1;
                         continue;
@@ -135,7 +133,6 @@ fn sample_rows(eye: &EyeSamples, width: usize, height: usize) -> Vec<usize> {
 /// ([`crate::methods::lobes::TracedLobes`] keeps them for the pixels with a traced lobe
 /// only). Returns the contributions dropped as NaN or infinite.
 pub fn add_radiance_at(
-    scene: &Scene,
     eye: &EyeSamples,
     target_slot: &[u32],
     acc: &Accumulators,
@@ -153,7 +150,7 @@ pub fn add_radiance_at(
             continue;
         };
         let slot = target_slot[eye.target[i] as usize] as usize;
-        let l = sample_radiance(scene, eye, i, slot, acc, inv_b);
+        let l = sample_radiance(eye, i, slot, acc, inv_b);
         if l.is_finite() {
             out[o] += l;
         } else {
@@ -167,7 +164,6 @@ pub fn add_radiance_at(
 /// splat target's `slot` accumulated over 1/`inv_b` batches.
 #[inline]
 fn sample_radiance(
-    scene: &Scene,
     eye: &EyeSamples,
     i: usize,
     slot: usize,
@@ -178,7 +174,7 @@ fn sample_radiance(
     let l = slot % LANES;
     let get = |c: Channel| a[c as usize][l];
     let e = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B)) * inv_b;
-    eye.weight[i].get() * shade(scene, eye, i, e, acc.record(slot), inv_b, acc.mode)
+    eye.weight[i].get() * shade(eye, i, e, acc.record(slot), inv_b, acc.mode)
 }
 
 impl RadianceMap {
@@ -189,7 +185,6 @@ impl RadianceMap {
     /// [`RadianceMap::resolve_from`].
     pub fn resolve_interpolated(
         &mut self,
-        scene: &Scene,
         eye: &EyeSamples,
         values: &Interpolated,
         mode: DirectionalMode,
@@ -212,8 +207,7 @@ impl RadianceMap {
                 let mut invalid = 0;
                 for i in rows[y]..rows[y + 1] {
                     let e = values.irradiance[i];
-                    let out =
-                        eye.weight[i].get() * shade(scene, eye, i, e, values.dir(i), 1.0, mode);
+                    let out = eye.weight[i].get() * shade(eye, i, e, values.dir(i), 1.0, mode);
                     if !out.is_finite() {
                         invalid += 1;
                         continue;
@@ -232,7 +226,6 @@ impl RadianceMap {
 /// A traced lobe reflects no splatted light here: the eye path carries it (kd/π·E only).
 #[inline]
 fn shade(
-    scene: &Scene,
     eye: &EyeSamples,
     i: usize,
     e: Vec3,
@@ -247,7 +240,7 @@ fn shade(
     let ks = eye.specular[i].get();
     diffuse
         + match rec {
-            Some(rec) => ks * glossy_radiance(scene, eye, i, mode, rec) * rec_scale,
+            Some(rec) => ks * glossy_radiance(eye, i, mode, rec) * rec_scale,
             None => ks * FRAC_1_PI * e,
         }
 }
@@ -256,7 +249,6 @@ fn shade(
 /// ks and the batch average), the lobe being the normalised Phong lobe around the mirror
 /// direction of ωo (§8.1).
 pub(crate) fn glossy_radiance(
-    scene: &Scene,
     eye: &EyeSamples,
     i: usize,
     mode: DirectionalMode,
@@ -264,7 +256,7 @@ pub(crate) fn glossy_radiance(
 ) -> Vec3 {
     let n = eye.normal[i].get();
     let r = crate::bsdf::reflect(eye.wo[i].get(), n);
-    let exponent = scene.glossy_exponent(eye.material[i]);
+    let exponent = eye.exponent[i].to_f32();
     match mode {
         DirectionalMode::Diffuse => Vec3::ZERO,
         // The SH table entry for this view direction: the zonal lobe rotated to r; the
@@ -297,12 +289,10 @@ pub(crate) fn glossy_radiance(
 mod tests {
     use super::*;
     use crate::pipeline::eye::EyeSample;
-    use crate::scene::{BuiltinScene, Scene};
 
     /// A NaN or infinite accumulator never reaches a pixel: the sample is dropped and counted.
     #[test]
     fn resolve_drops_and_counts_invalid_contributions() {
-        let scene = Scene::builtin(BuiltinScene::CornellClassic);
         let mut eye = EyeSamples::default();
         for (i, pixel) in [0u32, 0, 1].into_iter().enumerate() {
             let s = EyeSample {
@@ -316,6 +306,7 @@ mod tests {
                 weight: Vec3::splat(0.5),
                 albedo: Vec3::splat(0.5),
                 specular: Vec3::ZERO,
+                exponent: 1.0,
                 primary: true,
                 lobe_traced: false,
             };
@@ -328,7 +319,7 @@ mod tests {
         acc.set(Channel::G, 1, f32::INFINITY);
         acc.set(Channel::B, 2, f32::NAN);
         let mut map = RadianceMap::new(2, 1);
-        map.resolve_from(&scene, &eye, &[0, 1, 2], &acc, 1);
+        map.resolve_from(&eye, &[0, 1, 2], &acc, 1);
         assert_eq!(map.invalid, 2);
         assert!(map.radiance.iter().all(|r| r.is_finite()));
         // The valid sample of pixel 0 still counts.

@@ -12,8 +12,9 @@ fn look_rotation(dir: Vec3) -> glam::Quat {
 }
 
 /// A minimal glTF 2.0 binary writer for generated scenes (the project's own scenes, tests):
-/// one mesh per object with positions, normals and u32 indices, metallic-roughness materials
-/// given as glTF JSON, perspective cameras and KHR_lights_punctual lights.
+/// one mesh per object with positions, normals, further float attributes and u32 indices,
+/// metallic-roughness materials given as glTF JSON, PNG textures with their samplers,
+/// perspective cameras and KHR_lights_punctual lights.
 #[derive(Default)]
 pub struct GlbBuilder {
     bin: Vec<u8>,
@@ -24,6 +25,9 @@ pub struct GlbBuilder {
     nodes: Vec<Value>,
     cameras: Vec<Value>,
     lights: Vec<Value>,
+    images: Vec<Value>,
+    textures: Vec<Value>,
+    samplers: Vec<Value>,
 }
 
 impl GlbBuilder {
@@ -68,16 +72,60 @@ impl GlbBuilder {
 
     /// Add a triangle mesh (one primitive) under its own node.
     pub fn mesh(&mut self, name: &str, p: &[Vec3], n: &[Vec3], idx: &[u32], material: u32) {
+        self.mesh_with(name, p, n, &[], idx, material);
+    }
+
+    /// [`GlbBuilder::mesh`] with further float attributes: (semantic, components per vertex
+    /// — 2, 3 or 4 —, the values vertex by vertex), e.g. ("TEXCOORD_0", 2, uvs).
+    pub fn mesh_with(
+        &mut self,
+        name: &str,
+        p: &[Vec3],
+        n: &[Vec3],
+        extra: &[(&str, usize, &[f32])],
+        idx: &[u32],
+        material: u32,
+    ) {
         let pos = self.vec3_accessor(p, true);
         let nrm = self.vec3_accessor(n, false);
+        let mut attributes = json!({"POSITION": pos, "NORMAL": nrm});
+        for &(semantic, width, values) in extra {
+            let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+            let view = self.push_view(&bytes, 34962);
+            let kind = ["SCALAR", "VEC2", "VEC3", "VEC4"][width.clamp(1, 4) - 1];
+            self.accessors
+                .push(json!({"bufferView": view, "componentType": 5126,
+                "count": values.len() / width.max(1), "type": kind}));
+            attributes[semantic] = json!(self.accessors.len() - 1);
+        }
         let bytes: Vec<u8> = idx.iter().flat_map(|i| i.to_le_bytes()).collect();
         let view = self.push_view(&bytes, 34963);
         self.accessors.push(json!({"bufferView": view, "componentType": 5125, "count": idx.len(), "type": "SCALAR"}));
         let ind = self.accessors.len() - 1;
         self.meshes.push(json!({"name": name, "primitives": [{
-            "attributes": {"POSITION": pos, "NORMAL": nrm}, "indices": ind, "material": material}]}));
+            "attributes": attributes, "indices": ind, "material": material}]}));
         self.nodes
             .push(json!({"name": name, "mesh": self.meshes.len() - 1}));
+    }
+
+    /// Add a texture of the PNG file `png` (embedded in the buffer) read through `sampler`
+    /// (a glTF sampler object; `None`: the default, repeat and bilinear); returns its index
+    /// for a material's texture info.
+    pub fn texture(&mut self, png: &[u8], sampler: Option<Value>) -> u32 {
+        let view = self.push_view(png, 0);
+        self.views[view]
+            .as_object_mut()
+            .expect("a view is an object")
+            .remove("target");
+        self.images
+            .push(json!({"bufferView": view, "mimeType": "image/png"}));
+        let mut t = json!({"source": self.images.len() - 1});
+        if let Some(s) = sampler {
+            self.samplers.push(s);
+            t["sampler"] = json!(self.samplers.len() - 1);
+        }
+        self.textures.push(t);
+        (self.textures.len() - 1) as u32
     }
 
     /// Add a perspective camera at `eye` looking at `target` (vertical field of view in radians).
@@ -134,6 +182,15 @@ impl GlbBuilder {
             "bufferViews": self.views,
             "buffers": [{"byteLength": self.bin.len()}],
         });
+        for (key, list) in [
+            ("images", &self.images),
+            ("textures", &self.textures),
+            ("samplers", &self.samplers),
+        ] {
+            if !list.is_empty() {
+                root[key] = json!(list);
+            }
+        }
         if !self.lights.is_empty() {
             root["extensionsUsed"]
                 .as_array_mut()

@@ -8,13 +8,16 @@
 //! them is in `sample`.
 
 mod sample;
+mod textured;
 
 use super::environment::{Environment, SunLight};
-use super::{Material, TriShading};
+use super::{Material, Texture, TriExtra, TriShading};
 use crate::sampling::{Distribution1D, luminance};
 use glam::Vec3;
 use obvhs::triangle::Triangle;
 use std::f32::consts::PI;
+use std::sync::Arc;
+use textured::TexturedEmitters;
 
 /// A light source: an emissive triangle, or a KHR_lights_punctual light.
 #[derive(Clone, Debug)]
@@ -31,12 +34,16 @@ pub enum Light {
         normal: Vec3,
         /// Area (scene units²).
         area: f32,
-        /// Emitted radiance (W/(m²·sr)), the material's emission.
+        /// Emitted radiance (W/(m²·sr)), the material's emission; with an emissive texture,
+        /// its mean over the triangle (what the power and the statistics read).
         radiance: Vec3,
         /// Emits from both faces (a double-sided material), not only along `normal`.
         two_sided: bool,
         /// The scene triangle it is.
         triangle: u32,
+        /// Its emissive texture's entry in the lights' textured emitters ([`NO_TEXTURE`]
+        /// without one): points are then drawn by the texture and their radiance read there.
+        texture: u32,
     },
     /// KHR_lights_punctual point light (glTF candela taken as radiometric).
     Point {
@@ -73,6 +80,19 @@ pub enum Light {
         /// Irradiance on a surface facing the light (W/m²).
         irradiance: Vec3,
     },
+}
+
+/// [`Light::Area`]'s `texture` when the material has no emissive texture.
+pub const NO_TEXTURE: u32 = u32::MAX;
+
+/// What emits in a scene's surfaces: its triangles with their shading data, extra vertex
+/// data, materials and textures.
+pub(crate) struct Surfaces<'a> {
+    pub(crate) triangles: &'a [Triangle],
+    pub(crate) shading: &'a [TriShading],
+    pub(crate) extras: &'a [TriExtra],
+    pub(crate) materials: &'a [Material],
+    pub(crate) textures: &'a Arc<[Texture]>,
 }
 
 /// A photon leaving a light (before division by the number of emitted photons).
@@ -136,13 +156,17 @@ pub struct Lights {
     /// Selection probability of the environment's light and of the sun (0 without them).
     p_environment: f32,
     p_sun: f32,
+    /// The emissive-textured triangles' point distributions.
+    textured: Arc<TexturedEmitters>,
 }
 
 impl Lights {
+    /// The lights of `surfaces` (its emitting triangles; `textured` their emissive-textured
+    /// ones, [`Lights::textured_emitters`] of an earlier build or built anew), the punctual
+    /// lights and the environment, chosen in proportion to power.
     pub(crate) fn build(
-        triangles: &[Triangle],
-        shading: &[TriShading],
-        materials: &[Material],
+        surfaces: &Surfaces,
+        textured: Option<Arc<TexturedEmitters>>,
         punctual: Vec<Light>,
         environment: Environment,
         bmin: Vec3,
@@ -151,31 +175,40 @@ impl Lights {
         let scene_center = 0.5 * (bmin + bmax);
         let scene_radius = 0.5 * (bmax - bmin).length() * 1.01;
         let mut lights = Vec::new();
-        let mut light_of_triangle = vec![u32::MAX; triangles.len()];
-        for (ti, (t, sh)) in triangles.iter().zip(shading).enumerate() {
-            let m = &materials[sh.material as usize];
-            if m.emission.max_element() <= 0.0 || !m.emission.is_finite() {
+        let mut light_of_triangle = vec![u32::MAX; surfaces.triangles.len()];
+        let textured = textured.unwrap_or_else(|| Arc::new(TexturedEmitters::build(surfaces)));
+        // Selection weights of the textured area lights (a bound on their power, see
+        // `textured`), by light index.
+        let mut bounds: Vec<(usize, f32)> = Vec::new();
+        for (ti, (t, sh)) in surfaces.triangles.iter().zip(surfaces.shading).enumerate() {
+            let m = &surfaces.materials[sh.material as usize];
+            if !m.emits() || m.emissive_texture.is_some() {
                 continue;
             }
-            let v0: Vec3 = t.v0.into();
-            let e1 = Vec3::from(t.v1) - v0;
-            let e2 = Vec3::from(t.v2) - v0;
-            let c = e1.cross(e2);
-            let area = 0.5 * c.length();
-            if area.is_nan() || area <= 0.0 || !area.is_finite() {
-                continue;
+            if let Some(light) = Self::area(t, ti as u32, m.emission, m.double_sided) {
+                light_of_triangle[ti] = lights.len() as u32;
+                lights.push(light);
             }
-            light_of_triangle[ti] = lights.len() as u32;
-            lights.push(Light::Area {
-                v0,
-                e1,
-                e2,
-                normal: c.normalize(),
+        }
+        for (k, e) in textured.emitters.iter().enumerate() {
+            let t = &surfaces.triangles[e.triangle as usize];
+            let m = &surfaces.materials[surfaces.shading[e.triangle as usize].material as usize];
+            let Some(mut light) = Self::area(t, e.triangle, e.mean_radiance, m.double_sided) else {
+                continue;
+            };
+            if let Light::Area {
                 area,
-                radiance: m.emission,
-                two_sided: m.double_sided,
-                triangle: ti as u32,
-            });
+                two_sided,
+                texture,
+                ..
+            } = &mut light
+            {
+                *texture = k as u32;
+                let sides = if *two_sided { 2.0 } else { 1.0 };
+                bounds.push((lights.len(), e.mean_bound * PI * *area * sides));
+            }
+            light_of_triangle[e.triangle as usize] = lights.len() as u32;
+            lights.push(light);
         }
         if let Some(env) = &environment.light {
             lights.push(Light::Environment {
@@ -189,10 +222,14 @@ impl Lights {
             let p = Self::power_of(l, scene_radius);
             p.is_finite() && p.max_element() > 0.0
         }));
-        let powers: Vec<f64> = lights
+        let mut powers: Vec<f64> = lights
             .iter()
             .map(|l| luminance(Self::power_of(l, scene_radius)).max(0.0) as f64)
             .collect();
+        // A textured emitter is chosen by its bound, never zero where it emits.
+        for (i, b) in bounds {
+            powers[i] = b as f64;
+        }
         let total_power = lights
             .iter()
             .map(|l| Self::power_of(l, scene_radius))
@@ -221,7 +258,42 @@ impl Lights {
             environment,
             p_environment,
             p_sun,
+            textured,
         }
+    }
+
+    /// Bytes held by the textured emitters' distributions.
+    pub fn memory_bytes(&self) -> usize {
+        self.textured.bytes()
+    }
+
+    /// The emissive-textured triangles' distributions, for a rebuild of these lights.
+    pub(crate) fn textured_emitters(&self) -> Arc<TexturedEmitters> {
+        self.textured.clone()
+    }
+
+    /// The area light of triangle `t` (index `ti`) emitting `radiance`; `None` for a
+    /// degenerate triangle.
+    fn area(t: &Triangle, ti: u32, radiance: Vec3, two_sided: bool) -> Option<Light> {
+        let v0: Vec3 = t.v0.into();
+        let e1 = Vec3::from(t.v1) - v0;
+        let e2 = Vec3::from(t.v2) - v0;
+        let c = e1.cross(e2);
+        let area = 0.5 * c.length();
+        if area.is_nan() || area <= 0.0 || !area.is_finite() {
+            return None;
+        }
+        Some(Light::Area {
+            v0,
+            e1,
+            e2,
+            normal: c.normalize(),
+            area,
+            radiance,
+            two_sided,
+            triangle: ti,
+            texture: NO_TEXTURE,
+        })
     }
 
     /// Solid-angle pdf with which [`Lights::sample_direct`] picks direction `d` towards the
@@ -257,18 +329,34 @@ impl Lights {
         let Some(&li) = self.light_of_triangle.get(triangle as usize) else {
             return 0.0;
         };
-        let (Some(dist), Some(Light::Area { normal, area, .. })) =
-            (self.dist.as_ref(), self.lights.get(li as usize))
+        let (
+            Some(dist),
+            Some(&Light::Area {
+                v0,
+                e1,
+                e2,
+                normal,
+                area,
+                texture,
+                ..
+            }),
+        ) = (self.dist.as_ref(), self.lights.get(li as usize))
         else {
             return 0.0;
         };
         let d = at - from;
         let dist2 = d.length_squared();
-        let cos = (d.dot(*normal) / dist2.sqrt()).abs();
+        let cos = (d.dot(normal) / dist2.sqrt()).abs();
         if cos <= 0.0 {
             return 0.0;
         }
-        dist.pmf(li as usize) * dist2 / (area * cos)
+        let relative = if texture == NO_TEXTURE {
+            1.0
+        } else {
+            let (b1, b2) = barycentrics(at - v0, e1, e2);
+            self.textured.density(texture, b1, b2)
+        };
+        dist.pmf(li as usize) * relative * dist2 / (area * cos)
     }
 
     /// No light (or none with positive power).
@@ -321,4 +409,12 @@ impl Lights {
     pub fn power(&self, light: &Light) -> Vec3 {
         Self::power_of(light, self.scene_radius)
     }
+}
+
+/// Barycentrics (b1, b2) of the point `v0 + p` on the triangle with edges `e1`, `e2`.
+#[inline]
+pub(crate) fn barycentrics(p: Vec3, e1: Vec3, e2: Vec3) -> (f32, f32) {
+    let c = e1.cross(e2);
+    let inv = 1.0 / c.length_squared().max(f32::MIN_POSITIVE);
+    (p.cross(e2).dot(c) * inv, e1.cross(p).dot(c) * inv)
 }

@@ -1,7 +1,7 @@
 //! Drawing from the lights: photons leaving them for the light pass (chosen by power), and
 //! points on them for next-event estimation at eye samples.
 
-use super::{EmittedPhoton, Light, LightSample, Lights};
+use super::{EmittedPhoton, Light, LightSample, Lights, NO_TEXTURE};
 use crate::sampling::{
     Rng, cosine_hemisphere, to_world, uniform_cone, uniform_sphere, uniform_triangle,
 };
@@ -10,6 +10,20 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 impl Lights {
+    /// A point on an area light from `u`: its barycentrics, its radiance there and its area
+    /// density relative to the uniform one (uniform without a texture, by the texture with
+    /// one: `textured`).
+    #[inline]
+    fn area_point(&self, texture: u32, radiance: Vec3, u: Vec2) -> (f32, f32, Vec3, f32) {
+        if texture == NO_TEXTURE {
+            let (b1, b2) = uniform_triangle(u);
+            (b1, b2, radiance, 1.0)
+        } else {
+            let (b1, b2, relative) = self.textured.sample(texture, u);
+            (b1, b2, self.textured.radiance(texture, b1, b2), relative)
+        }
+    }
+
     /// Sample a photon leaving a light, chosen by power.
     pub fn sample_emission(&self, rng: &mut Rng) -> Option<EmittedPhoton> {
         let (i, p_sel) = self.select(rng.next_f32())?;
@@ -55,8 +69,13 @@ impl Lights {
                 radiance,
                 two_sided,
                 triangle,
+                texture,
             } => {
-                let (b1, b2) = uniform_triangle(u_pos);
+                let (b1, b2, radiance, relative) = self.area_point(texture, radiance, u_pos);
+                // A dark texel of an emissive texture sends nothing (the photon still counts).
+                if relative <= 0.0 || radiance.max_element() <= 0.0 {
+                    return None;
+                }
                 let (n, p_side) = if two_sided {
                     (if u_side < 0.5 { normal } else { -normal }, 0.5)
                 } else {
@@ -65,13 +84,13 @@ impl Lights {
                 let local = cosine_hemisphere(u_dir);
                 let dir = to_world(local, n);
                 let cos = local.z.max(1e-6);
-                let pdf = p_sel * p_side / area * cos / PI;
+                let pdf = p_sel * p_side * relative / area * cos / PI;
                 EmittedPhoton {
                     origin: v0 + b1 * e1 + b2 * e2,
                     direction: dir,
                     normal: n,
-                    // Le · cos / (p_sel · p_side · (1/A) · cos/π)
-                    power: radiance * (PI * area / (p_sel * p_side)),
+                    // Le · cos / (p_sel · p_side · (relative/A) · cos/π)
+                    power: radiance * (PI * area / (p_sel * p_side * relative)),
                     pdf,
                     pdf_per_area: true,
                     offset: crate::scene::surface_offset(
@@ -199,8 +218,12 @@ impl Lights {
                 radiance,
                 two_sided,
                 triangle,
+                texture,
             } => {
-                let (b1, b2) = uniform_triangle(u);
+                let (b1, b2, radiance, relative) = self.area_point(texture, radiance, u);
+                if relative <= 0.0 || radiance.max_element() <= 0.0 {
+                    return None;
+                }
                 let q = v0 + b1 * e1 + b2 * e2;
                 let d = q - p;
                 let dist2 = d.length_squared();
@@ -219,8 +242,8 @@ impl Lights {
                 Some(LightSample {
                     wi,
                     distance,
-                    value: radiance * (cos_l * area / (dist2 * p_sel)),
-                    pdf: p_sel * dist2 / (area * cos_l),
+                    value: radiance * (cos_l * area / (dist2 * p_sel * relative)),
+                    pdf: p_sel * relative * dist2 / (area * cos_l),
                     triangle,
                 })
             }

@@ -1,9 +1,9 @@
-//! glTF materials, base-colour textures (with KHR_texture_transform) and KHR_lights_punctual
+//! glTF materials with their textures (KHR_texture_transform, samplers) and KHR_lights_punctual
 //! lights converted to the scene's own types.
 
 use super::data::{Buffers, read_uri, view_bytes};
 use super::document::get;
-use crate::scene::{Light, Material, MaterialKind, Texture, TextureRef};
+use crate::scene::{AlphaMode, Light, Material, MaterialKind, Texture, TextureRef, Wrap};
 use glam::{Affine2, Mat4, Quat, Vec2, Vec3};
 use gltf::json::{self, validation::Checked};
 use serde_json::Value;
@@ -16,10 +16,11 @@ fn finite_or(x: f32, d: f32) -> f32 {
     if x.is_finite() { x } else { d }
 }
 
-/// Base-colour textures, decoded on first use: a glTF texture resolved to its image (the
-/// PNG/JPEG `source`; an image only an extension gives, KHR_texture_basisu, EXT_texture_webp or
-/// MSFT_texture_dds, is not decoded: the base colour factor is used, with a warning), each image
-/// decoded once into [`Texture`]s. An image that cannot be read or decoded is a warning too.
+/// Textures, decoded on first use: a glTF texture resolved to its image (the PNG/JPEG
+/// `source`; an image only an extension gives, KHR_texture_basisu, EXT_texture_webp or
+/// MSFT_texture_dds, is not decoded: the factor alone is used, with a warning) and its sampler,
+/// each image decoded once into a [`Texture`] shared by every material slot that reads it. An
+/// image that cannot be read or decoded is a warning too.
 pub(super) struct TextureLoader<'a> {
     pub(super) root: &'a json::Root,
     pub(super) raw: &'a Value,
@@ -32,7 +33,7 @@ pub(super) struct TextureLoader<'a> {
 }
 
 impl TextureLoader<'_> {
-    fn warn(&mut self, w: String) {
+    pub(super) fn warn(&mut self, w: String) {
         if !self.warnings.contains(&w) {
             self.warnings.push(w);
         }
@@ -57,10 +58,10 @@ impl TextureLoader<'_> {
             })
             .unwrap_or_default();
         self.warn(if from_extensions.is_empty() {
-            format!("texture {t} has no image: the base colour factor is used instead")
+            format!("texture {t} has no image: the material's factor is used instead")
         } else {
             format!(
-                "texture {t}: its image comes only from {} (an image format raysplat does not decode): the base colour factor is used instead",
+                "texture {t}: its image comes only from {} (an image format raysplat does not decode): the material's factor is used instead",
                 from_extensions.join(", ")
             )
         });
@@ -79,13 +80,81 @@ impl TextureLoader<'_> {
             }
             Err(why) => {
                 self.warn(format!(
-                    "image {i} ignored, the base colour factor is used instead: {why}"
+                    "image {i} ignored, the material's factor is used instead: {why}"
                 ));
                 None
             }
         };
         self.decoded[i] = Some(slot);
         slot
+    }
+
+    /// The material slot `what` reading glTF texture `index` through set `tex_coord`, as the
+    /// raw JSON `info` (the texture info object) transforms it: its KHR_texture_transform
+    /// (whose `texCoord` overrides the info's) and its texture's sampler. `None` when the
+    /// image is unusable (warned). Sets beyond TEXCOORD_1 are read as TEXCOORD_0 (warned).
+    pub(super) fn slot(
+        &mut self,
+        info: &Value,
+        index: usize,
+        tex_coord: u32,
+        what: &str,
+    ) -> Result<Option<TextureRef>, String> {
+        let Some(image) = self.texture(index, what)? else {
+            return Ok(None);
+        };
+        let tt = &info["extensions"]["KHR_texture_transform"];
+        let pair = |v: &Value, d: [f32; 2]| -> Vec2 {
+            match (v[0].as_f64(), v[1].as_f64()) {
+                (Some(a), Some(b)) => Vec2::new(a as f32, b as f32),
+                _ => Vec2::from(d),
+            }
+        };
+        let transform = if tt.is_object() {
+            Affine2::from_scale_angle_translation(
+                pair(&tt["scale"], [1.0, 1.0]),
+                -(tt["rotation"].as_f64().unwrap_or(0.0) as f32),
+                pair(&tt["offset"], [0.0, 0.0]),
+            )
+        } else {
+            Affine2::IDENTITY
+        };
+        let transform = if transform.is_finite() {
+            transform
+        } else {
+            Affine2::IDENTITY
+        };
+        let set = tt["texCoord"]
+            .as_u64()
+            .map_or(tex_coord, |s| s.min(u32::MAX as u64) as u32);
+        let set = if set > 1 {
+            self.warn(format!(
+                "{what} reads TEXCOORD_{set}: raysplat reads sets 0 and 1, TEXCOORD_0 is used"
+            ));
+            0
+        } else {
+            set as u8
+        };
+        use json::texture::{MagFilter, WrappingMode};
+        let sampler = self.root.textures[index]
+            .sampler
+            .and_then(|s| self.root.samplers.get(s.value()));
+        let wrap = |m: Option<&Checked<WrappingMode>>| match m {
+            Some(Checked::Valid(WrappingMode::ClampToEdge)) => Wrap::Clamp,
+            Some(Checked::Valid(WrappingMode::MirroredRepeat)) => Wrap::Mirror,
+            _ => Wrap::Repeat,
+        };
+        Ok(Some(TextureRef {
+            image,
+            transform,
+            set,
+            wrap: [
+                wrap(sampler.map(|s| &s.wrap_s)),
+                wrap(sampler.map(|s| &s.wrap_t)),
+            ],
+            nearest: sampler
+                .is_some_and(|s| s.mag_filter == Some(Checked::Valid(MagFilter::Nearest))),
+        }))
     }
 
     fn decode(&self, i: usize) -> Result<Texture, String> {
@@ -101,12 +170,8 @@ impl TextureLoader<'_> {
         .map_err(|e| e.message().to_string())?;
         let decoded = ::image::load_from_memory(&bytes)
             .map_err(|e| format!("it cannot be decoded ({e})"))?
-            .to_rgb8();
-        let lut: Vec<f32> = (0..=255u8).map(srgb_to_linear).collect();
-        let texels: Vec<Vec3> = decoded
-            .pixels()
-            .map(|p| Vec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
-            .collect();
+            .to_rgba8();
+        let texels: Vec<[u8; 4]> = decoded.pixels().map(|p| p.0).collect();
         if texels.is_empty() {
             return Err("it has no pixels".into());
         }
@@ -118,13 +183,12 @@ impl TextureLoader<'_> {
     }
 }
 
-/// glTF material `index` as ours, and the TEXCOORD set its base-colour texture reads (0
-/// without one; KHR_texture_transform's `texCoord` overrides the texture info's).
+/// glTF material `index` as ours.
 pub(super) fn convert_material(
     index: usize,
     m: &json::Material,
     textures: &mut TextureLoader,
-) -> Result<(Material, u32), String> {
+) -> Result<Material, String> {
     let pbr = &m.pbr_metallic_roughness;
     let bc = pbr.base_color_factor.0;
     let base_color = Vec3::new(
@@ -133,6 +197,7 @@ pub(super) fn convert_material(
         finite_or(bc[2], 0.8),
     )
     .clamp(Vec3::ZERO, Vec3::ONE);
+    let base_alpha = finite_or(bc[3], 1.0).clamp(0.0, 1.0);
     let metallic = finite_or(pbr.metallic_factor.0, 1.0).clamp(0.0, 1.0);
     let roughness = finite_or(pbr.roughness_factor.0, 1.0).clamp(0.0, 1.0);
     let ext = m.extensions.as_ref();
@@ -150,15 +215,8 @@ pub(super) fn convert_material(
         .is_some_and(|s| s.specular_factor.0 == 0.0);
     let kind = if transmission > 0.5 {
         MaterialKind::Dielectric { ior }
-    } else if metallic > 0.5 && roughness < 0.05 {
-        MaterialKind::Mirror
-    } else if specular_off || (roughness >= 0.9 && metallic < 0.5) {
-        MaterialKind::Diffuse
     } else {
-        MaterialKind::Glossy {
-            roughness,
-            metallic,
-        }
+        MaterialKind::classify(metallic, roughness, specular_off)
     };
     let name = m.name.as_deref().unwrap_or("unnamed");
     // A negative or non-finite strength is not light: the material does not emit (and the
@@ -182,49 +240,82 @@ pub(super) fn convert_material(
     } else {
         Vec3::ZERO
     };
-    let mut tex_coord = 0;
-    let mut base_texture = None;
-    if let Some(info) = &pbr.base_color_texture {
-        let what = format!("material {index}'s base colour texture");
-        let transform = info
-            .extensions
+    let raw = textures.raw["materials"][index].clone();
+    let mut slot = |info: Option<(&Value, usize, u32)>, what: &str| match info {
+        None => Ok(None),
+        Some((raw, t, set)) => textures.slot(raw, t, set, &format!("material {index}'s {what}")),
+    };
+    let base_texture = slot(
+        pbr.base_color_texture.as_ref().map(|i| {
+            (
+                &raw["pbrMetallicRoughness"]["baseColorTexture"],
+                i.index.value(),
+                i.tex_coord,
+            )
+        }),
+        "base colour texture",
+    )?;
+    let metal_rough_texture = slot(
+        pbr.metallic_roughness_texture.as_ref().map(|i| {
+            (
+                &raw["pbrMetallicRoughness"]["metallicRoughnessTexture"],
+                i.index.value(),
+                i.tex_coord,
+            )
+        }),
+        "metallic-roughness texture",
+    )?;
+    let normal_texture = slot(
+        m.normal_texture
             .as_ref()
-            .and_then(|e| e.texture_transform.as_ref());
-        tex_coord = transform
-            .and_then(|t| t.tex_coord)
-            .unwrap_or(info.tex_coord);
-        if let Some(image) = textures.texture(info.index.value(), &what)? {
-            let transform = transform
-                .map(|t| {
-                    Affine2::from_scale_angle_translation(
-                        Vec2::from(t.scale.0),
-                        -t.rotation.0,
-                        Vec2::from(t.offset.0),
-                    )
-                })
-                .filter(|a| a.is_finite())
-                .unwrap_or(Affine2::IDENTITY);
-            base_texture = Some(TextureRef { image, transform });
-        }
+            .map(|i| (&raw["normalTexture"], i.index.value(), i.tex_coord)),
+        "normal texture",
+    )?
+    .map(|t| {
+        (
+            t,
+            finite_or(m.normal_texture.as_ref().map_or(1.0, |n| n.scale), 1.0),
+        )
+    });
+    let emissive_texture = slot(
+        m.emissive_texture
+            .as_ref()
+            .map(|i| (&raw["emissiveTexture"], i.index.value(), i.tex_coord)),
+        "emissive texture",
+    )?;
+    // The occlusion texture is checked but not applied: raysplat computes the occlusion it
+    // stands for (docs/deviations.md §45).
+    if let Some(o) = &m.occlusion_texture {
+        get(
+            &textures.root.textures,
+            o.index.value(),
+            &format!("material {index}'s occlusion texture"),
+        )?;
     }
-    let material = Material {
+    use json::material::AlphaMode as Mode;
+    let alpha = match m.alpha_mode {
+        Checked::Valid(Mode::Mask) => {
+            AlphaMode::Mask(finite_or(m.alpha_cutoff.as_ref().map_or(0.5, |c| c.0), 0.5))
+        }
+        Checked::Valid(Mode::Blend) => AlphaMode::Blend,
+        _ => AlphaMode::Opaque,
+    };
+    Ok(Material {
         name: name.to_string(),
         base_color,
+        base_alpha,
         base_texture,
         kind,
+        metallic,
+        roughness,
+        specular_off,
+        metal_rough_texture,
+        normal_texture,
         emission,
+        emissive_texture,
+        alpha,
         double_sided: m.double_sided,
-    };
-    Ok((material, tex_coord))
-}
-
-fn srgb_to_linear(c: u8) -> f32 {
-    let c = c as f32 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    })
 }
 
 /// A KHR_lights_punctual light placed by `world`, or `None` when its intensity or colour is not

@@ -3,8 +3,8 @@
 
 use super::data::{Buffers, DataError, read_floats, read_indices};
 use super::document::get;
-use crate::scene::{SceneParts, TriShading, tri};
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use crate::scene::{NO_EXTRA, SceneParts, TriExtra, TriShading, tri};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::json::{
     self,
     mesh::{Mode, Semantic},
@@ -24,12 +24,10 @@ pub(super) struct LoadStats {
     pub(super) unavailable: Vec<String>,
 }
 
-/// What every mesh reads: the file, its buffers, the materials' TEXCOORD sets and the default
-/// material's index.
+/// What every mesh reads: the file, its buffers and the default material's index.
 pub(super) struct MeshInput<'a> {
     pub(super) root: &'a json::Root,
     pub(super) buffers: &'a Buffers,
-    pub(super) tex_coords: &'a [u32],
     pub(super) default_material: u32,
 }
 
@@ -134,24 +132,59 @@ fn add_primitive(
             )
         }
     };
-    let set = input
-        .tex_coords
-        .get(material as usize)
-        .copied()
-        .unwrap_or(0);
-    let uvs: Option<Vec<Vec2>> = match attribute(Semantic::TexCoords(set)) {
-        None => None,
-        Some(a) => {
-            let (raw, width) =
-                read_floats(root, input.buffers, a, &what(&format!("TEXCOORD_{set}")))?;
-            if width != 2 {
-                return Err(format!(
-                    "primitive {p} TEXCOORD_{set} accessor {a} has {width} components, not 2"
-                )
-                .into());
-            }
-            Some(raw.chunks_exact(2).map(Vec2::from_slice).collect())
+    // Further attributes: `width` components each, one per position.
+    let read = |s: Semantic,
+                name: &str,
+                widths: &[usize]|
+     -> Result<Option<(Vec<f32>, usize)>, DataError> {
+        let Some(a) = attribute(s) else {
+            return Ok(None);
+        };
+        let (raw, width) = read_floats(root, input.buffers, a, &what(name))?;
+        if !widths.contains(&width) || raw.len() != width * positions.len() {
+            return Err(format!(
+                "primitive {p} {name} accessor {a} has {} elements of {width} components for {} positions",
+                raw.len() / width.max(1),
+                positions.len()
+            )
+            .into());
         }
+        Ok(Some((raw, width)))
+    };
+    let texcoords = |set: u32| -> Result<Option<Vec<Vec2>>, DataError> {
+        Ok(
+            read(Semantic::TexCoords(set), &format!("TEXCOORD_{set}"), &[2])?
+                .map(|(raw, _)| raw.chunks_exact(2).map(Vec2::from_slice).collect()),
+        )
+    };
+    let m = &parts.materials[material as usize];
+    let uvs = texcoords(0)?;
+    let uvs1 = if m.needs_extra() { texcoords(1)? } else { None };
+    let colors: Option<Vec<Vec4>> =
+        read(Semantic::Colors(0), "COLOR_0", &[3, 4])?.map(|(raw, w)| {
+            raw.chunks_exact(w)
+                .map(|c| {
+                    if w == 3 {
+                        Vec3::from_slice(c).extend(1.0)
+                    } else {
+                        Vec4::from_slice(c)
+                    }
+                })
+                .collect()
+        });
+    let normal_set = m.normal_texture.as_ref().map(|(t, _)| t.set);
+    let file_tangents: Option<Vec<Vec4>> = match normal_set {
+        None => None,
+        Some(_) => read(Semantic::Tangents, "TANGENT", &[4])?.map(|(raw, _)| {
+            let world3 = Mat3::from_mat4(world);
+            raw.chunks_exact(4)
+                .map(|t| {
+                    let xyz = (world3 * Vec3::from_slice(t)).normalize_or_zero();
+                    // A mirroring placement turns the bitangent (n × t) around.
+                    xyz.extend(if (t[3] < 0.0) != flip { -1.0 } else { 1.0 })
+                })
+                .collect()
+        }),
     };
     let indices: Vec<u32> = match prim.indices {
         Some(a) => read_indices(root, input.buffers, a.value(), &what("indices"))?,
@@ -182,6 +215,32 @@ fn add_primitive(
             .map(|i| [indices[0], indices[i - 1], indices[i]])
             .collect(),
     };
+    // Without the file's tangents, each vertex sums its triangles' texture-space directions
+    // (area-weighted, Lengyel's construction; MikkTSpace starts from the same frame).
+    let vertex_tangents: Option<Vec<[Vec3; 2]>> = match (normal_set, &file_tangents) {
+        (Some(set), None) => {
+            let tuv = if set == 1 { &uvs1 } else { &uvs };
+            let mut acc = vec![[Vec3::ZERO; 2]; positions.len()];
+            for &[a, b, c] in &tri_indices {
+                let (a, b, c) = if flip { (a, c, b) } else { (a, b, c) };
+                let p = [a, b, c].map(|i| positions[i as usize]);
+                let uv = [a, b, c].map(|i| {
+                    tuv.as_ref()
+                        .and_then(|u| u.get(i as usize).copied())
+                        .filter(|u| u.is_finite())
+                        .unwrap_or(Vec2::ZERO)
+                });
+                if let Some(tb) = texture_directions(p, uv) {
+                    for i in [a, b, c] {
+                        acc[i as usize][0] += tb[0];
+                        acc[i as usize][1] += tb[1];
+                    }
+                }
+            }
+            Some(acc)
+        }
+        _ => None,
+    };
     for [a, b, c] in tri_indices {
         let (a, b, c) = if flip { (a, c, b) } else { (a, b, c) };
         let (pa, pb, pc) = (
@@ -206,8 +265,8 @@ fn add_primitive(
                 .filter(|n| n.is_finite() && n.length_squared() > 0.5)
                 .unwrap_or(ng)
         };
-        let uv = |i: u32| -> Vec2 {
-            uvs.as_ref()
+        let at = |v: &Option<Vec<Vec2>>, i: u32| -> Vec2 {
+            v.as_ref()
                 .and_then(|u| u.get(i as usize).copied())
                 .filter(|u| u.is_finite())
                 .unwrap_or(Vec2::ZERO)
@@ -218,12 +277,72 @@ fn add_primitive(
             )
             .into());
         }
+        let corners = [a, b, c];
+        let normals3 = [pick(a), pick(b), pick(c)];
+        let extra = if colors.is_some() || uvs1.is_some() || normal_set.is_some() {
+            let color = |i: u32| {
+                colors
+                    .as_ref()
+                    .map(|c| c[i as usize])
+                    .filter(|c| c.is_finite())
+                    .map_or(Vec4::ONE, |c| c.clamp(Vec4::ZERO, Vec4::ONE))
+            };
+            let tangent = match (&file_tangents, &vertex_tangents) {
+                (Some(t), _) => corners.map(|i| t[i as usize]),
+                (None, Some(tb)) => {
+                    let mut k = 0;
+                    corners.map(|i| {
+                        k += 1;
+                        tangent_at(tb[i as usize], normals3[k - 1])
+                    })
+                }
+                (None, None) => [Vec4::ZERO; 3],
+            };
+            parts.extras.push(TriExtra {
+                uv1: corners.map(|i| at(&uvs1, i)),
+                color: corners.map(color),
+                tangent,
+            });
+            (parts.extras.len() - 1) as u32
+        } else {
+            NO_EXTRA
+        };
         parts.triangles.push(tri(pa, pb, pc));
         parts.shading.push(TriShading {
-            normals: [pick(a), pick(b), pick(c)],
-            uvs: [uv(a), uv(b), uv(c)],
+            normals: normals3,
+            uvs: corners.map(|i| at(&uvs, i)),
             material,
+            extra,
         });
     }
     Ok(())
+}
+
+/// The directions in which u and v grow on a triangle with corners `p` and texture
+/// coordinates `uv`, scaled by its area in texture space's units (Lengyel's construction,
+/// the frame MikkTSpace also starts from); `None` where the coordinates are degenerate.
+fn texture_directions(p: [Vec3; 3], uv: [Vec2; 3]) -> Option<[Vec3; 2]> {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let (d1, d2) = (uv[1] - uv[0], uv[2] - uv[0]);
+    let det = d1.x * d2.y - d2.x * d1.y;
+    if !det.is_finite() || det.abs() <= f32::MIN_POSITIVE {
+        return None;
+    }
+    let s = det.signum();
+    let t = (e1 * d2.y - e2 * d1.y) * s;
+    let b = (e2 * d1.x - e1 * d2.x) * s;
+    (t.is_finite() && b.is_finite()).then_some([t, b])
+}
+
+/// A vertex tangent from its summed texture directions `tb`: u's direction made orthogonal
+/// to the normal `n`, w the sign that makes n × t point where v grows (glTF §3.7.2.1). Zero
+/// where the directions vanish: the normal texture is then not applied there.
+fn tangent_at(tb: [Vec3; 2], n: Vec3) -> Vec4 {
+    let t = (tb[0] - n * n.dot(tb[0])).normalize_or_zero();
+    let w = if n.cross(t).dot(tb[1]) < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    t.extend(w)
 }

@@ -93,17 +93,13 @@ fn convert_file(bytes: &[u8], base: Option<&Path>, name: String) -> Result<Scene
         warnings,
     };
     let mut materials = Vec::with_capacity(root.materials.len() + 1);
-    let mut tex_coords = Vec::with_capacity(root.materials.len() + 1);
     for (i, m) in root.materials.iter().enumerate() {
-        let (material, set) = convert_material(i, m, &mut textures)?;
-        materials.push(material);
-        tex_coords.push(set);
+        materials.push(convert_material(i, m, &mut textures)?);
     }
     // The default material for primitives without one (glTF spec: white, metallic 1 — we use
     // a plain light-grey Lambertian, the usual choice of viewers).
     let default_material = materials.len() as u32;
     materials.push(Material::diffuse("default", Vec3::splat(0.8)));
-    tex_coords.push(0);
     let TextureLoader {
         textures, warnings, ..
     } = textures;
@@ -111,6 +107,7 @@ fn convert_file(bytes: &[u8], base: Option<&Path>, name: String) -> Result<Scene
         name,
         triangles: Vec::new(),
         shading: Vec::new(),
+        extras: Vec::new(),
         materials,
         textures,
         punctual: Vec::new(),
@@ -120,7 +117,6 @@ fn convert_file(bytes: &[u8], base: Option<&Path>, name: String) -> Result<Scene
     let input = MeshInput {
         root: &root,
         buffers: &buffers,
-        tex_coords: &tex_coords,
         default_material,
     };
     let mut stats = LoadStats::default();

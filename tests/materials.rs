@@ -1,0 +1,356 @@
+//! The glTF material model as the file gives it (issue 31): emissive textures as lights
+//! (emission only where the texture is bright, NEE and photons agreeing with BSDF-sampled
+//! hits and the path tracer), the metallic-roughness texture's linear channels, COLOR_0, the
+//! normal texture with the file's or computed tangents, alpha MASK and BLEND for every ray,
+//! and the Damaged Helmet without its glow.
+
+mod common;
+
+use common::glb::png_rgba;
+use common::{path_traced, plane, white};
+use glam::{Vec2, Vec3};
+use raysplat::bsdf::Bsdf;
+use raysplat::methods::{Budget, render_method};
+use raysplat::sampling::{Rng, cosine_hemisphere, luminance, to_world};
+use raysplat::scene::{EnvironmentKind, EnvironmentSettings, GlbBuilder, Light, Scene};
+use raysplat::settings::{MethodKind, RenderSettings};
+use serde_json::{Value, json};
+use std::sync::Arc;
+
+/// The NEAREST magnification filter (glTF sampler `magFilter`).
+fn nearest() -> Option<Value> {
+    Some(json!({"magFilter": 9728}))
+}
+
+/// A square of half side `half` in the plane y = `y`, facing up (or down with `down`),
+/// TEXCOORD_0 u along +x and v along +z from (0, 0) at (−half, −half) to (1, 1), with the
+/// further attributes `extra` (four vertices each, in the order of the corners).
+fn quad(
+    g: &mut GlbBuilder,
+    y: f32,
+    half: f32,
+    down: bool,
+    material: u32,
+    extra: &[(&str, usize, &[f32])],
+) {
+    let p = [
+        Vec3::new(-half, y, -half),
+        Vec3::new(half, y, -half),
+        Vec3::new(half, y, half),
+        Vec3::new(-half, y, half),
+    ];
+    let uv = [0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0];
+    let mut attrs: Vec<(&str, usize, &[f32])> = vec![("TEXCOORD_0", 2, &uv)];
+    attrs.extend_from_slice(extra);
+    let (n, idx) = if down {
+        (-Vec3::Y, [0, 1, 2, 0, 2, 3])
+    } else {
+        (Vec3::Y, [0, 2, 1, 0, 3, 2])
+    };
+    g.mesh_with("quad", &p, &[n; 4], &attrs, &idx, material);
+}
+
+/// `n` texels in one row: the first `bright` white, the rest black.
+fn half_white(n: usize, bright: usize) -> Vec<[u8; 4]> {
+    (0..n)
+        .map(|i| if i < bright { [255; 4] } else { [0, 0, 0, 255] })
+        .collect()
+}
+
+/// A white floor under a downward square emitter at height 1 (half side 0.5, radiance 4)
+/// whose emissive texture is white over x < 0 and black over x > 0.
+fn half_dark_emitter() -> Scene {
+    let mut g = GlbBuilder::default();
+    let floor = white(&mut g);
+    plane(&mut g, 2.0, floor);
+    let tex = g.texture(&png_rgba(16, 1, &half_white(16, 8)), nearest());
+    let light = g.material(json!({"emissiveFactor": [1.0, 1.0, 1.0],
+        "emissiveTexture": {"index": tex},
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
+        "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]}}));
+    quad(&mut g, 1.0, 0.5, true, light, &[]);
+    g.camera("top", Vec3::new(0.0, 3.0, 0.01), Vec3::ZERO, 0.9);
+    let mut scene = Scene::from_glb_bytes(&g.to_glb(), "half-dark emitter").expect("loads");
+    // Its only light is an emissive texture, so the automatic environment would light it
+    // too: the panel alone.
+    scene
+        .set_environment(&EnvironmentSettings {
+            kind: EnvironmentKind::None,
+            ..Default::default()
+        })
+        .expect("the panel lights it");
+    scene
+}
+
+#[test]
+fn an_emissive_texture_emits_only_where_it_is_bright() {
+    let scene = half_dark_emitter();
+    // Half of the 1 m² panel at radiance 4, one-sided: 4·π·0.5 W.
+    let want = 4.0 * std::f32::consts::PI * 0.5;
+    let power = luminance(scene.lights.total_power);
+    assert!(
+        (power / want - 1.0).abs() < 0.02,
+        "power {power}, want {want}"
+    );
+    // Light samples from a floor point: on the bright half, with the pdf the light's
+    // density gives the point, and the same irradiance as cosine-sampled rays that hit it.
+    let p = Vec3::new(0.1, 0.0, -0.2);
+    let n = 200_000;
+    let mut rng = Rng::new(1, 0);
+    let (mut on_dark, mut drawn, mut e_light) = (0, 0, 0.0f64);
+    for _ in 0..n {
+        let Some(s) = scene.lights.sample_direct(p, rng.next_f32(), rng.next_2d()) else {
+            continue;
+        };
+        drawn += 1;
+        let q = p + s.wi * s.distance;
+        on_dark += usize::from(q.x > 1e-3);
+        let pdf = scene.lights.pdf_direct(s.triangle, p, q);
+        assert!((pdf / s.pdf - 1.0).abs() < 1e-3, "pdf {pdf} vs {}", s.pdf);
+        e_light += (luminance(s.value) * s.wi.y.max(0.0)) as f64;
+    }
+    assert!(drawn > n / 2, "{drawn} light samples of {n}");
+    assert!(
+        on_dark * 100 < drawn,
+        "{on_dark} of {drawn} light samples on the dark half"
+    );
+    let mut e_bsdf = 0.0f64;
+    for _ in 0..n {
+        let d = to_world(cosine_hemisphere(rng.next_2d()), Vec3::Y);
+        if let Some(h) = scene.intersect(p + Vec3::Y * 1e-4, d, f32::INFINITY) {
+            e_bsdf += (std::f32::consts::PI * luminance(scene.emitted(&h, -d))) as f64;
+        }
+    }
+    let (e_light, e_bsdf) = (e_light / n as f64, e_bsdf / n as f64);
+    assert!(
+        (e_light / e_bsdf - 1.0).abs() < 0.03,
+        "irradiance by light samples {e_light}, by cosine-sampled hits {e_bsdf}"
+    );
+    // Photons leave the bright half only, and carry the total power on average.
+    let (mut dark, mut sum) = (0, Vec3::ZERO);
+    for k in 0..n as u64 {
+        if let Some(e) = scene.lights.sample_emission(&mut Rng::new(7, k)) {
+            dark += usize::from(e.origin.x > 1e-3);
+            sum += e.power;
+        }
+    }
+    assert!(dark * 100 < n, "{dark} photons from the dark half");
+    let mean = luminance(sum) / n as f32;
+    assert!(
+        (mean / power - 1.0).abs() < 0.02,
+        "photon power {mean} vs {power}"
+    );
+}
+
+#[test]
+fn a_half_dark_emitter_renders_as_the_path_tracer_does() {
+    let scene = Arc::new(half_dark_emitter());
+    let settings = RenderSettings {
+        width: 24,
+        height: 24,
+        spp: 4,
+        photons: 40_000,
+        ..RenderSettings::default()
+    };
+    let pt = path_traced(&scene, &settings, 256).mean();
+    let rs = render_method(&scene, MethodKind::Rs, &settings, Budget::Passes(3))
+        .expect("renders")
+        .film
+        .mean();
+    let (a, b) = (luminance(rs), luminance(pt));
+    assert!((a / b - 1.0).abs() < 0.03, "rs mean {a}, pt mean {b}");
+}
+
+/// A square with material `m` over a white floor, and the hit of a ray straight down at `x`,
+/// `z`.
+fn probe(scene: &Scene, x: f32, z: f32) -> Option<raysplat::scene::Hit> {
+    scene.intersect(Vec3::new(x, 3.0, z), -Vec3::Y, f32::INFINITY)
+}
+
+fn square_of(
+    material: Value,
+    textures: &[(Vec<[u8; 4]>, u32, u32)],
+    extra: &[(&str, usize, &[f32])],
+) -> Scene {
+    let mut g = GlbBuilder::default();
+    let floor = white(&mut g);
+    plane(&mut g, 2.0, floor);
+    for (px, w, h) in textures {
+        g.texture(&png_rgba(*w, *h, px), nearest());
+    }
+    let m = g.material(material);
+    quad(&mut g, 1.0, 0.5, false, m, extra);
+    g.point_light("lamp", Vec3::new(0.0, 3.0, 0.0), Vec3::ONE, 10.0);
+    Scene::from_glb_bytes(&g.to_glb(), "square").expect("loads")
+}
+
+#[test]
+fn the_metallic_roughness_texture_varies_the_model_across_a_surface() {
+    // Texels: smooth metal (B 255, G 0), rough dielectric (B 0, G 255), and G 128 read as
+    // linear 128/255 (not sRGB-decoded).
+    let scene = square_of(
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.6, 0.3, 1.0],
+            "metallicFactor": 1.0, "roughnessFactor": 1.0,
+            "metallicRoughnessTexture": {"index": 0}}}),
+        &[(
+            vec![[0, 0, 255, 255], [0, 255, 0, 255], [0, 128, 0, 255]],
+            3,
+            1,
+        )],
+        &[],
+    );
+    let at = |x: f32| probe(&scene, x, 0.0).expect("the square");
+    assert!(
+        matches!(scene.bsdf(&at(-0.4)), Bsdf::Mirror { .. }),
+        "{:?}",
+        scene.bsdf(&at(-0.4))
+    );
+    assert!(
+        matches!(scene.bsdf(&at(0.0)), Bsdf::Lambert { .. }),
+        "{:?}",
+        scene.bsdf(&at(0.0))
+    );
+    let (metal, rough) = scene.metal_rough(&at(0.4));
+    assert_eq!(metal, 0.0);
+    assert!((rough - 128.0 / 255.0).abs() < 1e-6, "{rough}");
+    assert!(scene.specular_at(&at(-0.4)) && !scene.specular_at(&at(0.0)));
+}
+
+#[test]
+fn vertex_colours_multiply_the_base_colour() {
+    let red = [1.0, 0.0, 0.0, 1.0].repeat(4);
+    let scene = square_of(
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 1.0}}),
+        &[],
+        &[("COLOR_0", 4, &red)],
+    );
+    let h = probe(&scene, 0.1, 0.2).expect("the square");
+    assert!((scene.albedo(&h) - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6);
+    // The floor has no COLOR_0: white.
+    let floor = probe(&scene, 1.5, 1.5).expect("the floor");
+    assert!((scene.albedo(&floor) - Vec3::splat(0.8)).length() < 1e-6);
+}
+
+#[test]
+fn a_normal_texture_bends_the_shading_normal_in_its_tangent_frame() {
+    // Every texel encodes n = (0.6, 0, 0.8) in tangent space.
+    let enc = |x: f32| ((x + 1.0) * 0.5 * 255.0).round() as u8;
+    let texel = [enc(0.6), enc(0.0), enc(0.8), 255];
+    let material = |scale: f32| {
+        json!({"normalTexture": {"index": 0, "scale": scale},
+            "pbrMetallicRoughness": {"metallicFactor": 0.0, "roughnessFactor": 1.0}})
+    };
+    let cases: [(f32, Option<[f32; 4]>, Vec3); 4] = [
+        // Tangents computed from TEXCOORD_0: u grows along +x.
+        (1.0, None, Vec3::new(0.6, 0.8, 0.0)),
+        // The file's tangent, the same direction.
+        (1.0, Some([1.0, 0.0, 0.0, 1.0]), Vec3::new(0.6, 0.8, 0.0)),
+        // The file's tangent along +z: the normal leans there.
+        (1.0, Some([0.0, 0.0, 1.0, 1.0]), Vec3::new(0.0, 0.8, 0.6)),
+        // scale 0: the texture's x and y count for nothing.
+        (0.0, None, Vec3::Y),
+    ];
+    for (scale, tangent, want) in cases {
+        let t: Vec<f32> = tangent.map(|t| t.repeat(4)).unwrap_or_default();
+        let extra: Vec<(&str, usize, &[f32])> = if tangent.is_some() {
+            vec![("TANGENT", 4, &t)]
+        } else {
+            vec![]
+        };
+        let scene = square_of(material(scale), &[(vec![texel; 4], 2, 2)], &extra);
+        let h = probe(&scene, 0.1, -0.2).expect("the square");
+        assert!(
+            (h.normal - want.normalize()).length() < 0.01,
+            "scale {scale} tangent {tangent:?}: {} want {want}",
+            h.normal
+        );
+        assert_eq!(h.geo_normal, Vec3::Y);
+    }
+}
+
+#[test]
+fn alpha_mask_cuts_out_and_blend_covers_stochastically() {
+    // MASK: the left texel is transparent, the right opaque.
+    let masked = square_of(
+        json!({"alphaMode": "MASK", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0},
+            "metallicFactor": 0.0}}),
+        &[(vec![[255, 255, 255, 0], [255, 255, 255, 255]], 2, 1)],
+        &[],
+    );
+    let t = |x: f32| probe(&masked, x, 0.0).map(|h| h.t);
+    assert_eq!(
+        t(-0.25).map(|t| t.round()),
+        Some(3.0),
+        "through the hole to the floor"
+    );
+    assert_eq!(t(0.25).map(|t| t.round()), Some(2.0), "the opaque half");
+    // Shadow rays and segment tests see the same holes.
+    let down = -Vec3::Y;
+    assert!(!masked.occluded(Vec3::new(-0.25, 3.0, 0.0), down, 2.9));
+    assert!(masked.occluded(Vec3::new(0.25, 3.0, 0.0), down, 2.9));
+    // BLEND at alpha 0.3: three rays in ten stop.
+    let blended = square_of(
+        json!({"alphaMode": "BLEND", "pbrMetallicRoughness": {
+            "baseColorFactor": [1.0, 1.0, 1.0, 0.3], "metallicFactor": 0.0}}),
+        &[],
+        &[],
+    );
+    let mut rng = Rng::new(3, 0);
+    let n = 20_000;
+    let stopped = (0..n)
+        .filter(|_| {
+            let u = rng.next_2d() - Vec2::splat(0.5);
+            probe(&blended, 0.9 * u.x, 0.9 * u.y).is_some_and(|h| h.t < 2.5)
+        })
+        .count();
+    let share = stopped as f64 / n as f64;
+    // σ = √(0.3·0.7/n) ≈ 0.0032: 4σ.
+    assert!((share - 0.3).abs() < 0.013, "{share} of rays stopped");
+}
+
+#[test]
+fn the_damaged_helmet_loads_its_textures_and_does_not_glow() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/khronos/DamagedHelmet.glb");
+    if !path.exists() {
+        eprintln!("note: {} not found; not checked", path.display());
+        return;
+    }
+    let scene = Scene::load(&path).expect("the helmet loads");
+    let m = &scene.materials[0];
+    assert!(m.base_texture.is_some() && m.metal_rough_texture.is_some());
+    assert!(m.normal_texture.is_some() && m.emissive_texture.is_some());
+    assert_eq!(m.emission, Vec3::ONE);
+    // Every triangle has emissiveFactor 1: glowing, its lights would send π W per m² of
+    // surface. Its texture is black but for a few lamps and displays.
+    let area: f32 = (0..scene.triangle_count())
+        .map(|t| {
+            let tr = &scene.triangles[t];
+            0.5 * (Vec3::from(tr.v1) - Vec3::from(tr.v0))
+                .cross(Vec3::from(tr.v2) - Vec3::from(tr.v0))
+                .length()
+        })
+        .sum();
+    let glow = std::f32::consts::PI * area;
+    let emitters: Vec<&Light> = scene
+        .lights
+        .lights
+        .iter()
+        .filter(|l| matches!(l, Light::Area { .. }))
+        .collect();
+    let power: f32 = emitters
+        .iter()
+        .map(|l| luminance(scene.lights.power(l)))
+        .sum();
+    assert!(
+        power > 0.0 && power < 0.05 * glow,
+        "power {power}, glowing {glow}"
+    );
+    assert!(emitters.len() < scene.triangle_count() / 20);
+    // Lit by its lamps alone it would be black: the automatic environment lights it too,
+    // and says so.
+    assert!(scene.lights.has_environment());
+    let notice = scene.lighting_notice.as_deref().unwrap_or("");
+    assert!(notice.contains("emissive textures"), "{notice}");
+}
