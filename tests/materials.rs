@@ -354,3 +354,56 @@ fn the_damaged_helmet_loads_its_textures_and_does_not_glow() {
     let notice = scene.lighting_notice.as_deref().unwrap_or("");
     assert!(notice.contains("emissive textures"), "{notice}");
 }
+
+#[test]
+fn what_a_material_uses_and_is_not_rendered_is_named_once() {
+    let mut g = GlbBuilder::default();
+    let mut materials = Vec::new();
+    for k in 0..6 {
+        materials.push(g.material(json!({"name": format!("coat{k}"),
+            "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1.0},
+                "KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}})));
+    }
+    let sheen = g.material(json!({"extensions": {"KHR_materials_sheen": {},
+        "KHR_materials_transmission": {"transmissionFactor": 0.3},
+        "KHR_materials_specular": {"specularFactor": 0.5}}}));
+    let plain_glass = g.material(json!({"pbrMetallicRoughness": {"roughnessFactor": 0.0},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_ior": {"ior": 1.4}}}));
+    for (k, m) in materials
+        .into_iter()
+        .chain([sheen, plain_glass])
+        .enumerate()
+    {
+        quad(&mut g, k as f32, 0.5, false, m, &[]);
+    }
+    g.point_light("lamp", Vec3::new(0.0, 9.0, 0.0), Vec3::ONE, 10.0);
+    let scene = Scene::from_glb_bytes(&g.to_glb(), "extensions").expect("loads");
+    let lines = |needle: &str| -> Vec<&String> {
+        scene
+            .warnings
+            .iter()
+            .filter(|w| w.contains(needle))
+            .collect()
+    };
+    let coat = lines("KHR_materials_clearcoat");
+    assert_eq!(coat.len(), 1, "{:?}", scene.warnings);
+    assert!(
+        coat[0].contains("coat0") && coat[0].contains("and 2 more"),
+        "{coat:?}"
+    );
+    assert_eq!(lines("KHR_materials_sheen").len(), 1);
+    assert_eq!(
+        lines("KHR_materials_transmission's partial factors").len(),
+        1
+    );
+    assert_eq!(lines("KHR_materials_specular").len(), 1);
+    // What is rendered is not named: the strength, the IOR, smooth full transmission.
+    assert!(lines("emissive_strength").is_empty() && lines("KHR_materials_ior").is_empty());
+    assert_eq!(
+        lines("KHR_materials_transmission").len(),
+        1,
+        "{:?}",
+        scene.warnings
+    );
+}

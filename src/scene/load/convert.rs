@@ -318,6 +318,49 @@ pub(super) fn convert_material(
     })
 }
 
+/// What material `m` (its raw JSON) asks for that raysplat does not render: one name per
+/// extension, with what part of it is not rendered where part is.
+pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
+    let mut out = Vec::new();
+    let Some(exts) = raw["extensions"].as_object() else {
+        return out;
+    };
+    for (name, e) in exts {
+        let what = match name.as_str() {
+            "KHR_materials_emissive_strength" | "KHR_materials_ior" => continue,
+            "KHR_materials_transmission" => {
+                let factor = e["transmissionFactor"].as_f64().unwrap_or(0.0);
+                let rough = m.pbr_metallic_roughness.roughness_factor.0 >= 0.05;
+                if e.get("transmissionTexture").is_some() {
+                    "KHR_materials_transmission's texture".to_string()
+                } else if factor > 0.0 && factor < 1.0 {
+                    "KHR_materials_transmission's partial factors (above 0.5 renders as glass, below as opaque)".to_string()
+                } else if factor > 0.5 && rough {
+                    "KHR_materials_transmission's rough transmission (rendered as smooth glass)"
+                        .to_string()
+                } else {
+                    continue;
+                }
+            }
+            "KHR_materials_specular" => {
+                let factor = e["specularFactor"].as_f64().unwrap_or(1.0);
+                let white = e["specularColorFactor"]
+                    .as_array()
+                    .is_none_or(|c| c.iter().all(|v| v.as_f64() == Some(1.0)));
+                let textures =
+                    e.get("specularTexture").is_some() || e.get("specularColorTexture").is_some();
+                if factor == 0.0 || (factor == 1.0 && white && !textures) {
+                    continue;
+                }
+                "KHR_materials_specular (only a specularFactor of 0 is read)".to_string()
+            }
+            other => other.to_string(),
+        };
+        out.push(what);
+    }
+    out
+}
+
 /// A KHR_lights_punctual light placed by `world`, or `None` when its intensity or colour is not
 /// positive and finite, or its type unknown.
 pub(super) fn convert_light(light: &Punctual, world: Mat4) -> Option<Light> {

@@ -13,7 +13,7 @@ mod data;
 mod document;
 mod mesh;
 
-use convert::{TextureLoader, convert_light, convert_material};
+use convert::{TextureLoader, convert_light, convert_material, unrendered};
 use data::Buffers;
 use document::get;
 use mesh::{LoadStats, MeshInput, add_mesh};
@@ -93,8 +93,37 @@ fn convert_file(bytes: &[u8], base: Option<&Path>, name: String) -> Result<Scene
         warnings,
     };
     let mut materials = Vec::with_capacity(root.materials.len() + 1);
+    // What the materials use and raysplat does not render: one line per extension.
+    let mut ignored: Vec<(String, Vec<usize>)> = Vec::new();
     for (i, m) in root.materials.iter().enumerate() {
         materials.push(convert_material(i, m, &mut textures)?);
+        for what in unrendered(m, &raw["materials"][i]) {
+            match ignored.iter_mut().find(|(w, _)| *w == what) {
+                Some((_, list)) => list.push(i),
+                None => ignored.push((what, vec![i])),
+            }
+        }
+    }
+    for (what, list) in ignored {
+        let names: Vec<String> = list
+            .iter()
+            .take(4)
+            .map(|&i| {
+                root.materials[i]
+                    .name
+                    .clone()
+                    .unwrap_or_else(|| format!("#{i}"))
+            })
+            .collect();
+        let more = if list.len() > 4 {
+            format!(" and {} more", list.len() - 4)
+        } else {
+            String::new()
+        };
+        textures.warn(format!(
+            "{what} ignored: raysplat does not render it (material {}{more})",
+            names.join(", ")
+        ));
     }
     // The default material for primitives without one (glTF spec: white, metallic 1 — we use
     // a plain light-grey Lambertian, the usual choice of viewers).
