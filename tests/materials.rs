@@ -251,7 +251,18 @@ fn a_normal_texture_bends_the_shading_normal_in_its_tangent_frame() {
         // scale 0: the texture's x and y count for nothing.
         (0.0, None, Vec3::Y),
     ];
-    for (scale, tangent, want) in cases {
+    check_normal_cases(texel, &material, &cases);
+    // +Y of the texture is up the image, where v falls: here towards −z (v grows along +z).
+    let up = [enc(0.0), enc(0.6), enc(0.8), 255];
+    check_normal_cases(up, &material, &[(1.0, None, Vec3::new(0.0, 0.8, -0.6))]);
+}
+
+fn check_normal_cases(
+    texel: [u8; 4],
+    material: &dyn Fn(f32) -> Value,
+    cases: &[(f32, Option<[f32; 4]>, Vec3)],
+) {
+    for &(scale, tangent, want) in cases {
         let t: Vec<f32> = tangent.map(|t| t.repeat(4)).unwrap_or_default();
         let extra: Vec<(&str, usize, &[f32])> = if tangent.is_some() {
             vec![("TANGENT", 4, &t)]

@@ -105,3 +105,30 @@ for f in sibenik:0.0,1.0,0.0:0.9:0.3 living_room:0.0,0.9,0.1:0.9:0.4 \
         clamps $name $S/$name.glb --photons 500000 --fractions $fr --c $c --s $s --r 0.2
     fi
 done
+
+# The file's own materials against Blender Cycles (an independent renderer: `pip install
+# bpy==4.2.0`), 200×200 under the uniform environment. The reference (cycles.exr) is rendered
+# once into the scene's folder; the Khronos models get a camera first (tools/with_camera.py).
+materials() {
+    local dir=$1 scene=$2 cam=$3
+    mkdir -p "$OUT/$dir"
+    if [ ! -f "$OUT/$dir/cycles.exr" ]; then
+        (cd /tmp && python3 "$OLDPWD/tools/cycles_reference.py" "$OLDPWD/$scene" \
+            "$OLDPWD/$OUT/$dir/cycles.exr" --spp 2048 --width 200 --height 200 --camera "$cam")
+    fi
+    $R compare "$scene" --camera "$cam" --width 200 --height 200 --methods rs,pt --pt-spp 256 \
+        --reference "$OUT/$dir/cycles.exr" --out-dir "$OUT/$dir"
+    $R render "$scene" --camera "$cam" --width 200 --height 200 --time-budget 10 \
+        --out "$OUT/$dir/rs_10s.exr" --stats "$OUT/$dir/rs_10s.json" >/dev/null
+}
+python3 -c "import bpy" 2>/dev/null && {
+    materials features assets/features.glb features_camera
+    for m in DamagedHelmet.glb Suzanne/Suzanne.gltf; do
+        name=$(basename "${m%.*}")
+        if [ -f "$S/khronos/$m" ]; then
+            case $name in DamagedHelmet) view="--distance 3.3 --yfov 0.7" ;; *) view="--distance 4.5 --yfov 0.6" ;; esac
+            python3 tools/with_camera.py "$S/khronos/$m" "/tmp/raysplat_$name" $view
+            materials "khronos_$name" "/tmp/raysplat_$name/$(basename "$m")" cam
+        fi
+    done
+}

@@ -34,7 +34,7 @@ pub struct RenderArgs {
 #[derive(Args, Clone, Debug)]
 pub struct SettingsArgs {
     /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic |
-    /// builtin:glossy | builtin:glossy-sharp | builtin:outdoor | builtin:room.
+    /// builtin:glossy | builtin:glossy-sharp | builtin:outdoor | builtin:room | builtin:features.
     /// Without it, the embedded CORNELL BOX I.
     pub scene: Option<String>,
     #[command(flatten)]

@@ -7,6 +7,7 @@
 //!
 //! The meshes are generated in `shapes`, the GLB written by `glb`'s [`GlbBuilder`].
 
+mod features;
 mod glb;
 mod shapes;
 
@@ -45,11 +46,15 @@ pub enum BuiltinScene {
     /// for `--environment uniform` or `sky` as well: light outside must stay outside
     /// (docs/deviations.md §40).
     WindowRoom,
+    /// One object for each part of glTF's material model raysplat reads: textures of every
+    /// kind, COLOR_0, an alpha-MASK screen, a half-dark emissive texture, plastic spheres;
+    /// no light of its own (`features`).
+    Features,
 }
 
 impl BuiltinScene {
     /// Every built-in scene, in the order `raysplat scenes` writes them and help lists them.
-    pub const ALL: [BuiltinScene; 7] = [
+    pub const ALL: [BuiltinScene; 8] = [
         BuiltinScene::CornellBox1,
         BuiltinScene::CornellBox2,
         BuiltinScene::CornellClassic,
@@ -57,6 +62,7 @@ impl BuiltinScene {
         BuiltinScene::Outdoor,
         BuiltinScene::CornellGlossySharp,
         BuiltinScene::WindowRoom,
+        BuiltinScene::Features,
     ];
 
     /// The name after `builtin:` on the command line.
@@ -69,6 +75,7 @@ impl BuiltinScene {
             BuiltinScene::Outdoor => "outdoor",
             BuiltinScene::CornellGlossySharp => "glossy-sharp",
             BuiltinScene::WindowRoom => "room",
+            BuiltinScene::Features => "features",
         }
     }
 
@@ -87,6 +94,7 @@ impl BuiltinScene {
             BuiltinScene::Outdoor => "outdoor.glb",
             BuiltinScene::CornellGlossySharp => "cornell_glossy_sharp.glb",
             BuiltinScene::WindowRoom => "window_room.glb",
+            BuiltinScene::Features => "features.glb",
         }
     }
 
@@ -100,6 +108,7 @@ impl BuiltinScene {
             BuiltinScene::Outdoor => "Outdoor",
             BuiltinScene::CornellGlossySharp => "Glossy Cornell box, mirror to matte",
             BuiltinScene::WindowRoom => "Room lit through a window",
+            BuiltinScene::Features => "glTF material features",
         }
     }
 
@@ -114,6 +123,10 @@ impl BuiltinScene {
             window_room(&mut g);
             return g.to_glb();
         }
+        if self == BuiltinScene::Features {
+            features::features(&mut g);
+            return g.to_glb();
+        }
         let floor = match self {
             BuiltinScene::CornellBox1 => Floor::Bumpy,
             BuiltinScene::CornellGlossySharp => Floor::GlossyPlastic(0.25),
@@ -121,7 +134,9 @@ impl BuiltinScene {
         };
         cornell_shell(&mut g, floor);
         match self {
-            BuiltinScene::Outdoor | BuiltinScene::WindowRoom => unreachable!("generated above"),
+            BuiltinScene::Outdoor | BuiltinScene::WindowRoom | BuiltinScene::Features => {
+                unreachable!("generated above")
+            }
             BuiltinScene::CornellBox1 => {
                 // Brushed brass: Phong exponent 9.2, sharper than the 16 SH coefficients
                 // carry (docs/deviations.md §37): its reflection is traced.

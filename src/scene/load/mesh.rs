@@ -335,11 +335,13 @@ fn texture_directions(p: [Vec3; 3], uv: [Vec2; 3]) -> Option<[Vec3; 2]> {
 }
 
 /// A vertex tangent from its summed texture directions `tb`: u's direction made orthogonal
-/// to the normal `n`, w the sign that makes n × t point where v grows (glTF §3.7.2.1). Zero
-/// where the directions vanish: the normal texture is then not applied there.
+/// to the normal `n`, w the sign that makes the bitangent n × t·w point where v falls, up the
+/// image (glTF §3.9.3: a normal texture's +Y is up; v = 0 is the image's top row). Blender's
+/// MikkTSpace tangents, computed with v flipped, point the same way. Zero where the
+/// directions vanish: the normal texture is then not applied there.
 fn tangent_at(tb: [Vec3; 2], n: Vec3) -> Vec4 {
     let t = (tb[0] - n * n.dot(tb[0])).normalize_or_zero();
-    let w = if n.cross(t).dot(tb[1]) < 0.0 {
+    let w = if n.cross(t).dot(tb[1]) > 0.0 {
         -1.0
     } else {
         1.0

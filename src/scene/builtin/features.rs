@@ -1,0 +1,251 @@
+//! [`super::BuiltinScene::Features`]: one object for each part of glTF's material model that
+//! raysplat reads (issue 31), on a floor, with no light of its own: a checker base-colour
+//! texture and a normal texture of dimples on the floor (repeat sampler, tangents computed),
+//! a sphere whose metallic-roughness texture bands smooth metal with rough plastic, a cube
+//! coloured by COLOR_0, an alpha-MASK screen with round holes, a panel whose emissive
+//! texture is bright on one half only, and two plain plastic spheres (roughness 0.3, 0.6).
+//! Textures are generated here and written as PNG.
+
+use super::GlbBuilder;
+use super::shapes::{Quads, uv_sphere};
+use glam::{Vec2, Vec3};
+use serde_json::{Value, json};
+
+/// An RGBA image of `w`×`h` from `texel(x, y)`, as PNG bytes.
+fn png(w: u32, h: u32, texel: impl Fn(u32, u32) -> [u8; 4]) -> Vec<u8> {
+    let img = image::RgbaImage::from_fn(w, h, |x, y| image::Rgba(texel(x, y)));
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png)
+        .expect("encoding a PNG into memory cannot fail");
+    out.into_inner()
+}
+
+/// TEXCOORD_0 of [`uv_sphere`]'s vertices: u around, v from the top pole down.
+fn sphere_uvs(segments: u32, rings: u32) -> Vec<f32> {
+    (0..=rings)
+        .flat_map(|r| {
+            (0..=segments).flat_map(move |s| [s as f32 / segments as f32, r as f32 / rings as f32])
+        })
+        .collect()
+}
+
+/// A quad's four corners' TEXCOORD_0, repeated `tiles` times, in [`Quads::add`]'s order.
+fn quad_uvs(q: &Quads, corners: [Vec3; 4], tiles: f32) -> Vec<f32> {
+    let uv = [
+        Vec2::new(0.0, 0.0),
+        Vec2::new(tiles, 0.0),
+        Vec2::new(tiles, tiles),
+        Vec2::new(0.0, tiles),
+    ];
+    q.p.iter()
+        .flat_map(|p| {
+            let k = corners.iter().position(|c| c == p).unwrap_or(0);
+            uv[k].to_array()
+        })
+        .collect()
+}
+
+fn pbr(name: &str, color: [f32; 4], metallic: f32, roughness: f32) -> Value {
+    json!({"name": name, "pbrMetallicRoughness": {"baseColorFactor": color,
+        "metallicFactor": metallic, "roughnessFactor": roughness}})
+}
+
+pub(super) fn features(g: &mut GlbBuilder) {
+    // The floor: a checker base colour and dimples in its normal texture, tiled 6 × 6.
+    let checker = g.texture(
+        &png(64, 64, |x, y| {
+            if (x / 8 + y / 8) % 2 == 0 {
+                [200, 200, 190, 255]
+            } else {
+                [60, 80, 130, 255]
+            }
+        }),
+        None,
+    );
+    let dimples = g.texture(
+        &png(64, 64, |x, y| {
+            // A spherical cap of radius 12 texels in each 32-texel cell, its slope encoded.
+            let (dx, dy) = ((x % 32) as f32 - 15.5, (y % 32) as f32 - 15.5);
+            let r2 = dx * dx + dy * dy;
+            let n = if r2 < 144.0 {
+                let h = (144.0 - r2).sqrt();
+                Vec3::new(dx / h, dy / h, 1.0).normalize()
+            } else {
+                Vec3::Z
+            };
+            let e = |c: f32| ((c * 0.5 + 0.5) * 255.0).round() as u8;
+            [e(n.x), e(n.y), e(n.z), 255]
+        }),
+        None,
+    );
+    let mut floor = pbr("floor", [1.0; 4], 0.0, 0.8);
+    floor["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": checker});
+    floor["normalTexture"] = json!({"index": dimples, "scale": 1.0});
+    let floor = g.material(floor);
+    let corners = [
+        Vec3::new(-3.0, 0.0, 3.0),
+        Vec3::new(3.0, 0.0, 3.0),
+        Vec3::new(3.0, 0.0, -3.0),
+        Vec3::new(-3.0, 0.0, -3.0),
+    ];
+    let mut q = Quads::default();
+    q.add(corners, Vec3::Y);
+    let uv = quad_uvs(&q, corners, 6.0);
+    g.mesh_with("floor", &q.p, &q.n, &[("TEXCOORD_0", 2, &uv)], &q.i, floor);
+
+    // A sphere banded by its metallic-roughness texture: smooth metal and rough plastic.
+    let bands = g.texture(
+        &png(4, 64, |_, y| {
+            if (y / 8) % 2 == 0 {
+                [0, 20, 255, 255]
+            } else {
+                [0, 230, 0, 255]
+            }
+        }),
+        Some(json!({"magFilter": 9728})),
+    );
+    let mut banded = pbr("banded", [0.95, 0.75, 0.35, 1.0], 1.0, 1.0);
+    banded["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({"index": bands});
+    let banded = g.material(banded);
+    let (segments, rings) = (64, 32);
+    let uv = sphere_uvs(segments, rings);
+    let (p, n, i) = uv_sphere(Vec3::new(-1.2, 0.5, 0.0), 0.5, segments, rings);
+    g.mesh_with(
+        "banded_sphere",
+        &p,
+        &n,
+        &[("TEXCOORD_0", 2, &uv)],
+        &i,
+        banded,
+    );
+
+    // Plain plastic spheres: the glossy highlight of a rough dielectric.
+    for (k, rough) in [0.3f32, 0.6].into_iter().enumerate() {
+        let m = g.material(pbr(
+            &format!("plastic_{rough}"),
+            [0.1, 0.35, 0.8, 1.0],
+            0.0,
+            rough,
+        ));
+        let (p, n, i) = uv_sphere(Vec3::new(0.9 + 0.9 * k as f32, 0.35, 1.0), 0.35, 48, 24);
+        g.mesh(&format!("plastic_sphere_{k}"), &p, &n, &i, m);
+    }
+
+    // A cube coloured by COLOR_0, one colour per face.
+    let white = g.material(pbr("vertex_coloured", [1.0; 4], 0.0, 1.0));
+    let (c, h) = (Vec3::new(0.2, 0.3, 0.9), 0.3);
+    let mut cube = Quads::default();
+    let mut colors = Vec::new();
+    let face_colors = [
+        [0.8, 0.1, 0.1, 1.0],
+        [0.1, 0.7, 0.1, 1.0],
+        [0.1, 0.2, 0.8, 1.0],
+        [0.8, 0.8, 0.1, 1.0],
+        [0.8, 0.1, 0.8, 1.0],
+        [0.1, 0.8, 0.8, 1.0],
+    ];
+    for (f, axis) in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+        .into_iter()
+        .enumerate()
+    {
+        let (u, v) = crate::sampling::onb(axis);
+        let o = c + axis * h;
+        cube.add(
+            [
+                o - u * h - v * h,
+                o + u * h - v * h,
+                o + u * h + v * h,
+                o - u * h + v * h,
+            ],
+            axis,
+        );
+        for _ in 0..4 {
+            colors.extend_from_slice(&face_colors[f]);
+        }
+    }
+    g.mesh_with(
+        "vertex_coloured_cube",
+        &cube.p,
+        &cube.n,
+        &[("COLOR_0", 4, &colors)],
+        &cube.i,
+        white,
+    );
+
+    // An alpha-MASK screen with round holes, standing behind the spheres.
+    let holes = g.texture(
+        &png(64, 64, |x, y| {
+            let (dx, dy) = ((x % 16) as f32 - 7.5, (y % 16) as f32 - 7.5);
+            let a = if dx * dx + dy * dy < 25.0 { 0 } else { 255 };
+            [230, 230, 230, a]
+        }),
+        Some(json!({"magFilter": 9728})),
+    );
+    let mut screen = pbr("screen", [1.0; 4], 0.0, 1.0);
+    screen["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": holes});
+    screen["alphaMode"] = json!("MASK");
+    screen["doubleSided"] = json!(true);
+    let screen = g.material(screen);
+    let corners = [
+        Vec3::new(-2.2, 0.0, -1.2),
+        Vec3::new(0.2, 0.0, -1.2),
+        Vec3::new(0.2, 1.6, -1.2),
+        Vec3::new(-2.2, 1.6, -1.2),
+    ];
+    let mut s = Quads::default();
+    s.add(corners, Vec3::Z);
+    let uv = quad_uvs(&s, corners, 1.0);
+    g.mesh_with(
+        "screen",
+        &s.p,
+        &s.n,
+        &[("TEXCOORD_0", 2, &uv)],
+        &s.i,
+        screen,
+    );
+
+    // A panel whose emissive texture is warm white on its upper half and black below.
+    let glow = g.texture(
+        &png(32, 32, |_, y| {
+            if y < 16 {
+                [255, 220, 170, 255]
+            } else {
+                [0, 0, 0, 255]
+            }
+        }),
+        Some(json!({"magFilter": 9728})),
+    );
+    let mut panel = pbr("panel", [0.2, 0.2, 0.2, 1.0], 0.0, 0.9);
+    panel["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    panel["emissiveTexture"] = json!({"index": glow});
+    panel["extensions"] = json!({"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}});
+    let panel = g.material(panel);
+    let corners = [
+        Vec3::new(0.8, 0.0, -1.5),
+        Vec3::new(2.2, 0.0, -1.5),
+        Vec3::new(2.2, 1.4, -1.5),
+        Vec3::new(0.8, 1.4, -1.5),
+    ];
+    let mut e = Quads::default();
+    e.add(corners, Vec3::Z);
+    // v = 0 at the top of the image: the panel's top edge.
+    let uv: Vec<f32> =
+        e.p.iter()
+            .flat_map(|p| [(p.x - 0.8) / 1.4, 1.0 - p.y / 1.4])
+            .collect();
+    g.mesh_with(
+        "emissive_panel",
+        &e.p,
+        &e.n,
+        &[("TEXCOORD_0", 2, &uv)],
+        &e.i,
+        panel,
+    );
+
+    g.camera(
+        "features_camera",
+        Vec3::new(0.0, 1.8, 4.6),
+        Vec3::new(0.0, 0.5, -0.3),
+        38f32.to_radians(),
+    );
+}

@@ -1,0 +1,59 @@
+"""An independent reference for raysplat: Blender Cycles (the `bpy` package from PyPI,
+`pip install bpy==4.2.0` with CPython 3.11) renders a glTF file as Blender's own importer
+reads it, lit by a uniform environment, with no denoiser, clamping or filter (a 0.01-pixel
+box), into a linear EXR that `raysplat compare --reference` reads.
+
+    python3 tools/cycles_reference.py SCENE.glb OUT.exr --spp 2048 --width 200 --height 200 \
+        [--camera NAME] [--env-strength 1]
+
+Run it from a folder without a file named `cycles.py` (Python would import that instead of
+Blender's add-on). The file needs a camera of its own (raysplat's framing camera is its own
+invention); both renderers then use it. docs/results.md, "The file's own materials".
+"""
+import argparse
+
+import bpy
+
+p = argparse.ArgumentParser()
+p.add_argument("scene")
+p.add_argument("out")
+p.add_argument("--spp", type=int, default=2048)
+p.add_argument("--width", type=int, default=200)
+p.add_argument("--height", type=int, default=200)
+p.add_argument("--camera", default=None)
+p.add_argument("--env-strength", type=float, default=1.0)
+a = p.parse_args()
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+import addon_utils  # noqa: E402  (after the factory settings, which reset the add-ons)
+
+addon_utils.enable("cycles", default_set=True)
+bpy.ops.import_scene.gltf(filepath=a.scene)
+sc = bpy.context.scene
+cams = [o for o in sc.objects if o.type == "CAMERA" and (a.camera is None or o.name == a.camera)]
+if not cams:
+    raise SystemExit(f"{a.scene}: no camera" + (f" named {a.camera}" if a.camera else ""))
+sc.camera = cams[0]
+world = bpy.data.worlds.new("uniform")
+sc.world = world
+world.use_nodes = True
+bg = world.node_tree.nodes["Background"]
+bg.inputs[0].default_value = (1, 1, 1, 1)
+bg.inputs[1].default_value = a.env_strength
+sc.render.engine = "CYCLES"
+sc.cycles.device = "CPU"
+sc.cycles.samples = a.spp
+sc.cycles.use_denoising = False
+sc.cycles.use_adaptive_sampling = False
+sc.cycles.max_bounces = 12
+sc.cycles.sample_clamp_direct = 0
+sc.cycles.sample_clamp_indirect = 0
+sc.cycles.filter_width = 0.01
+sc.render.resolution_x = a.width
+sc.render.resolution_y = a.height
+sc.render.resolution_percentage = 100
+sc.view_settings.view_transform = "Standard"
+sc.render.image_settings.file_format = "OPEN_EXR"
+sc.render.image_settings.color_depth = "32"
+sc.render.filepath = a.out
+bpy.ops.render.render(write_still=True)
