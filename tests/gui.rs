@@ -371,7 +371,8 @@ fn reference_view_mode_path_traces_the_view() {
 
 /// The glossy radiance-map mode (§8.1) reaches the worker, re-splats the stored rays without
 /// tracing (paused), changes the glossy spheres, and the stats report the directional memory.
-/// On the glossy box, whose copper sphere (roughness 0.8, e ≈ 2.9) SH records carry.
+/// On the glossy box, whose copper sphere (roughness 0.95, a GGX lobe as wide as Phong's e = 1)
+/// SH records carry.
 #[test]
 fn radiance_map_mode_switches_and_reports_memory() {
     let dir = tmp("radiance_map");
@@ -507,7 +508,7 @@ fn epsilon_slider_reruns_the_cache_live() {
 /// docs/deviations.md §38: hovering a pixel tells whether its glossy part came from the radiance
 /// map or from reflections traced by the eye path, and the stats count both kinds of glossy eye
 /// sample. On the mirror-to-matte box with SH records, the floor (roughness 0.25, e ≈ 510) is
-/// traced and the copper sphere (roughness 0.8, e ≈ 2.9) goes through the map.
+/// traced and the copper sphere (roughness 0.95) goes through the map.
 #[test]
 fn the_probe_shows_where_the_glossy_part_came_from() {
     let dir = tmp("glossy_probe");

@@ -89,7 +89,9 @@ fn scale_and_far_black_geometry_do_not_change_the_image() {
 /// CORNELL BOX I (a glass sphere: records behind it, their world reach, the world-space
 /// lookup) scaled by 100 and by 0.01 renders the image rc renders at its own size (the same
 /// seed: only floating-point paths differ), mean within 1% and relMSE within 5·10⁻⁴ of it
-/// (measured 10⁻⁶ and 3·10⁻⁵); the cache's thresholds follow depth, pixel size and ε·R, never a
+/// (measured 6·10⁻⁶ and 1.4·10⁻⁴: where a traced glossy lobe leaves its surface at one scale and
+/// not at the other, that pixel's samples differ; NEE's streams follow each pixel's own
+/// samples, so no later pixel shifts with it); the cache's thresholds follow depth, pixel size and ε·R, never a
 /// length of their own. A black ground plane far below, seen only in the glass sphere's
 /// reflection, leaves rc's indirect light within the same bound (measured 2·10⁻⁶; its direct
 /// light moves by 2·10⁻³: the plane's few eye samples shift the index that NEE's random
@@ -217,7 +219,7 @@ fn ceiling_sample(hit: &Hit, albedo: f32, pixel: u32) -> EyeSample {
         weight: Vec3::ONE,
         albedo: Vec3::splat(albedo),
         specular: Vec3::ZERO,
-        exponent: 1.0,
+        alpha: 1.0,
         primary: true,
         lobe_traced: false,
     }
@@ -342,7 +344,10 @@ fn shading_normals_agree_between_photons_and_the_path_tracer() {
     let mut g = GlbBuilder::default();
     let white = g.material(json!({"name": "white", "pbrMetallicRoughness": {
         "baseColorFactor": [0.7, 0.7, 0.7, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
+    // A black panel: glTF's default material (a rough white metal) would reflect too, through
+    // single-scattering GGX since deviations §49, which is not what this test is about.
     let light = g.material(json!({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
+        "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]},
         "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}}}));
     // A closed unit box (normals inwards) with a square light in its ceiling.
     let c = [
@@ -396,6 +401,10 @@ fn shading_normals_agree_between_photons_and_the_path_tracer() {
         photons: 600_000,
         fractions: [0.0, 1.0, 0.0],
         direct: DirectMode::Nee,
+        // Direct light from 64 light samples per eye sample: with one, the 256 pixels of the
+        // sphere's centre carry ±2% of NEE noise, as much as the tolerance (rs and pm share
+        // it, so their gap to the path tracer moved together with the NEE streams).
+        nee_samples: 64,
         seed: 4,
         // Bandwidths small against the sphere's radius: density estimation on a convex
         // surface overestimates in proportion to h/radius (at C = 1, rs is 4% high on the
@@ -420,16 +429,19 @@ fn shading_normals_agree_between_photons_and_the_path_tracer() {
         s / 256.0
     };
     let (pt_mean, pt_centre) = (mean(&pt) as f64, centre(&pt));
-    for method in [MethodKind::Rs, MethodKind::Pm] {
+    // rs within 2%; photon mapping within 3%: its K-NN estimate on the convex sphere is 2.4%
+    // below rs's at K = 100 (measured with 64 light samples per eye sample; with one, the NEE
+    // noise both share had let it pass at 2% by chance).
+    for (method, tol) in [(MethodKind::Rs, 0.02), (MethodKind::Pm, 0.03)] {
         let f = render(&scene, method, &settings, 0);
         let (m, c) = (mean(&f) as f64, centre(&f));
         eprintln!("{method:?}: mean {m:.4} vs pt {pt_mean:.4}, sphere {c:.4} vs pt {pt_centre:.4}");
         assert!(
-            (m / pt_mean - 1.0).abs() < 0.02,
+            (m / pt_mean - 1.0).abs() < tol,
             "{method:?}: image mean {m} vs path tracer {pt_mean}"
         );
         assert!(
-            (c / pt_centre - 1.0).abs() < 0.02,
+            (c / pt_centre - 1.0).abs() < tol,
             "{method:?}: sphere {c} vs path tracer {pt_centre}"
         );
     }

@@ -1,7 +1,9 @@
 """An independent reference for raysplat: Blender Cycles (the `bpy` package from PyPI,
 `pip install bpy==4.2.0` with CPython 3.11) renders a glTF file as Blender's own importer
 reads it, lit by a uniform environment, with no denoiser, clamping or filter (a 0.01-pixel
-box), into a linear EXR that `raysplat compare --reference` reads.
+box), into a linear EXR that `raysplat compare --reference` reads. Every Principled BSDF is
+set to single-scattering GGX, the glTF specification's microfacet model (Blender's default,
+multiscatter GGX, adds the energy single scattering loses; `--multiscatter` keeps it).
 
     python3 tools/cycles_reference.py SCENE.glb OUT.exr --spp 2048 --width 200 --height 200 \
         [--camera NAME] [--env-strength 1]
@@ -22,6 +24,7 @@ p.add_argument("--width", type=int, default=200)
 p.add_argument("--height", type=int, default=200)
 p.add_argument("--camera", default=None)
 p.add_argument("--env-strength", type=float, default=1.0)
+p.add_argument("--multiscatter", action="store_true")
 a = p.parse_args()
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -30,6 +33,11 @@ import addon_utils  # noqa: E402  (after the factory settings, which reset the a
 addon_utils.enable("cycles", default_set=True)
 bpy.ops.import_scene.gltf(filepath=a.scene)
 sc = bpy.context.scene
+if not a.multiscatter:
+    for mat in bpy.data.materials:
+        for node in mat.node_tree.nodes if mat.use_nodes else []:
+            if node.type == "BSDF_PRINCIPLED":
+                node.distribution = "GGX"
 cams = [o for o in sc.objects if o.type == "CAMERA" and (a.camera is None or o.name == a.camera)]
 if not cams:
     raise SystemExit(f"{a.scene}: no camera" + (f" named {a.camera}" if a.camera else ""))

@@ -69,7 +69,7 @@ const EMITTERS_TESTED_DIRECTLY: usize = 64;
 /// Reflected direct radiance towards the eye at every sample (BSDF applied, eye weight not),
 /// and the number of samples whose estimate was NaN or infinite (set to zero, not used).
 pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) -> (Vec<Vec3>, u64) {
-    direct_light_through(scene, eye, samples, seed, |i| Some(eye.bsdf(i)))
+    direct_light_through(scene, eye, samples, seed, |i| Some(eye.bsdf(i, scene)))
 }
 
 /// Direct light reflected by the traced glossy lobes only (zero at other samples), for
@@ -84,15 +84,32 @@ pub fn traced_lobe_direct_light(
     seed: u64,
 ) -> (Vec<Vec3>, u64) {
     direct_light_through(scene, eye, samples, seed, |i| {
-        (eye.lobe_traced(i)).then(|| match eye.bsdf(i) {
-            Bsdf::Glossy { ks, exponent, .. } => Bsdf::Glossy {
+        (eye.lobe_traced(i)).then(|| match eye.bsdf(i, scene) {
+            Bsdf::Glossy {
+                f0, f0_d, alpha, ..
+            } => Bsdf::Glossy {
                 kd: Vec3::ZERO,
-                ks,
-                exponent,
+                f0,
+                f0_d,
+                alpha,
             },
             other => other,
         })
     })
+}
+
+/// The random stream of eye sample `i`: its pixel and its rank among that pixel's samples,
+/// so that one pixel's count of samples (a traced lobe that leaves its surface at one scale
+/// and not at another, by rounding) never shifts the streams of the pixels after it.
+#[inline]
+fn sample_stream(eye: &EyeSamples, i: usize) -> u64 {
+    let pixel = eye.pixel[i];
+    let rank = eye.pixel[..i]
+        .iter()
+        .rev()
+        .take_while(|&&p| p == pixel)
+        .count() as u64;
+    ((pixel as u64) << 20) | rank.min((1 << 20) - 1)
 }
 
 /// NEE at every eye sample through the BSDF `bsdf_of` gives it (none: no direct light).
@@ -114,7 +131,7 @@ fn direct_light_through(
     let radiance: Vec<Vec3> = (0..eye.len())
         .into_par_iter()
         .map(|i| {
-            let mut rng = Rng::new(seed, 0x2000_0000_0000 + i as u64);
+            let mut rng = Rng::new(seed, 0x2000_0000_0000 + sample_stream(eye, i));
             let p = eye.position[i];
             let n = eye.normal[i].get();
             let ng = eye.geo_normal[i].get();

@@ -9,17 +9,19 @@ use std::sync::LazyLock;
 /// How a material scatters; glTF's metallic/roughness model mapped onto the models we render.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MaterialKind {
-    /// Lambertian (roughness ≥ 0.9 and not metallic, or specular turned off).
+    /// Lambertian (roughness ≥ 0.9 and not metallic, or specular turned off:
+    /// docs/deviations.md §49).
     Diffuse,
-    /// Moderately glossy (0.05 ≤ roughness < 0.9 or metallic but rough): [`Bsdf::Glossy`],
-    /// rendered through the directional radiance map (§8.1).
+    /// glTF's metallic-roughness BRDF, [`Bsdf::Glossy`]: GGX over a Fresnel-weighted
+    /// Lambertian layer; lobes the directional radiance map can hold go through it (§8.1),
+    /// sharper ones are traced.
     Glossy {
-        /// glTF roughness in [0, 1] (the Phong exponent follows from it).
+        /// glTF roughness in [0, 1] (α = roughness²).
         roughness: f32,
-        /// glTF metallic in [0, 1] (splits base colour between kd and ks).
+        /// glTF metallic in [0, 1] (splits the base colour between kd and f0).
         metallic: f32,
     },
-    /// A perfect mirror (metallic, roughness < 0.05).
+    /// A perfect mirror: a metal of roughness 0 (the specification's exact limit).
     Mirror,
     /// Smooth glass (KHR_materials_transmission > 0.5).
     Dielectric {
@@ -31,7 +33,7 @@ pub enum MaterialKind {
 impl MaterialKind {
     /// The model a metallic-roughness surface point is rendered with (not transmissive).
     pub fn classify(metallic: f32, roughness: f32, specular_off: bool) -> Self {
-        if metallic > 0.5 && roughness < 0.05 {
+        if metallic >= 1.0 && roughness <= 0.0 {
             MaterialKind::Mirror
         } else if specular_off || (roughness >= 0.9 && metallic < 0.5) {
             MaterialKind::Diffuse
@@ -136,6 +138,8 @@ pub struct Material {
     pub roughness: f32,
     /// KHR_materials_specular with a zero factor: no specular layer.
     pub specular_off: bool,
+    /// Index of refraction (KHR_materials_ior; 1.5 by default): the dielectric's f0.
+    pub ior: f32,
     /// metallicRoughnessTexture (linear; B metal, G rough), multiplied with the factors.
     pub metal_rough_texture: Option<TextureRef>,
     /// normalTexture (linear, tangent space) and its `scale`.
@@ -162,6 +166,7 @@ impl Material {
             metallic: 0.0,
             roughness: 1.0,
             specular_off: false,
+            ior: 1.5,
             metal_rough_texture: None,
             normal_texture: None,
             emission: Vec3::ZERO,
@@ -321,15 +326,6 @@ impl Texture {
 }
 
 impl Scene {
-    /// Phong exponent of a glossy material (1 for any other), where no texture varies it.
-    #[inline]
-    pub fn glossy_exponent(&self, material: u32) -> f32 {
-        match self.materials[material as usize].kind {
-            MaterialKind::Glossy { roughness, .. } => crate::bsdf::phong_exponent(roughness),
-            _ => 1.0,
-        }
-    }
-
     #[inline]
     fn read(&self, t: &TextureRef, uv: Vec2, srgb: bool) -> Vec4 {
         self.textures[t.image].lookup(uv, t, srgb)
@@ -384,7 +380,7 @@ impl Scene {
             MaterialKind::Glossy {
                 roughness,
                 metallic,
-            } => crate::bsdf::glossy_from_pbr(self.albedo(hit), roughness, metallic),
+            } => crate::bsdf::glossy_from_pbr(self.albedo(hit), roughness, metallic, m.ior),
             MaterialKind::Mirror => Bsdf::Mirror {
                 color: self.albedo(hit),
             },

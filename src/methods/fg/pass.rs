@@ -235,7 +235,7 @@ fn eye_range(eye: &EyeSamples, lo: u32, hi: u32) -> EyeSamples {
         weight: eye.weight[r.clone()].to_vec(),
         albedo: eye.albedo[r.clone()].to_vec(),
         specular: eye.specular[r.clone()].to_vec(),
-        exponent: eye.exponent[r.clone()].to_vec(),
+        alpha: eye.alpha[r.clone()].to_vec(),
         flags: eye.flags[r.clone()].to_vec(),
         target: (0..r.len() as u32).collect(),
     }
@@ -297,7 +297,7 @@ fn gather_from(
 ) {
     let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
     let (p, nrm) = (eye.position[i], eye.normal[i].get());
-    let bsdf = eye.bsdf(i);
+    let bsdf = eye.bsdf(i, scene);
     let (ng, offset) = (eye.geo_normal[i].get(), eye.offset[i].get());
     for _ in 0..n {
         // BSDF sampling (cosine sampling for a Lambertian: f·cos/pdf = ρ).
@@ -332,11 +332,20 @@ fn gather_from(
             // Gather hits are shaded as matte with the BSDF's whole reflectance (§8.4 uses no
             // radiance map there; docs/deviations.md).
             albedo: match scene.bsdf(&hit) {
-                crate::bsdf::Bsdf::Glossy { kd, ks, .. } => kd + ks,
+                crate::bsdf::Bsdf::Glossy {
+                    kd,
+                    f0,
+                    f0_d,
+                    alpha,
+                } => {
+                    let c = dir.dot(hit.normal).abs();
+                    kd * crate::bsdf::diffuse_share(c, alpha, f0_d)
+                        + crate::bsdf::specular_albedo(c, alpha, f0)
+                }
                 _ => scene.albedo(&hit),
             },
             specular: Vec3::ZERO,
-            exponent: 1.0,
+            alpha: 1.0,
             primary: false,
             lobe_traced: false,
         });

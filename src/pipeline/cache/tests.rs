@@ -37,7 +37,7 @@ fn plane_seen_through(w: u32, h: u32, minify: f32, primary: bool) -> (EyeSamples
                 weight: Vec3::ONE,
                 albedo: Vec3::splat(0.5),
                 specular: Vec3::ZERO,
-                exponent: 1.0,
+                alpha: 1.0,
                 primary,
                 lobe_traced: false,
             };
@@ -251,7 +251,7 @@ fn merged_samples_share_their_leads_value() {
             weight: Vec3::splat(0.2),
             albedo: Vec3::splat(0.5),
             specular: Vec3::splat(0.3),
-            exponent: 20.0,
+            alpha: 0.3,
             primary: true,
             lobe_traced: false,
         };

@@ -42,7 +42,7 @@ pub(super) fn collect_bands(
         v.reserve_exact(expect);
     }
     samples.material.reserve_exact(expect);
-    samples.exponent.reserve_exact(expect);
+    samples.alpha.reserve_exact(expect);
     samples.offset.reserve_exact(expect);
     samples.flags.reserve_exact(expect);
     samples.pixel.reserve_exact(expect);
@@ -88,7 +88,7 @@ pub(super) fn collect_bands(
             weight,
             albedo,
             specular,
-            exponent,
+            alpha,
             flags,
             target,
         } = &mut pass.samples;
@@ -116,7 +116,7 @@ pub(super) fn collect_bands(
                         weight.push(s.weight);
                         albedo.push(s.albedo);
                         specular.push(s.specular);
-                        exponent.push(s.exponent);
+                        alpha.push(s.alpha);
                         flags.push(s.flags);
                     }
                     targets.geo_normal.extend_from_slice(&r.2.geo_normal);

@@ -3,7 +3,10 @@
 //! sharp for the radiance map.
 
 use super::{EyeSample, EyeSettings};
-use crate::bsdf::{Bsdf, fresnel_dielectric, reflect, refract, specular_probability};
+use crate::bsdf::{
+    Bsdf, diffuse_share, fresnel_dielectric, ggx_g1, ggx_g2, phong_equivalent, reflect, refract,
+    sample_ggx_visible, schlick,
+};
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -93,12 +96,22 @@ pub(super) fn trace_chain(
             emitted += w * scene.emitted(&hit, wo);
         }
         let bsdf = scene.bsdf(&hit);
+        // A glossy sample keeps its diffuse layer's albedo towards the eye, kd·(1 − E_d).
         let surface = match bsdf {
             Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO, 1.0)),
-            Bsdf::Glossy { kd, ks, exponent } => Some((kd, ks, exponent)),
+            Bsdf::Glossy {
+                kd,
+                f0,
+                f0_d,
+                alpha,
+            } => Some((
+                kd * diffuse_share(wo.dot(hit.normal).abs(), alpha, f0_d),
+                f0,
+                alpha,
+            )),
             _ => None,
         };
-        if let Some((albedo, specular, exponent)) = surface {
+        if let Some((albedo, specular, alpha)) = surface {
             // Face the viewer: flip both normals to the side the ray came from.
             let (n, ng) = if hit.geo_normal.dot(wo) >= 0.0 {
                 (hit.normal, hit.geo_normal)
@@ -117,7 +130,7 @@ pub(super) fn trace_chain(
                     weight: w,
                     albedo,
                     specular,
-                    exponent,
+                    alpha,
                     primary: depth == 0,
                     lobe_traced: false,
                 },
@@ -199,20 +212,36 @@ pub(super) fn trace_chain(
     emitted
 }
 
-/// True when `bsdf` is glossy with a lobe sharper than `limit` (traced by the eye path).
+/// The widest GGX lobe the radiance map holds, as the Phong exponent of the same width: 1,
+/// roughness ≥ 0.9. A directional mode's own limit (§37) is stated for the Phong lobe, which
+/// is symmetric about the mirror direction as the map's zonal integration assumes; a GGX lobe
+/// is not (it leans and stretches at grazing angles), and through 16 SH coefficients a metal
+/// of roughness 0.75–0.9 came out 7–33% too bright and worse than shading it matte
+/// (`tests/glossy.rs`, docs/deviations.md §49). Sharper lobes are traced.
+pub(crate) const GGX_MAP_EXPONENT: f32 = 1.0;
+
+/// True when `bsdf` is glossy with a lobe sharper than `limit` (or than
+/// [`GGX_MAP_EXPONENT`]): traced by the eye path. An infinite limit (diffuse mode, the paper
+/// without §8.1) traces none.
 #[inline]
 fn traces_lobe(bsdf: Bsdf, limit: f32) -> bool {
-    matches!(bsdf, Bsdf::Glossy { ks, exponent, .. } if exponent > limit && ks != Vec3::ZERO)
+    let limit = if limit.is_finite() {
+        limit.min(GGX_MAP_EXPONENT)
+    } else {
+        limit
+    };
+    matches!(bsdf, Bsdf::Glossy { f0, alpha, .. }
+        if phong_equivalent(alpha) > limit && f0 != Vec3::ZERO)
 }
 
-/// One direction of a glossy lobe too sharp for the radiance map, sampled from the normalised
-/// Phong lobe about the mirror direction of `wo` (`n` the shading normal facing the viewer,
-/// `ng` the geometric one): the direction and its weight ks·g·cos θ/(pdf·p) = ks·(e+2)/(e+1)·
-/// cos θ/p, an unbiased one-sample estimate of the lobe's reflection. The lobe is traced with
-/// the probability p the BSDF's own sampling gives it (its share of the reflectance by
-/// luminance: 1 for a metal, 0.11 for a white plastic), a Russian roulette that spends rays
-/// where the lobe carries light. `None` when the lobe is not traced, the roulette ends it, or
-/// the direction leaves below the surface (where f = 0).
+/// One direction of a glossy lobe too sharp for the radiance map (its width as a Phong
+/// exponent above `limit`), drawn from GGX's visible normals at `wo` (`n` the shading normal
+/// facing the viewer, `ng` the geometric one): the direction and its weight
+/// F(ωo·h)·G₂/G₁(ωo)/p, an unbiased one-sample estimate of the specular layer's reflection.
+/// The lobe is traced with the probability p the BSDF's own sampling gives it (its share of
+/// the reflectance towards ωo, [`Bsdf::specular_probability`]), a Russian roulette that spends
+/// rays where the lobe carries light. `None` when the lobe is not traced, the roulette ends it,
+/// or the direction leaves below the surface (where f = 0).
 #[inline]
 pub(super) fn sample_traced_lobe(
     bsdf: Bsdf,
@@ -225,22 +254,20 @@ pub(super) fn sample_traced_lobe(
     if !traces_lobe(bsdf, limit) {
         return None;
     }
-    let Bsdf::Glossy { kd, ks, exponent } = bsdf else {
+    let Bsdf::Glossy { f0, alpha, .. } = bsdf else {
         return None;
     };
-    let p = specular_probability(kd, ks);
+    let cos_o = wo.dot(n);
+    let p = bsdf.specular_probability(cos_o);
     if rng.next_f32() >= p {
         return None;
     }
-    let u = rng.next_2d();
-    let cos_a = u.x.powf(1.0 / (exponent + 1.0));
-    let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-    let phi = std::f32::consts::TAU * u.y;
-    let local = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
-    let d = crate::sampling::to_world(local, reflect(wo, n));
+    let h = sample_ggx_visible(wo, n, alpha, rng.next_2d());
+    let d = reflect(wo, h);
     let cos = d.dot(n);
     if cos <= 0.0 || d.dot(ng) <= 0.0 {
         return None;
     }
-    Some((d, ks * ((exponent + 2.0) / (exponent + 1.0) * cos / p)))
+    let w = schlick(f0, wo.dot(h)) * (ggx_g2(cos_o, cos, alpha) / ggx_g1(cos_o, alpha) / p);
+    Some((d, w))
 }

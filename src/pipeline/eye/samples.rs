@@ -3,6 +3,7 @@
 
 use crate::bsdf::Bsdf;
 use crate::pack::{Bound16, Oct, Rgb16};
+use crate::scene::Scene;
 use glam::Vec3;
 use half::f16;
 
@@ -29,13 +30,13 @@ pub struct EyeSamples {
     pub pixel: Vec<u32>,
     /// RGB path weight: specular-chain throughput / samples per pixel (f16).
     pub weight: Vec<Rgb16>,
-    /// Diffuse albedo at the sample (texture applied); kd of a glossy sample (f16).
+    /// Diffuse albedo towards the eye (texture applied); kd·(1 − E_d) of a glossy sample (f16).
     pub albedo: Vec<Rgb16>,
-    /// Glossy-lobe reflectance ks (zero for Lambertian samples; f16).
+    /// The glossy layer's reflectance at normal incidence f0 (zero for Lambertian samples; f16).
     pub specular: Vec<Rgb16>,
-    /// The glossy lobe's Phong exponent at the sample (its material's roughness, or its
+    /// The glossy lobe's GGX α at the sample (its material's roughness², or its
     /// metallic-roughness texture's there; 1 for Lambertian samples; f16).
-    pub exponent: Vec<f16>,
+    pub alpha: Vec<f16>,
     /// [`EyeSamples::primary`] and [`EyeSamples::lobe_traced`], one bit each.
     pub flags: Vec<u8>,
     /// The splat target whose splatted irradiance this sample uses.
@@ -90,7 +91,7 @@ const PRIMARY: u8 = 1;
 const LOBE_TRACED: u8 = 2;
 
 /// Bytes of one eye sample in [`EyeSamples`]: position 12, the shading and geometric normals
-/// and wo 4 (octahedral), three colours 6 (f16), the offset and the Phong exponent 2 (f16),
+/// and wo 4 (octahedral), three colours 6 (f16), the offset and the GGX α 2 (f16),
 /// material, pixel and target 4, one byte of flags (106 with every vector, colour and number
 /// in f32).
 pub const EYE_SAMPLE_BYTES: usize = 12 + 3 * 4 + 3 * 6 + 2 * 2 + 3 * 4 + 1;
@@ -183,14 +184,26 @@ impl EyeSamples {
         }
     }
 
-    /// The sample's BSDF: Lambertian, or glossy with its Phong exponent.
+    /// The sample's BSDF: Lambertian, or glTF's glossy model with its α, f0, and the diffuse
+    /// colour its stored albedo was weighted from (the albedo is kd·(1 − E_d) towards the eye,
+    /// [`crate::bsdf::diffuse_share`]; the material's IOR gives f0_d).
     #[inline]
-    pub fn bsdf(&self, i: usize) -> Bsdf {
+    pub fn bsdf(&self, i: usize, scene: &Scene) -> Bsdf {
         if self.is_glossy(i) {
+            let f0_d = crate::bsdf::dielectric_f0(scene.materials[self.material[i] as usize].ior);
+            let cos_o = self.wo[i].get().dot(self.normal[i].get()).abs();
+            let alpha = self.alpha[i].to_f32();
+            let keep = crate::bsdf::diffuse_share(cos_o, alpha, f0_d);
+            let albedo = self.albedo[i].get();
             Bsdf::Glossy {
-                kd: self.albedo[i].get(),
-                ks: self.specular[i].get(),
-                exponent: self.exponent[i].to_f32(),
+                kd: if keep > 0.0 {
+                    albedo / keep
+                } else {
+                    Vec3::ZERO
+                },
+                f0: self.specular[i].get(),
+                f0_d,
+                alpha,
             }
         } else {
             Bsdf::Lambert {
@@ -213,7 +226,7 @@ impl EyeSamples {
         self.weight.push(s.weight);
         self.albedo.push(s.albedo);
         self.specular.push(s.specular);
-        self.exponent.push(s.exponent);
+        self.alpha.push(s.alpha);
         self.flags.push(s.flags);
     }
 }
@@ -233,7 +246,7 @@ pub(super) struct PackedSample {
     pub(super) weight: Rgb16,
     pub(super) albedo: Rgb16,
     pub(super) specular: Rgb16,
-    pub(super) exponent: f16,
+    pub(super) alpha: f16,
     pub(super) flags: u8,
 }
 
@@ -250,7 +263,7 @@ impl PackedSample {
             weight: Rgb16::new(s.weight),
             albedo: Rgb16::new(s.albedo),
             specular: Rgb16::new(s.specular),
-            exponent: f16::from_f32(s.exponent),
+            alpha: f16::from_f32(s.alpha),
             flags: (u8::from(s.primary) * PRIMARY) | (u8::from(s.lobe_traced) * LOBE_TRACED),
         }
     }
@@ -280,8 +293,8 @@ pub struct EyeSample {
     pub albedo: Vec3,
     /// Glossy-lobe reflectance ks (zero for Lambertian samples).
     pub specular: Vec3,
-    /// The glossy lobe's Phong exponent (1 for Lambertian samples).
-    pub exponent: f32,
+    /// The glossy lobe's GGX α (1 for Lambertian samples).
+    pub alpha: f32,
     /// Seen directly from the camera (no specular bounce on the way).
     pub primary: bool,
     /// The glossy lobe is traced by the eye path ([`EyeSamples::lobe_traced`]).

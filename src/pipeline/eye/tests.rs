@@ -17,7 +17,7 @@ fn raw(lobe_traced: bool) -> RawSample {
             weight: Vec3::ONE,
             albedo: Vec3::splat(0.5),
             specular: Vec3::splat(0.3),
-            exponent: 20.0,
+            alpha: 0.3,
             primary: true,
             lobe_traced,
         },

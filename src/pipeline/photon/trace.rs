@@ -215,7 +215,15 @@ pub(super) fn trace_photon(
                 0.0
             }
         };
-        let mut new_power = power * s.weight * adjoint;
+        // glTF's glossy model is not reciprocal in its diffuse layer (bsdf::Bsdf::Glossy):
+        // light goes from ωi to ωo, so a photon weighs by f(ωi, ωo).
+        let weight = match bsdf {
+            Bsdf::Glossy { .. } => {
+                bsdf.eval(s.wi, wo, hit.normal) * s.wi.dot(hit.normal).abs() / s.pdf
+            }
+            _ => s.weight,
+        };
+        let mut new_power = power * weight * adjoint;
         // Russian roulette keeping the photon power roughly constant.
         let q = (new_power.max_element() / power.max_element()).min(1.0);
         if pushed && let Some(last) = out.last_mut() {

@@ -3,7 +3,7 @@
 
 use super::{Accumulators, Channel, Interpolated};
 use crate::pipeline::directional::{
-    DirectionalMode, SH_COEFFS, hist_lobe_weights, phong_zonal, sh_basis, sh_lobe_integral,
+    DirectionalMode, SH_COEFFS, hist_lobe_weights, sh_basis, sh_lobe_integral,
 };
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::splat_tree::LANES;
@@ -237,7 +237,9 @@ fn shade(
     if !eye.lobe_in_map(i) {
         return diffuse;
     }
-    let ks = eye.specular[i].get();
+    // The specular layer's albedo towards the eye, its lobe's shape from the record.
+    let cos_o = eye.wo[i].get().dot(eye.normal[i].get()).abs();
+    let ks = crate::bsdf::specular_albedo(cos_o, eye.alpha[i].to_f32(), eye.specular[i].get());
     diffuse
         + match rec {
             Some(rec) => ks * glossy_radiance(eye, i, mode, rec) * rec_scale,
@@ -255,15 +257,17 @@ pub(crate) fn glossy_radiance(
     rec: &[f32],
 ) -> Vec3 {
     let n = eye.normal[i].get();
-    let r = crate::bsdf::reflect(eye.wo[i].get(), n);
-    let exponent = eye.exponent[i].to_f32();
+    let wo = eye.wo[i].get();
+    let r = crate::bsdf::reflect(wo, n);
+    let alpha = eye.alpha[i].to_f32();
+    let exponent = crate::bsdf::phong_equivalent(alpha);
     match mode {
         DirectionalMode::Diffuse => Vec3::ZERO,
-        // The SH table entry for this view direction: the zonal lobe rotated to r; the
+        // The GGX lobe's zonal projection for this view direction, about its axis; the
         // integration is one dot product per channel.
         DirectionalMode::Sh => {
-            let zonal = phong_zonal(exponent);
-            let y = sh_basis(r);
+            let (axis, zonal) = crate::bsdf::ggx_zonal(wo, n, alpha);
+            let y = sh_basis(axis);
             Vec3::new(
                 sh_lobe_integral(&rec[0..SH_COEFFS], &zonal, &y),
                 sh_lobe_integral(&rec[SH_COEFFS..2 * SH_COEFFS], &zonal, &y),
@@ -306,7 +310,7 @@ mod tests {
                 weight: Vec3::splat(0.5),
                 albedo: Vec3::splat(0.5),
                 specular: Vec3::ZERO,
-                exponent: 1.0,
+                alpha: 1.0,
                 primary: true,
                 lobe_traced: false,
             };

@@ -309,6 +309,7 @@ pub(super) fn convert_material(
         metallic,
         roughness,
         specular_off,
+        ior,
         metal_rough_texture,
         normal_texture,
         emission,
