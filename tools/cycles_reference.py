@@ -1,7 +1,8 @@
 """An independent reference for raysplat: Blender Cycles (the `bpy` package from PyPI,
 `pip install bpy==4.2.0` with CPython 3.11) renders a glTF file as Blender's own importer
-reads it, lit by a uniform environment, with no denoiser, clamping or filter (a 0.01-pixel
-box), into a linear EXR that `raysplat compare --reference` reads. Every Principled BSDF is
+reads it, lit by a uniform environment, with no denoiser or clamping and a one-pixel box
+filter (raysplat's: its eye samples are spread evenly over each pixel), into a linear EXR that
+`raysplat compare --reference` reads. Every Principled BSDF is
 set to single-scattering GGX, the glTF specification's microfacet model (Blender's default,
 multiscatter GGX, adds the energy single scattering loses; `--multiscatter` keeps it).
 
@@ -56,7 +57,8 @@ sc.cycles.use_adaptive_sampling = False
 sc.cycles.max_bounces = 12
 sc.cycles.sample_clamp_direct = 0
 sc.cycles.sample_clamp_indirect = 0
-sc.cycles.filter_width = 0.01
+sc.cycles.pixel_filter_type = "BOX"
+sc.cycles.filter_width = 1.0
 sc.render.resolution_x = a.width
 sc.render.resolution_y = a.height
 sc.render.resolution_percentage = 100
