@@ -429,29 +429,42 @@ fn lerp_index(x: f32) -> (usize, usize, f32) {
     (i, i + 1, f - i as f32)
 }
 
+/// Where (cos θo, √α) falls in the tables, for bilinear lookups.
+struct TableAt {
+    i: (usize, usize, f32),
+    k: (usize, usize, f32),
+}
+
+impl TableAt {
+    #[inline]
+    fn new(cos_o: f32, alpha: f32) -> Self {
+        Self {
+            i: lerp_index(cos_o),
+            k: lerp_index(alpha.max(0.0).sqrt()),
+        }
+    }
+
+    /// Bilinear lookup of entry `get(row, column)`.
+    #[inline]
+    fn read(&self, get: impl Fn(usize, usize) -> f32) -> f32 {
+        let ((i, j, t), (k, l, u)) = (self.i, self.k);
+        let lo = get(i, k) + (get(i, l) - get(i, k)) * u;
+        let hi = get(j, k) + (get(j, l) - get(j, k)) * u;
+        lo + (hi - lo) * t
+    }
+}
+
 /// A glossy model's specular lobe at ωo (shading normal `n`) as the radiance map's SH mode
 /// integrates it (§8.1, docs/deviations.md §49): its axis — the lobe's mean direction, in the
 /// plane of `n` and the mirror direction — and its zonal coefficients (bands 0–3) about that
 /// axis, normalised to unit albedo.
 pub fn ggx_zonal(wo: Vec3, n: Vec3, alpha: f32) -> (Vec3, [f32; 4]) {
-    let cos_o = wo.dot(n).abs();
-    let (i, j, t) = lerp_index(cos_o);
-    let (k, l, u) = lerp_index(alpha.max(0.0).sqrt());
-    let bi = |m: &[[f32; TABLE_N]; TABLE_N]| {
-        let lo = m[i][k] + (m[i][l] - m[i][k]) * u;
-        let hi = m[j][k] + (m[j][l] - m[j][k]) * u;
-        lo + (hi - lo) * t
-    };
-    let z = &ALBEDO.zonal;
-    let coeffs = std::array::from_fn(|b| {
-        let lo = z[i][k][b] + (z[i][l][b] - z[i][k][b]) * u;
-        let hi = z[j][k][b] + (z[j][l][b] - z[j][k][b]) * u;
-        lo + (hi - lo) * t
-    });
+    let at = TableAt::new(wo.dot(n).abs(), alpha);
+    let coeffs = std::array::from_fn(|b| at.read(|i, k| ALBEDO.zonal[i][k][b]));
     let side = if wo.dot(n) >= 0.0 { n } else { -n };
     let r = reflect(wo, side);
     let along = (r - side * r.dot(side)).normalize_or_zero();
-    let angle = bi(&ALBEDO.axis);
+    let angle = at.read(|i, k| ALBEDO.axis[i][k]);
     (
         (side * angle.cos() + along * angle.sin()).normalize_or(side),
         coeffs,
@@ -469,17 +482,27 @@ pub fn diffuse_share(cos_o: f32, alpha: f32, f0_d: f32) -> f32 {
 /// The directional albedo of a glossy model's specular layer at cos θo = `cos_o`:
 /// ∫ F·D·G₂/(4 cos θo) dωi = f0·A + B (single scattering).
 pub fn specular_albedo(cos_o: f32, alpha: f32, f0: Vec3) -> Vec3 {
-    let (i, j, t) = lerp_index(cos_o);
-    let (k, l, u) = lerp_index(alpha.max(0.0).sqrt());
-    let bi = |m: &[[f32; TABLE_N]; TABLE_N]| {
-        let lo = m[i][k] + (m[i][l] - m[i][k]) * u;
-        let hi = m[j][k] + (m[j][l] - m[j][k]) * u;
-        lo + (hi - lo) * t
-    };
-    f0 * bi(&ALBEDO.a) + Vec3::splat(bi(&ALBEDO.b))
+    let at = TableAt::new(cos_o, alpha);
+    f0 * at.read(|i, k| ALBEDO.a[i][k]) + Vec3::splat(at.read(|i, k| ALBEDO.b[i][k]))
 }
 
 impl Bsdf {
+    /// A glossy model's specular layer alone (its diffuse colour zeroed); any other model
+    /// as it is.
+    pub fn specular_layer(self) -> Bsdf {
+        match self {
+            Bsdf::Glossy {
+                f0, f0_d, alpha, ..
+            } => Bsdf::Glossy {
+                kd: Vec3::ZERO,
+                f0,
+                f0_d,
+                alpha,
+            },
+            other => other,
+        }
+    }
+
     /// The probability with which [`Bsdf::sample`] draws a glossy model's specular lobe
     /// rather than its diffuse layer, for cos θo = `cos_o`: the layers' reflectance there
     /// (Fresnel at the normal's angle for the specular, 1 − it for the diffuse) by luminance,

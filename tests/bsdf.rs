@@ -207,17 +207,7 @@ fn glossy_and_lambert_are_reciprocal_but_for_the_diffuse_layers_share() {
         albedo: Vec3::splat(0.6),
     });
     for b in models {
-        let specular_only = match b {
-            Bsdf::Glossy {
-                f0, f0_d, alpha, ..
-            } => Bsdf::Glossy {
-                kd: Vec3::ZERO,
-                f0,
-                f0_d,
-                alpha,
-            },
-            other => other,
-        };
+        let specular_only = b.specular_layer();
         for _ in 0..5000 {
             let n = uniform_sphere(rng.next_2d());
             let (a, c) = (uniform_sphere(rng.next_2d()), uniform_sphere(rng.next_2d()));

@@ -418,3 +418,119 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
         scene.warnings
     );
 }
+
+#[test]
+fn a_coloured_mirror_seen_at_a_grazing_angle_renders_as_the_path_tracer_does() {
+    // Gold at roughness 0 (a Dirac mirror with the conductor's Fresnel), seen nearly along
+    // the floor under the uniform sky: the eye passes and the path tracer take the same
+    // Fresnel (at grazing angles it whitens the gold).
+    let mut g = GlbBuilder::default();
+    let gold = g.material(pbr_json([1.0, 0.7, 0.3], 1.0, 0.0));
+    plane(&mut g, 20.0, gold);
+    let white = white(&mut g);
+    let (p, n, i) = raysplat::scene::uv_sphere(Vec3::new(0.0, 0.5, -3.0), 0.5, 32, 16);
+    g.mesh("ball", &p, &n, &i, white);
+    g.camera(
+        "low",
+        Vec3::new(0.0, 0.15, 3.0),
+        Vec3::new(0.0, 0.0, -3.0),
+        0.6,
+    );
+    let scene = Arc::new(Scene::from_glb_bytes(&g.to_glb(), "gold floor").expect("loads"));
+    let settings = RenderSettings {
+        width: 24,
+        height: 24,
+        spp: 4,
+        photons: 20_000,
+        ..RenderSettings::default()
+    };
+    let pt = path_traced(&scene, &settings, 64).mean();
+    let rs = render_method(&scene, MethodKind::Rs, &settings, Budget::Fixed)
+        .expect("renders")
+        .film
+        .mean();
+    // Blue shows the Fresnel best: 0.3 straight on, near 1 at grazing angles.
+    assert!((rs.z / pt.z - 1.0).abs() < 0.03, "rs {rs}, pt {pt}");
+}
+
+fn pbr_json(color: [f32; 3], metallic: f32, roughness: f32) -> Value {
+    json!({"pbrMetallicRoughness": {"baseColorFactor": [color[0], color[1], color[2], 1.0],
+        "metallicFactor": metallic, "roughnessFactor": roughness}})
+}
+
+#[test]
+fn an_alpha_masked_emitter_sends_no_light_through_its_holes() {
+    // A uniform panel (radiance 4) whose base-colour alpha cuts out its x > 0 half.
+    let mut g = GlbBuilder::default();
+    let floor = white(&mut g);
+    plane(&mut g, 2.0, floor);
+    let tex = g.texture(
+        &png_rgba(
+            16,
+            1,
+            &(0..16)
+                .map(|i| [0, 0, 0, if i < 8 { 255 } else { 0 }])
+                .collect::<Vec<_>>(),
+        ),
+        nearest(),
+    );
+    let light = g.material(
+        json!({"emissiveFactor": [1.0, 1.0, 1.0], "alphaMode": "MASK",
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
+        "pbrMetallicRoughness": {"baseColorTexture": {"index": tex}}}),
+    );
+    quad(&mut g, 1.0, 0.5, true, light, &[]);
+    let mut scene = Scene::from_glb_bytes(&g.to_glb(), "masked emitter").expect("loads");
+    scene
+        .set_environment(&EnvironmentSettings {
+            kind: EnvironmentKind::None,
+            ..Default::default()
+        })
+        .expect("the panel lights it");
+    let p = Vec3::new(0.1, 0.0, -0.2);
+    let n = 200_000;
+    let mut rng = Rng::new(2, 0);
+    let (mut e_light, mut lit_holes) = (0.0f64, 0);
+    for _ in 0..n {
+        if let Some(s) = scene.lights.sample_direct(p, rng.next_f32(), rng.next_2d()) {
+            let q = p + s.wi * s.distance;
+            lit_holes += usize::from(q.x > 1e-3 && s.value.max_element() > 0.0);
+            e_light += (luminance(s.value) * s.wi.y.max(0.0)) as f64;
+        }
+    }
+    assert_eq!(lit_holes, 0, "light samples in the holes carry light");
+    let mut e_bsdf = 0.0f64;
+    for _ in 0..n {
+        let d = to_world(cosine_hemisphere(rng.next_2d()), Vec3::Y);
+        if let Some(h) = scene.intersect(p + Vec3::Y * 1e-4, d, f32::INFINITY) {
+            e_bsdf += (std::f32::consts::PI * luminance(scene.emitted(&h, -d))) as f64;
+        }
+    }
+    let (e_light, e_bsdf) = (e_light / n as f64, e_bsdf / n as f64);
+    assert!(
+        (e_light / e_bsdf - 1.0).abs() < 0.03,
+        "irradiance by light samples {e_light}, by cosine-sampled hits {e_bsdf}"
+    );
+    // Photons leave the opaque half only.
+    let holes = (0..20_000u64)
+        .filter_map(|k| scene.lights.sample_emission(&mut Rng::new(9, k)))
+        .filter(|e| e.origin.x > 1e-3)
+        .count();
+    assert_eq!(holes, 0);
+}
+
+#[test]
+fn texture_coordinates_far_out_load_and_render() {
+    // An emissive texture scaled by 10¹⁹: its emitter tables must not try to visit 10³⁸
+    // texels (nor overflow an index); the loader gives the light the texture's bound.
+    let mut g = GlbBuilder::default();
+    let floor = white(&mut g);
+    plane(&mut g, 2.0, floor);
+    let tex = g.texture(&png_rgba(4, 1, &half_white(4, 2)), None);
+    let light = g.material(json!({"emissiveFactor": [1.0, 1.0, 1.0],
+        "emissiveTexture": {"index": tex, "extensions": {"KHR_texture_transform":
+            {"scale": [1e19, 1e19]}}}}));
+    quad(&mut g, 1.0, 0.5, true, light, &[]);
+    let scene = Arc::new(Scene::from_glb_bytes(&g.to_glb(), "far uv").expect("loads"));
+    common::renders_cleanly(scene).expect("renders");
+}

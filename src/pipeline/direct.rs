@@ -84,32 +84,27 @@ pub fn traced_lobe_direct_light(
     seed: u64,
 ) -> (Vec<Vec3>, u64) {
     direct_light_through(scene, eye, samples, seed, |i| {
-        (eye.lobe_traced(i)).then(|| match eye.bsdf(i, scene) {
-            Bsdf::Glossy {
-                f0, f0_d, alpha, ..
-            } => Bsdf::Glossy {
-                kd: Vec3::ZERO,
-                f0,
-                f0_d,
-                alpha,
-            },
-            other => other,
-        })
+        (eye.lobe_traced(i)).then(|| eye.bsdf(i, scene).specular_layer())
     })
 }
 
-/// The random stream of eye sample `i`: its pixel and its rank among that pixel's samples,
-/// so that one pixel's count of samples (a traced lobe that leaves its surface at one scale
-/// and not at another, by rounding) never shifts the streams of the pixels after it.
-#[inline]
-fn sample_stream(eye: &EyeSamples, i: usize) -> u64 {
-    let pixel = eye.pixel[i];
-    let rank = eye.pixel[..i]
-        .iter()
-        .rev()
-        .take_while(|&&p| p == pixel)
-        .count() as u64;
-    ((pixel as u64) << 20) | rank.min((1 << 20) - 1)
+/// The random stream of each eye sample: its pixel and its rank among that pixel's samples
+/// (the samples are in pixel order), so that one pixel's count of samples (a traced lobe that
+/// leaves its surface at one scale and not at another, by rounding) never shifts the streams
+/// of the pixels after it.
+fn sample_streams(eye: &EyeSamples) -> Vec<u64> {
+    let mut rank = 0u64;
+    (0..eye.len())
+        .map(|i| {
+            let pixel = eye.pixel[i];
+            rank = if i > 0 && eye.pixel[i - 1] == pixel {
+                rank + 1
+            } else {
+                0
+            };
+            ((pixel as u64) << 20) | rank.min((1 << 20) - 1)
+        })
+        .collect()
 }
 
 /// NEE at every eye sample through the BSDF `bsdf_of` gives it (none: no direct light).
@@ -128,10 +123,11 @@ fn direct_light_through(
     let few_emitters = (emitters.len() <= EMITTERS_TESTED_DIRECTLY).then_some(emitters.as_slice());
     // Rays that meet no emitter may still escape to the environment.
     let has_environment = scene.lights.has_environment();
+    let streams = sample_streams(eye);
     let radiance: Vec<Vec3> = (0..eye.len())
         .into_par_iter()
         .map(|i| {
-            let mut rng = Rng::new(seed, 0x2000_0000_0000 + sample_stream(eye, i));
+            let mut rng = Rng::new(seed, 0x2000_0000_0000 + streams[i]);
             let p = eye.position[i];
             let n = eye.normal[i].get();
             let ng = eye.geo_normal[i].get();

@@ -9,8 +9,8 @@ use std::sync::LazyLock;
 /// How a material scatters; glTF's metallic/roughness model mapped onto the models we render.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MaterialKind {
-    /// Lambertian (roughness ≥ 0.9 and not metallic, or specular turned off:
-    /// docs/deviations.md §49).
+    /// Lambertian: a dielectric (metallic 0) of roughness ≥ 0.9, or with its specular layer
+    /// turned off (docs/deviations.md §49).
     Diffuse,
     /// glTF's metallic-roughness BRDF, [`Bsdf::Glossy`]: GGX over a Fresnel-weighted
     /// Lambertian layer; lobes the directional radiance map can hold go through it (§8.1),
@@ -35,7 +35,9 @@ impl MaterialKind {
     pub fn classify(metallic: f32, roughness: f32, specular_off: bool) -> Self {
         if metallic >= 1.0 && roughness <= 0.0 {
             MaterialKind::Mirror
-        } else if specular_off || (roughness >= 0.9 && metallic < 0.5) {
+        } else if metallic <= 0.0 && (specular_off || roughness >= 0.9) {
+            // A pure dielectric without its specular layer, or one so rough that its 4%
+            // layer is left out (docs/deviations.md §49). Any metal share keeps the model.
             MaterialKind::Diffuse
         } else {
             MaterialKind::Glossy {
@@ -176,6 +178,12 @@ impl Material {
         }
     }
 
+    /// The IOR its dielectric Fresnel reads: 1 (no reflection) where KHR_materials_specular
+    /// turns the dielectric's specular layer off, which leaves a metal share's as it is.
+    pub fn f0_ior(&self) -> f32 {
+        if self.specular_off { 1.0 } else { self.ior }
+    }
+
     /// The material emits somewhere (a positive factor; a texture may still be black).
     pub fn emits(&self) -> bool {
         self.emission.is_finite() && self.emission.max_element() > 0.0
@@ -248,8 +256,11 @@ impl Texture {
         if !uv.is_finite() {
             return self.texel(0, 0, r.wrap, srgb);
         }
-        let x = uv.x as f64 * self.width as f64 - 0.5;
-        let y = uv.y as f64 * self.height as f64 - 0.5;
+        // Far-out coordinates (where f32 has no fraction left anyway) are kept within 2⁴⁰
+        // texels, so that the neighbour's index never overflows.
+        const FAR: f64 = (1u64 << 40) as f64;
+        let x = (uv.x as f64 * self.width as f64 - 0.5).clamp(-FAR, FAR);
+        let y = (uv.y as f64 * self.height as f64 - 0.5).clamp(-FAR, FAR);
         if r.nearest {
             return self.texel(
                 (x + 0.5).floor() as i64,
@@ -284,25 +295,25 @@ impl Texture {
             return None;
         }
         let nearest = r.nearest;
-        let cover = |a: f32, b: f32, n: u32| {
+        // In f64 first: coordinates far out (a huge KHR_texture_transform scale) must give a
+        // count too large, never wrap round to a small one.
+        let cover = |a: f32, b: f32, n: u32| -> (f64, f64) {
+            let (a, b, n) = (a as f64, b as f64, n as f64);
             if nearest {
                 let eps = 1e-4;
-                let lo = (a as f64 * n as f64 - eps).floor() as i64;
-                let hi = (b as f64 * n as f64 + eps).floor() as i64;
-                (lo, hi)
+                ((a * n - eps).floor(), (b * n + eps).floor())
             } else {
-                let lo = (a as f64 * n as f64 - 0.5).floor() as i64;
-                let hi = (b as f64 * n as f64 - 0.5).floor() as i64 + 1;
-                (lo, hi)
+                ((a * n - 0.5).floor(), (b * n - 0.5).floor() + 1.0)
             }
         };
         let wrap = r.wrap;
         let (x0, x1) = cover(lo.x, hi.x, self.width);
         let (y0, y1) = cover(lo.y, hi.y, self.height);
-        let count = (x1 - x0 + 1) as u64 * (y1 - y0 + 1) as u64;
-        if count > max_texels {
+        let count = (x1 - x0 + 1.0) * (y1 - y0 + 1.0);
+        if count.is_nan() || count > max_texels as f64 {
             return None;
         }
+        let (x0, x1, y0, y1) = (x0 as i64, x1 as i64, y0 as i64, y1 as i64);
         let mut m = 0.0f32;
         for y in y0..=y1 {
             for x in x0..=x1 {
@@ -380,7 +391,7 @@ impl Scene {
             MaterialKind::Glossy {
                 roughness,
                 metallic,
-            } => crate::bsdf::glossy_from_pbr(self.albedo(hit), roughness, metallic, m.ior),
+            } => crate::bsdf::glossy_from_pbr(self.albedo(hit), roughness, metallic, m.f0_ior()),
             MaterialKind::Mirror => Bsdf::Mirror {
                 color: self.albedo(hit),
             },
@@ -454,6 +465,34 @@ mod tests {
             height: 1,
             texels: [0u8, 60, 120, 180].map(|v| [v, v, v, 255]).to_vec(),
         }
+    }
+
+    #[test]
+    fn only_pure_dielectrics_and_roughness_zero_metals_leave_the_microfacet_model() {
+        assert_eq!(
+            MaterialKind::classify(0.0, 0.95, false),
+            MaterialKind::Diffuse
+        );
+        assert_eq!(
+            MaterialKind::classify(1.0, 0.0, false),
+            MaterialKind::Mirror
+        );
+        // A metal share keeps the model, however rough (an antialiased texel between metal
+        // and plastic), and KHR_materials_specular's zero factor turns off the dielectric's
+        // layer only.
+        for (m, r, off) in [(0.4, 0.95, false), (1.0, 0.5, true), (0.7, 0.0, false)] {
+            assert!(
+                matches!(
+                    MaterialKind::classify(m, r, off),
+                    MaterialKind::Glossy { .. }
+                ),
+                "{m} {r} {off}"
+            );
+        }
+        assert_eq!(
+            MaterialKind::classify(0.0, 0.3, true),
+            MaterialKind::Diffuse
+        );
     }
 
     #[test]

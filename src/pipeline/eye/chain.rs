@@ -191,7 +191,8 @@ pub(super) fn trace_chain(
                     -hit.normal
                 };
                 let r = reflect(wo, n);
-                push(r, w * color, false, &mut top);
+                // The conductor's Fresnel, as `Bsdf::sample` gives photons and the path tracer.
+                push(r, w * schlick(color, wo.dot(n)), false, &mut top);
             }
             Bsdf::Dielectric { ior, tint } => {
                 let cos_o = wo.dot(hit.normal);
@@ -258,6 +259,11 @@ pub(super) fn sample_traced_lobe(
         return None;
     };
     let cos_o = wo.dot(n);
+    // Seen from behind its shading normal (a normal texture at a grazing view) the model
+    // reflects nothing (`Bsdf::eval` is 0 there), and the visible normals need ωo above it.
+    if cos_o <= 0.0 {
+        return None;
+    }
     let p = bsdf.specular_probability(cos_o);
     if rng.next_f32() >= p {
         return None;

@@ -190,7 +190,8 @@ impl EyeSamples {
     #[inline]
     pub fn bsdf(&self, i: usize, scene: &Scene) -> Bsdf {
         if self.is_glossy(i) {
-            let f0_d = crate::bsdf::dielectric_f0(scene.materials[self.material[i] as usize].ior);
+            let f0_d =
+                crate::bsdf::dielectric_f0(scene.materials[self.material[i] as usize].f0_ior());
             let cos_o = self.wo[i].get().dot(self.normal[i].get()).abs();
             let alpha = self.alpha[i].to_f32();
             let keep = crate::bsdf::diffuse_share(cos_o, alpha, f0_d);

@@ -11,8 +11,9 @@ mod sample;
 mod textured;
 
 use super::environment::{Environment, SunLight};
-use super::{Material, Texture, TriExtra, TriShading};
+use super::{AlphaMode, Material, NO_EXTRA, Texture, TextureRef, TriExtra, TriShading};
 use crate::sampling::{Distribution1D, luminance};
+use glam::Vec2;
 use glam::Vec3;
 use obvhs::triangle::Triangle;
 use std::f32::consts::PI;
@@ -158,6 +159,43 @@ pub struct Lights {
     p_sun: f32,
     /// The emissive-textured triangles' point distributions.
     textured: Arc<TexturedEmitters>,
+    /// The alpha of emitting triangles whose material is alpha-tested, and each triangle's
+    /// entry in it (`u32::MAX` for none; empty when no emitter is alpha-tested).
+    covers: Vec<Cover>,
+    cover_of_triangle: Vec<u32>,
+    textures: Arc<[Texture]>,
+}
+
+/// The alpha of an alpha-tested emitting triangle (glTF §3.9.4: factor × base-colour texture
+/// × COLOR_0), read where a light sample or a photon is drawn, so that light sampling sees
+/// the same cut-outs (MASK) and coverage (BLEND) as the rays that hit the triangle.
+#[derive(Clone, Debug)]
+pub(crate) struct Cover {
+    mode: AlphaMode,
+    base: f32,
+    color: [f32; 3],
+    tex: Option<(TextureRef, [Vec2; 3])>,
+}
+
+impl Cover {
+    /// The share of the emission that leaves at barycentrics (b1, b2): 0 or 1 for MASK,
+    /// alpha for BLEND.
+    #[inline]
+    fn at(&self, textures: &[Texture], b1: f32, b2: f32) -> f32 {
+        let b0 = 1.0 - b1 - b2;
+        let mut alpha = self.base * (self.color[0] * b0 + self.color[1] * b1 + self.color[2] * b2);
+        if let Some((t, uv)) = &self.tex {
+            let uv = t
+                .transform
+                .transform_point2(uv[0] * b0 + uv[1] * b1 + uv[2] * b2);
+            alpha *= textures[t.image].lookup(uv, t, false).w;
+        }
+        match self.mode {
+            AlphaMode::Mask(cutoff) => f32::from(u8::from(alpha >= cutoff)),
+            AlphaMode::Blend => alpha.clamp(0.0, 1.0),
+            AlphaMode::Opaque => 1.0,
+        }
+    }
 }
 
 impl Lights {
@@ -210,6 +248,7 @@ impl Lights {
             light_of_triangle[e.triangle as usize] = lights.len() as u32;
             lights.push(light);
         }
+        let (covers, cover_of_triangle) = Self::covers(surfaces, &lights);
         if let Some(env) = &environment.light {
             lights.push(Light::Environment {
                 integral: env.integral(),
@@ -259,6 +298,55 @@ impl Lights {
             p_environment,
             p_sun,
             textured,
+            covers,
+            cover_of_triangle,
+            textures: surfaces.textures.clone(),
+        }
+    }
+
+    /// The alpha of each alpha-tested area light among `lights`.
+    fn covers(surfaces: &Surfaces, lights: &[Light]) -> (Vec<Cover>, Vec<u32>) {
+        let mut covers = Vec::new();
+        let mut of = Vec::new();
+        for l in lights {
+            let Light::Area { triangle, .. } = *l else {
+                continue;
+            };
+            let sh = &surfaces.shading[triangle as usize];
+            let m = &surfaces.materials[sh.material as usize];
+            if !m.alpha_tested() {
+                continue;
+            }
+            let extra = (sh.extra != NO_EXTRA).then(|| &surfaces.extras[sh.extra as usize]);
+            let tex = m.base_texture.as_ref().map(|t| {
+                let uv = match (t.set, extra) {
+                    (1, Some(e)) => e.uv1,
+                    (1, None) => [Vec2::ZERO; 3],
+                    _ => sh.uvs,
+                };
+                (t.clone(), uv)
+            });
+            if of.is_empty() {
+                of = vec![u32::MAX; surfaces.triangles.len()];
+            }
+            of[triangle as usize] = covers.len() as u32;
+            covers.push(Cover {
+                mode: m.alpha,
+                base: m.base_alpha,
+                color: extra.map_or([1.0; 3], |e| e.color.map(|c| c.w)),
+                tex,
+            });
+        }
+        (covers, of)
+    }
+
+    /// The share of triangle `triangle`'s emission that leaves at barycentrics (b1, b2): its
+    /// alpha coverage where its material is alpha-tested, 1 elsewhere.
+    #[inline]
+    pub(crate) fn coverage(&self, triangle: u32, b1: f32, b2: f32) -> f32 {
+        match self.cover_of_triangle.get(triangle as usize) {
+            Some(&c) if c != u32::MAX => self.covers[c as usize].at(&self.textures, b1, b2),
+            _ => 1.0,
         }
     }
 

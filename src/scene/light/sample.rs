@@ -14,14 +14,23 @@ impl Lights {
     /// density relative to the uniform one (uniform without a texture, by the texture with
     /// one: `textured`).
     #[inline]
-    fn area_point(&self, texture: u32, radiance: Vec3, u: Vec2) -> (f32, f32, Vec3, f32) {
-        if texture == NO_TEXTURE {
+    fn area_point(
+        &self,
+        triangle: u32,
+        texture: u32,
+        radiance: Vec3,
+        u: Vec2,
+    ) -> (f32, f32, Vec3, f32) {
+        let (b1, b2, radiance, relative) = if texture == NO_TEXTURE {
             let (b1, b2) = uniform_triangle(u);
             (b1, b2, radiance, 1.0)
         } else {
             let (b1, b2, relative) = self.textured.sample(texture, u);
             (b1, b2, self.textured.radiance(texture, b1, b2), relative)
-        }
+        };
+        // An alpha-tested emitter sends nothing through its holes (MASK) and α of its light
+        // elsewhere (BLEND), as the rays that meet it see.
+        (b1, b2, radiance * self.coverage(triangle, b1, b2), relative)
     }
 
     /// Sample a photon leaving a light, chosen by power.
@@ -71,7 +80,8 @@ impl Lights {
                 triangle,
                 texture,
             } => {
-                let (b1, b2, radiance, relative) = self.area_point(texture, radiance, u_pos);
+                let (b1, b2, radiance, relative) =
+                    self.area_point(triangle, texture, radiance, u_pos);
                 // A dark texel of an emissive texture sends nothing (the photon still counts).
                 if relative <= 0.0 || radiance.max_element() <= 0.0 {
                     return None;
@@ -220,7 +230,7 @@ impl Lights {
                 triangle,
                 texture,
             } => {
-                let (b1, b2, radiance, relative) = self.area_point(texture, radiance, u);
+                let (b1, b2, radiance, relative) = self.area_point(triangle, texture, radiance, u);
                 if relative <= 0.0 || radiance.max_element() <= 0.0 {
                     return None;
                 }

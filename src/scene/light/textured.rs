@@ -163,7 +163,17 @@ impl TexturedEmitters {
         } else {
             (MAX_CELLS as f64 / cells as f64).sqrt() as f32
         };
-        let brightest: Vec<f32> = textures.iter().map(Texture::max_channel).collect();
+        // The brightest texel of each image an emitter reads (only those: scanning every
+        // image of a scene without emissive textures would be wasted).
+        let brightest: Vec<f32> = (0..textures.len())
+            .map(|i| {
+                if plans.iter().any(|p| p.tex.image == i) {
+                    textures[i].max_channel()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         let built: Vec<(Emitter, Vec<f32>)> = plans
             .into_par_iter()
             .filter_map(|p| Self::subdivide(p, shrink, textures, &brightest))
