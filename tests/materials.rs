@@ -340,6 +340,14 @@ fn the_damaged_helmet_loads_its_textures_and_does_not_glow() {
     assert!(m.base_texture.is_some() && m.metal_rough_texture.is_some());
     assert!(m.normal_texture.is_some() && m.emissive_texture.is_some());
     assert_eq!(m.emission, Vec3::ONE);
+    // Four 2048² RGBA8 images, decoded once (occlusion is not decoded), counted apart from
+    // the geometry in the memory the stats report.
+    assert!(
+        scene.texture_bytes() >= 4 * 2048 * 2048 * 4,
+        "{}",
+        scene.texture_bytes()
+    );
+    assert!(scene.memory_bytes() > scene.texture_bytes());
     // Every triangle has emissiveFactor 1: glowing, its lights would send π W per m² of
     // surface. Its texture is black but for a few lamps and displays.
     let area: f32 = (0..scene.triangle_count())

@@ -151,8 +151,11 @@ pub struct MemoryBreakdown {
     pub pixel_sums: usize,
     /// One film with its AOVs.
     pub film: usize,
-    /// The scene: triangles, shading data, textures and the BVH.
+    /// The scene: triangles, shading data and the BVH.
     pub scene: usize,
+    /// The scene's decoded texture images and its emissive textures' light tables.
+    #[serde(default)]
+    pub textures: usize,
 }
 
 impl MemoryBreakdown {
@@ -167,6 +170,7 @@ impl MemoryBreakdown {
             + self.pixel_sums
             + self.film
             + self.scene
+            + self.textures
     }
 }
 

@@ -134,21 +134,26 @@ pub(crate) struct SceneParts {
 }
 
 impl Scene {
-    /// Bytes held by the scene's triangles, shading data, textures and BVH (the
-    /// environment's map and tables are not counted).
+    /// Bytes held by the scene's triangles, shading data, textures (with the emissive
+    /// textures' light tables) and BVH (the environment's map and tables are not counted).
     pub fn memory_bytes(&self) -> usize {
         use std::mem::size_of_val;
         size_of_val(&self.triangles[..])
             + size_of_val(&self.shading[..])
             + size_of_val(&self.extras[..])
-            + self.lights.memory_bytes()
-            + self
-                .textures
-                .iter()
-                .map(|t| size_of_val(&t.texels[..]))
-                .sum::<usize>()
+            + self.texture_bytes()
             + size_of_val(&self.bvh.nodes[..])
             + size_of_val(&self.bvh.primitive_indices[..])
+    }
+
+    /// Bytes held by the decoded texture images and the emissive textures' light tables
+    /// (part of [`Scene::memory_bytes`]).
+    pub fn texture_bytes(&self) -> usize {
+        self.textures
+            .iter()
+            .map(|t| std::mem::size_of_val(&t.texels[..]))
+            .sum::<usize>()
+            + self.lights.memory_bytes()
     }
 
     /// The embedded default scene (CORNELL BOX I).

@@ -38,7 +38,8 @@ impl PhotonCore {
                 + self.lobes.memory_bytes()
                 + self.earlier.memory_bytes(),
             film: pixels * Film::BYTES_PER_PIXEL,
-            scene: self.scene.memory_bytes(),
+            scene: self.scene.memory_bytes() - self.scene.texture_bytes(),
+            textures: self.scene.texture_bytes(),
         }
     }
 
