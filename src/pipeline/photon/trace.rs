@@ -141,7 +141,9 @@ pub(super) fn trace_photon(
             PhotonClass::Indirect => (u_here, u_next),
             PhotonClass::Caustic => (c_here, c_next),
         };
-        let lands = hit.as_ref().is_some_and(|h| !scene.specular_at(h));
+        // The model at the hit, read once (a metallic-roughness texture is read here only).
+        let bsdf = hit.as_ref().map(|h| scene.bsdf(h));
+        let lands = bsdf.is_some_and(|b| !b.is_specular());
         let end_normal = hit.as_ref().map_or(Vec3::ZERO, |h| {
             if h.geo_normal.dot(dir) <= 0.0 {
                 h.geo_normal
@@ -190,9 +192,10 @@ pub(super) fn trace_photon(
                 },
             });
         }
-        let Some(hit) = hit else { break };
+        let (Some(hit), Some(bsdf)) = (hit, bsdf) else {
+            break;
+        };
         let wo = -dir;
-        let bsdf = scene.bsdf(&hit);
         let Some(s) = bsdf.sample(wo, hit.normal, rng.next_2d(), rng.next_f32()) else {
             break;
         };
