@@ -72,15 +72,34 @@ pub enum DirectionalMode {
     Histogram,
 }
 
+/// The widest GGX lobe the radiance map holds, as the Phong exponent of the same width
+/// (`bsdf::phong_equivalent`): 1, roughness ≥ 0.9. A mode's own limit
+/// ([`DirectionalMode::phong_limit`]) is stated for the Phong lobe, symmetric about the
+/// mirror direction as the map's zonal integration assumes; a GGX lobe is not (it leans and
+/// stretches at grazing angles), and through 16 SH coefficients a metal of roughness 0.75–0.9
+/// came out 7–33% too bright and worse than shading it matte (`tests/glossy.rs`,
+/// docs/deviations.md §49).
+pub const GGX_MAP_EXPONENT: f32 = 1.0;
+
 impl DirectionalMode {
-    /// The sharpest Phong lobe (largest exponent) this mode's records represent faithfully
-    /// ([`RESOLVED_PEAK_SHARE`]); sharper lobes are traced by the eye path instead of going
-    /// through the radiance map. Infinite in diffuse mode, the paper without §8.1, which shades
-    /// every lobe matte and traces none (the baseline). SH bands 0–3: e ≈ 4.7 (perceptual
-    /// roughness ≈ 0.74); the 20-strata histogram keeps less than the share even at e = 1
-    /// (0.73), the floor of its lobe table, so only lobes of e ≤ 1 (roughness ≥ 0.9) go
-    /// through it.
+    /// The sharpest glossy lobe, as a Phong exponent, that goes through this mode's records;
+    /// sharper lobes are traced by the eye path. The mode's Phong limit
+    /// ([`DirectionalMode::phong_limit`]) restated for GGX lobes: never above
+    /// [`GGX_MAP_EXPONENT`]. Infinite in diffuse mode, which traces none.
     pub fn lobe_limit(self) -> f32 {
+        match self {
+            DirectionalMode::Diffuse => f32::INFINITY,
+            _ => self.phong_limit().min(GGX_MAP_EXPONENT),
+        }
+    }
+
+    /// The sharpest Phong lobe (largest exponent) this mode's records represent faithfully
+    /// ([`RESOLVED_PEAK_SHARE`]). Infinite in diffuse mode, the paper without §8.1, which
+    /// shades every lobe matte and traces none (the baseline). SH bands 0–3: e ≈ 4.7
+    /// (perceptual roughness ≈ 0.74); the 20-strata histogram keeps less than the share even
+    /// at e = 1 (0.73), the floor of its lobe table, so only lobes of e ≤ 1 (roughness ≥ 0.9)
+    /// go through it.
+    pub fn phong_limit(self) -> f32 {
         static SH: OnceLock<f32> = OnceLock::new();
         static HIST: OnceLock<f32> = OnceLock::new();
         match self {

@@ -184,8 +184,8 @@ fn filter_footprints_share_the_sphere_equally() {
 /// 2.5, below the share for every exponent its table holds.
 #[test]
 fn resolution_limits_follow_the_peak_criterion() {
-    let sh = DirectionalMode::Sh.lobe_limit();
-    let hist = DirectionalMode::Histogram.lobe_limit();
+    let sh = DirectionalMode::Sh.phong_limit();
+    let hist = DirectionalMode::Histogram.phong_limit();
     println!(
         "limits: sh {sh}, histogram {hist}; SH share at e = 3, 9.2, 11: {} {} {}; \
          histogram share at e = 1, 2.5: {} {}",
@@ -203,6 +203,12 @@ fn resolution_limits_follow_the_peak_criterion() {
     assert_eq!(hist, 1.0);
     assert!(hist_peak_share(1.0) < s);
     assert_eq!(DirectionalMode::Diffuse.lobe_limit(), f32::INFINITY);
+    // Restated for GGX lobes (deviations §49): no mode holds one narrower than e = 1.
+    assert_eq!(DirectionalMode::Sh.lobe_limit(), super::GGX_MAP_EXPONENT);
+    assert_eq!(
+        DirectionalMode::Histogram.lobe_limit(),
+        super::GGX_MAP_EXPONENT
+    );
 }
 
 /// The histogram's lobe integration conserves energy for every lobe and every mirror

@@ -213,24 +213,11 @@ pub(super) fn trace_chain(
     emitted
 }
 
-/// The widest GGX lobe the radiance map holds, as the Phong exponent of the same width: 1,
-/// roughness ≥ 0.9. A directional mode's own limit (§37) is stated for the Phong lobe, which
-/// is symmetric about the mirror direction as the map's zonal integration assumes; a GGX lobe
-/// is not (it leans and stretches at grazing angles), and through 16 SH coefficients a metal
-/// of roughness 0.75–0.9 came out 7–33% too bright and worse than shading it matte
-/// (`tests/glossy.rs`, docs/deviations.md §49). Sharper lobes are traced.
-pub(crate) const GGX_MAP_EXPONENT: f32 = 1.0;
-
-/// True when `bsdf` is glossy with a lobe sharper than `limit` (or than
-/// [`GGX_MAP_EXPONENT`]): traced by the eye path. An infinite limit (diffuse mode, the paper
-/// without §8.1) traces none.
+/// True when `bsdf` is glossy with a lobe sharper than `limit` (the directional mode's
+/// [`lobe_limit`](crate::pipeline::directional::DirectionalMode::lobe_limit)): traced by the
+/// eye path. An infinite limit (diffuse mode, the paper without §8.1) traces none.
 #[inline]
 fn traces_lobe(bsdf: Bsdf, limit: f32) -> bool {
-    let limit = if limit.is_finite() {
-        limit.min(GGX_MAP_EXPONENT)
-    } else {
-        limit
-    };
     matches!(bsdf, Bsdf::Glossy { f0, alpha, .. }
         if phong_equivalent(alpha) > limit && f0 != Vec3::ZERO)
 }
