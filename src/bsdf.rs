@@ -459,12 +459,12 @@ impl TableAt {
 /// plane of `n` and the mirror direction — and its zonal coefficients (bands 0–3) about that
 /// axis, normalised to unit albedo.
 pub fn ggx_zonal(wo: Vec3, n: Vec3, alpha: f32) -> (Vec3, [f32; 4]) {
-    let at = TableAt::new(wo.dot(n).abs(), alpha);
-    let coeffs = std::array::from_fn(|b| at.read(|i, k| ALBEDO.zonal[i][k][b]));
+    let (at, table) = (TableAt::new(wo.dot(n).abs(), alpha), &*ALBEDO);
+    let coeffs = std::array::from_fn(|b| at.read(|i, k| table.zonal[i][k][b]));
     let side = if wo.dot(n) >= 0.0 { n } else { -n };
     let r = reflect(wo, side);
     let along = (r - side * r.dot(side)).normalize_or_zero();
-    let angle = at.read(|i, k| ALBEDO.axis[i][k]);
+    let angle = at.read(|i, k| table.axis[i][k]);
     (
         (side * angle.cos() + along * angle.sin()).normalize_or(side),
         coeffs,
@@ -482,8 +482,8 @@ pub fn diffuse_share(cos_o: f32, alpha: f32, f0_d: f32) -> f32 {
 /// The directional albedo of a glossy model's specular layer at cos θo = `cos_o`:
 /// ∫ F·D·G₂/(4 cos θo) dωi = f0·A + B (single scattering).
 pub fn specular_albedo(cos_o: f32, alpha: f32, f0: Vec3) -> Vec3 {
-    let at = TableAt::new(cos_o, alpha);
-    f0 * at.read(|i, k| ALBEDO.a[i][k]) + Vec3::splat(at.read(|i, k| ALBEDO.b[i][k]))
+    let (at, table) = (TableAt::new(cos_o, alpha), &*ALBEDO);
+    f0 * at.read(|i, k| table.a[i][k]) + Vec3::splat(at.read(|i, k| table.b[i][k]))
 }
 
 impl Bsdf {

@@ -169,38 +169,53 @@ impl Distribution1D {
 
     /// Probability of index `i`.
     pub fn pmf(&self, i: usize) -> f32 {
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        self.cdf[i] - lo
+        cdf_pmf(&self.cdf, i)
     }
 
     /// Sample an index and where `u` fell inside its bin: (index, pmf, u remapped to [0, 1)),
     /// for a piecewise-constant continuous distribution (uniform within each bin).
     #[inline]
     pub fn sample_continuous(&self, u: f32) -> (usize, f32, f32) {
-        let (i, pmf) = self.sample(u);
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        let within = if pmf > 0.0 {
-            ((u - lo) / pmf).clamp(0.0, 1.0 - f32::EPSILON)
-        } else {
-            0.5
-        };
-        (i, pmf, within)
+        cdf_sample_continuous(&self.cdf, u)
     }
 
     /// Sample an index; returns (index, pmf).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32) {
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .min(self.cdf.len() - 1);
-        // Skip zero-probability entries that a rounding edge could land on.
-        let mut i = i;
-        while self.pmf(i) <= 0.0 && i + 1 < self.cdf.len() {
-            i += 1;
-        }
-        (i, self.pmf(i))
+        cdf_sample(&self.cdf, u)
     }
+}
+
+/// Probability of index `i` of a normalised CDF (non-decreasing, last entry 1): what
+/// [`Distribution1D`] holds, or a slice of many such CDFs stored end to end.
+#[inline]
+pub fn cdf_pmf(cdf: &[f32], i: usize) -> f32 {
+    let lo = if i == 0 { 0.0 } else { cdf[i - 1] };
+    cdf[i] - lo
+}
+
+/// An index of a normalised CDF drawn by `u`; returns (index, pmf).
+#[inline]
+pub fn cdf_sample(cdf: &[f32], u: f32) -> (usize, f32) {
+    let mut i = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
+    // Skip zero-probability entries that a rounding edge could land on.
+    while cdf_pmf(cdf, i) <= 0.0 && i + 1 < cdf.len() {
+        i += 1;
+    }
+    (i, cdf_pmf(cdf, i))
+}
+
+/// [`cdf_sample`] with where `u` fell inside its bin: (index, pmf, u remapped to [0, 1)).
+#[inline]
+pub fn cdf_sample_continuous(cdf: &[f32], u: f32) -> (usize, f32, f32) {
+    let (i, pmf) = cdf_sample(cdf, u);
+    let lo = if i == 0 { 0.0 } else { cdf[i - 1] };
+    let within = if pmf > 0.0 {
+        ((u - lo) / pmf).clamp(0.0, 1.0 - f32::EPSILON)
+    } else {
+        0.5
+    };
+    (i, pmf, within)
 }
 
 /// Rec. 709 luminance of a linear RGB triple.

@@ -26,7 +26,12 @@ impl Lights {
             (b1, b2, radiance, 1.0)
         } else {
             let (b1, b2, relative) = self.textured.sample(texture, u);
-            (b1, b2, self.textured.radiance(texture, b1, b2), relative)
+            (
+                b1,
+                b2,
+                self.textured.radiance(&self.textures, texture, b1, b2),
+                relative,
+            )
         };
         // An alpha-tested emitter sends nothing through its holes (MASK) and α of its light
         // elsewhere (BLEND), as the rays that meet it see.

@@ -10,10 +10,9 @@
 //! `relative_density / area`: the chosen sub-triangle's probability × n².
 
 use super::Surfaces;
-use crate::sampling::{luminance, uniform_triangle};
+use crate::sampling::{cdf_pmf, cdf_sample_continuous, luminance, uniform_triangle};
 use crate::scene::{NO_EXTRA, Texture, TextureRef};
 use glam::{Vec2, Vec3, Vec4Swizzles};
-use std::sync::Arc;
 
 /// Texels across a sub-triangle's longest edge that the subdivision aims for: one, so
 /// that a sharp edge between dark and bright texels leaves few cells straddling it.
@@ -44,12 +43,11 @@ pub(crate) struct Emitter {
     start: u32,
 }
 
-/// The scene's emissive-textured triangles that emit somewhere, in triangle order, with the
-/// textures they read. Built once per scene (in parallel) and shared by every rebuild of its
+/// The scene's emissive-textured triangles that emit somewhere, in triangle order (their
+/// textures are the scene's, which the lights hold). Built once per scene (in parallel) and shared by every rebuild of its
 /// lights.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct TexturedEmitters {
-    textures: Option<Arc<[Texture]>>,
     pub(crate) emitters: Vec<Emitter>,
     cdf: Vec<f32>,
 }
@@ -179,7 +177,6 @@ impl TexturedEmitters {
             .filter_map(|p| Self::subdivide(p, shrink, textures, &brightest))
             .collect();
         let mut out = Self {
-            textures: Some(textures.clone()),
             emitters: Vec::with_capacity(built.len()),
             cdf: Vec::with_capacity(built.iter().map(|b| b.1.len()).sum()),
         };
@@ -258,18 +255,10 @@ impl TexturedEmitters {
         ))
     }
 
+    /// Emitter `e`'s CDF over its cells.
     #[inline]
-    fn texture(&self, e: &Emitter) -> &Texture {
-        &self
-            .textures
-            .as_ref()
-            .expect("emitters hold their textures")[e.tex.image]
-    }
-
-    #[inline]
-    fn pmf(&self, e: &Emitter, k: usize) -> f32 {
-        let c = &self.cdf[e.start as usize..(e.start + e.n * e.n) as usize];
-        c[k] - if k == 0 { 0.0 } else { c[k - 1] }
+    fn cdf(&self, e: &Emitter) -> &[f32] {
+        &self.cdf[e.start as usize..(e.start + e.n * e.n) as usize]
     }
 
     /// A point on emitter `index` from `u`: barycentrics (b1, b2) and its area density
@@ -277,16 +266,10 @@ impl TexturedEmitters {
     #[inline]
     pub(crate) fn sample(&self, index: u32, u: Vec2) -> (f32, f32, f32) {
         let e = &self.emitters[index as usize];
-        let c = &self.cdf[e.start as usize..(e.start + e.n * e.n) as usize];
-        let k = c.partition_point(|&x| x <= u.x).min(c.len() - 1);
-        // Skip zero-probability cells that a rounding edge could land on.
-        let k = (k..c.len()).find(|&k| self.pmf(e, k) > 0.0).unwrap_or(k);
-        let lo = if k == 0 { 0.0 } else { c[k - 1] };
-        let p = self.pmf(e, k);
-        let ux = ((u.x - lo) / p).clamp(0.0, 1.0 - f32::EPSILON);
-        let [a, b, cc] = cell_corners(e.n, k as u32);
+        let (k, p, ux) = cdf_sample_continuous(self.cdf(e), u.x);
+        let [a, b, c] = cell_corners(e.n, k as u32);
         let (s, t) = uniform_triangle(Vec2::new(ux, u.y));
-        let g = a + s * (b - a) + t * (cc - a);
+        let g = a + s * (b - a) + t * (c - a);
         let n = e.n as f32;
         (g.x / n, g.y / n, p * n * n)
     }
@@ -295,15 +278,16 @@ impl TexturedEmitters {
     #[inline]
     pub(crate) fn density(&self, index: u32, b1: f32, b2: f32) -> f32 {
         let e = &self.emitters[index as usize];
-        self.pmf(e, cell_of(e.n, b1, b2)) * (e.n * e.n) as f32
+        cdf_pmf(self.cdf(e), cell_of(e.n, b1, b2)) * (e.n * e.n) as f32
     }
 
-    /// Emitted radiance at barycentrics (b1, b2) of emitter `index`.
+    /// Emitted radiance at barycentrics (b1, b2) of emitter `index`, whose texture is among
+    /// `textures` (the scene's).
     #[inline]
-    pub(crate) fn radiance(&self, index: u32, b1: f32, b2: f32) -> Vec3 {
+    pub(crate) fn radiance(&self, textures: &[Texture], index: u32, b1: f32, b2: f32) -> Vec3 {
         let e = &self.emitters[index as usize];
         let uv = e.uv[0] * (1.0 - b1 - b2) + e.uv[1] * b1 + e.uv[2] * b2;
-        e.factor * self.texture(e).lookup(uv, &e.tex, true).xyz()
+        e.factor * textures[e.tex.image].lookup(uv, &e.tex, true).xyz()
     }
 
     /// Bytes held (the emitters and their CDFs; the textures are the scene's).
