@@ -70,9 +70,12 @@ fn half_dark_emitter() -> Scene {
         "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]}}));
     quad(&mut g, 1.0, 0.5, true, light, &[]);
     g.camera("top", Vec3::new(0.0, 3.0, 0.01), Vec3::ZERO, 0.9);
-    let mut scene = Scene::from_glb_bytes(&g.to_glb(), "half-dark emitter").expect("loads");
-    // Its only light is an emissive texture, so the automatic environment would light it
-    // too: the panel alone.
+    panel_alone(Scene::from_glb_bytes(&g.to_glb(), "half-dark emitter").expect("loads"))
+}
+
+/// `scene` lit by its panel alone: a file whose only light is an emissive texture or an
+/// alpha-tested emitter would get the automatic environment too.
+fn panel_alone(mut scene: Scene) -> Scene {
     scene
         .set_environment(&EnvironmentSettings {
             kind: EnvironmentKind::None,
@@ -495,13 +498,7 @@ fn an_alpha_masked_emitter_sends_no_light_through_its_holes() {
         "pbrMetallicRoughness": {"baseColorTexture": {"index": tex}}}),
     );
     quad(&mut g, 1.0, 0.5, true, light, &[]);
-    let mut scene = Scene::from_glb_bytes(&g.to_glb(), "masked emitter").expect("loads");
-    scene
-        .set_environment(&EnvironmentSettings {
-            kind: EnvironmentKind::None,
-            ..Default::default()
-        })
-        .expect("the panel lights it");
+    let scene = panel_alone(Scene::from_glb_bytes(&g.to_glb(), "masked emitter").expect("loads"));
     let p = Vec3::new(0.1, 0.0, -0.2);
     let n = 200_000;
     let mut rng = Rng::new(2, 0);

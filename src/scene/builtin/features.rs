@@ -8,7 +8,7 @@
 
 use super::GlbBuilder;
 use super::shapes::{Quads, uv_sphere};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use serde_json::{Value, json};
 
 /// An RGBA image of `w`×`h` from `texel(x, y)`, as PNG bytes.
@@ -29,20 +29,20 @@ fn sphere_uvs(segments: u32, rings: u32) -> Vec<f32> {
         .collect()
 }
 
-/// A quad's four corners' TEXCOORD_0, repeated `tiles` times, in [`Quads::add`]'s order.
-fn quad_uvs(q: &Quads, corners: [Vec3; 4], tiles: f32) -> Vec<f32> {
-    let uv = [
-        Vec2::new(0.0, 0.0),
-        Vec2::new(tiles, 0.0),
-        Vec2::new(tiles, tiles),
-        Vec2::new(0.0, tiles),
-    ];
-    q.p.iter()
-        .flat_map(|p| {
-            let k = corners.iter().position(|c| c == p).unwrap_or(0);
-            uv[k].to_array()
-        })
-        .collect()
+/// A quad facing `normal` with TEXCOORD_0 from each vertex's position (`uv_of`), as mesh
+/// `name` of `material`.
+fn textured_quad(
+    g: &mut GlbBuilder,
+    name: &str,
+    corners: [Vec3; 4],
+    normal: Vec3,
+    uv_of: impl Fn(Vec3) -> [f32; 2],
+    material: u32,
+) {
+    let mut q = Quads::default();
+    q.add(corners, normal);
+    let uv: Vec<f32> = q.p.iter().flat_map(|&p| uv_of(p)).collect();
+    g.mesh_with(name, &q.p, &q.n, &[("TEXCOORD_0", 2, &uv)], &q.i, material);
 }
 
 fn pbr(name: &str, color: [f32; 4], metallic: f32, roughness: f32) -> Value {
@@ -88,10 +88,15 @@ pub(super) fn features(g: &mut GlbBuilder) {
         Vec3::new(3.0, 0.0, -3.0),
         Vec3::new(-3.0, 0.0, -3.0),
     ];
-    let mut q = Quads::default();
-    q.add(corners, Vec3::Y);
-    let uv = quad_uvs(&q, corners, 6.0);
-    g.mesh_with("floor", &q.p, &q.n, &[("TEXCOORD_0", 2, &uv)], &q.i, floor);
+    // Six tiles each way.
+    textured_quad(
+        g,
+        "floor",
+        corners,
+        Vec3::Y,
+        |p| [p.x + 3.0, 3.0 - p.z],
+        floor,
+    );
 
     // A sphere banded by its metallic-roughness texture: smooth metal and rough plastic.
     let bands = g.texture(
@@ -192,17 +197,8 @@ pub(super) fn features(g: &mut GlbBuilder) {
         Vec3::new(0.2, 1.6, -1.2),
         Vec3::new(-2.2, 1.6, -1.2),
     ];
-    let mut s = Quads::default();
-    s.add(corners, Vec3::Z);
-    let uv = quad_uvs(&s, corners, 1.0);
-    g.mesh_with(
-        "screen",
-        &s.p,
-        &s.n,
-        &[("TEXCOORD_0", 2, &uv)],
-        &s.i,
-        screen,
-    );
+    let uv = |p: Vec3| [(p.x + 2.2) / 2.4, p.y / 1.6];
+    textured_quad(g, "screen", corners, Vec3::Z, uv, screen);
 
     // A panel whose emissive texture is warm white on its upper half and black below.
     let glow = g.texture(
@@ -226,21 +222,9 @@ pub(super) fn features(g: &mut GlbBuilder) {
         Vec3::new(2.2, 1.4, -1.5),
         Vec3::new(0.8, 1.4, -1.5),
     ];
-    let mut e = Quads::default();
-    e.add(corners, Vec3::Z);
     // v = 0 at the top of the image: the panel's top edge.
-    let uv: Vec<f32> =
-        e.p.iter()
-            .flat_map(|p| [(p.x - 0.8) / 1.4, 1.0 - p.y / 1.4])
-            .collect();
-    g.mesh_with(
-        "emissive_panel",
-        &e.p,
-        &e.n,
-        &[("TEXCOORD_0", 2, &uv)],
-        &e.i,
-        panel,
-    );
+    let uv = |p: Vec3| [(p.x - 0.8) / 1.4, 1.0 - p.y / 1.4];
+    textured_quad(g, "emissive_panel", corners, Vec3::Z, uv, panel);
 
     g.camera(
         "features_camera",

@@ -241,48 +241,23 @@ pub(super) fn convert_material(
         Vec3::ZERO
     };
     let raw = textures.raw["materials"][index].clone();
-    let mut slot = |info: Option<(&Value, usize, u32)>, what: &str| match info {
-        None => Ok(None),
-        Some((raw, t, set)) => textures.slot(raw, t, set, &format!("material {index}'s {what}")),
+    // Each texture info as the JSON gives it (index, texCoord, KHR_texture_transform).
+    let mut slot = |info: &Value, what: &str| -> Result<Option<TextureRef>, String> {
+        let Some(t) = info["index"].as_u64() else {
+            return Ok(None);
+        };
+        let set = info["texCoord"].as_u64().unwrap_or(0).min(u32::MAX as u64) as u32;
+        textures.slot(info, t as usize, set, &format!("material {index}'s {what}"))
     };
-    let base_texture = slot(
-        pbr.base_color_texture.as_ref().map(|i| {
-            (
-                &raw["pbrMetallicRoughness"]["baseColorTexture"],
-                i.index.value(),
-                i.tex_coord,
-            )
-        }),
-        "base colour texture",
-    )?;
+    let pbr_raw = &raw["pbrMetallicRoughness"];
+    let base_texture = slot(&pbr_raw["baseColorTexture"], "base colour texture")?;
     let metal_rough_texture = slot(
-        pbr.metallic_roughness_texture.as_ref().map(|i| {
-            (
-                &raw["pbrMetallicRoughness"]["metallicRoughnessTexture"],
-                i.index.value(),
-                i.tex_coord,
-            )
-        }),
+        &pbr_raw["metallicRoughnessTexture"],
         "metallic-roughness texture",
     )?;
-    let normal_texture = slot(
-        m.normal_texture
-            .as_ref()
-            .map(|i| (&raw["normalTexture"], i.index.value(), i.tex_coord)),
-        "normal texture",
-    )?
-    .map(|t| {
-        (
-            t,
-            finite_or(m.normal_texture.as_ref().map_or(1.0, |n| n.scale), 1.0),
-        )
-    });
-    let emissive_texture = slot(
-        m.emissive_texture
-            .as_ref()
-            .map(|i| (&raw["emissiveTexture"], i.index.value(), i.tex_coord)),
-        "emissive texture",
-    )?;
+    let normal_scale = finite_or(m.normal_texture.as_ref().map_or(1.0, |n| n.scale), 1.0);
+    let normal_texture = slot(&raw["normalTexture"], "normal texture")?.map(|t| (t, normal_scale));
+    let emissive_texture = slot(&raw["emissiveTexture"], "emissive texture")?;
     // The occlusion texture is checked but not applied: raysplat computes the occlusion it
     // stands for (docs/deviations.md §45).
     if let Some(o) = &m.occlusion_texture {
