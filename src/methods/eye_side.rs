@@ -55,10 +55,12 @@ pub struct EyeSide {
     pub targets: SplatTargets,
     /// The kd-tree over the splat targets (§7.1).
     pub tree: SplatTree,
-    /// Per pixel: emission seen directly or through specular chains, plus NEE direct light
-    /// (eye weights applied): the film's direct light before splatted direct photons and
-    /// traced lobes (one sum, not two: docs/benchmarks.md, "Memory").
-    pub direct: Vec<Vec3>,
+    /// Per pixel: emission seen directly or through specular chains.
+    pub emitted: Vec<Vec3>,
+    /// Per pixel: the sum of the NEE direct light of every draw so far ([`EyeSide::redraw_direct`]).
+    pub nee: Vec<Vec3>,
+    /// NEE draws summed in `nee` (1 after the eye pass; 0 when no NEE is drawn).
+    pub nee_draws: u32,
     /// Eye samples whose NEE estimate was NaN or infinite (dropped).
     pub invalid_direct: u64,
     /// Accumulators for indirect and caustic photons.
@@ -102,7 +104,7 @@ impl EyeSide {
         let EyePass {
             samples: eye,
             targets,
-            emitted: mut direct,
+            emitted,
         } = eye_pass(scene, camera, &eye_settings);
         let mut tree = SplatTree::build(&targets.position, &targets.normal);
         if settings.splat_visibility {
@@ -115,19 +117,11 @@ impl EyeSide {
         timings.t_eye += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
-        let mut invalid_direct = 0;
-        let any_traced = eye.any_lobe_traced();
-        if settings.direct == DirectMode::Nee || any_traced {
-            let (per_sample, invalid) = if settings.direct == DirectMode::Nee {
-                direct_light(scene, &eye, settings.nee_samples, seed)
-            } else {
-                traced_lobe_direct_light(scene, &eye, settings.nee_samples, seed)
-            };
-            invalid_direct = invalid;
-            for (i, l) in per_sample.iter().enumerate() {
-                direct[eye.pixel[i] as usize] += eye.weight[i].get() * *l;
-            }
-        }
+        let (nee, invalid_direct) = match nee_draw(scene, &eye, settings, seed) {
+            Some((nee, invalid)) => (nee, invalid),
+            None => (Vec::new(), 0),
+        };
+        let nee_draws = (!nee.is_empty()) as u32;
         timings.t_direct += t.elapsed().as_secs_f64();
 
         let mode = settings.radiance_map;
@@ -141,7 +135,9 @@ impl EyeSide {
             eye,
             targets,
             tree,
-            direct,
+            emitted,
+            nee,
+            nee_draws,
             invalid_direct,
             acc_indirect,
             acc_direct,
@@ -157,7 +153,54 @@ impl EyeSide {
         self.targets = SplatTargets::default();
         self.acc_indirect = Accumulators::default();
         self.acc_direct = Accumulators::default();
-        self.direct = Vec::new();
+        self.emitted = Vec::new();
+        self.nee = Vec::new();
+        self.nee_draws = 0;
+    }
+
+    /// Draw the NEE direct light of these eye samples once more, from the random streams of
+    /// draw `nee_draws` (the eye pass drew the first), and add it to the per-pixel sum: a
+    /// paced render redraws it between eye passes, with each photon batch, so that direct
+    /// light averages over as many draws as the indirect light has batches while the eye
+    /// passes themselves (sub-pixel positions, splat targets, their visible domains) are
+    /// drawn only as often as they pay (docs/deviations.md §50). Timed into T_D.
+    pub fn redraw_direct(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        timings: &mut Timings,
+    ) {
+        if self.nee_draws == 0 || self.nee.is_empty() {
+            return;
+        }
+        let t = Instant::now();
+        let seed = self.eye_settings.seed
+            ^ (self.nee_draws as u64)
+                .wrapping_mul(0xd1b5_4a32_d192_ed03)
+                .rotate_left(17);
+        if let Some((nee, invalid)) = nee_draw(scene, &self.eye, settings, seed) {
+            for (sum, l) in self.nee.iter_mut().zip(&nee) {
+                *sum += *l;
+            }
+            self.invalid_direct += invalid;
+            self.nee_draws += 1;
+        }
+        timings.t_direct += t.elapsed().as_secs_f64();
+    }
+
+    /// The eye side's direct light per pixel into `out`: emission seen directly plus the
+    /// mean of the NEE draws. Leaves `out` alone for a released side.
+    pub fn direct_into(&self, out: &mut [Vec3]) {
+        if self.emitted.len() != out.len() {
+            return;
+        }
+        out.copy_from_slice(&self.emitted);
+        if self.nee_draws > 0 && self.nee.len() == out.len() {
+            let inv = 1.0 / self.nee_draws as f32;
+            for (o, n) in out.iter_mut().zip(&self.nee) {
+                *o += *n * inv;
+            }
+        }
     }
 
     /// Empty both accumulators (before a re-splat).
@@ -207,5 +250,88 @@ impl EyeSide {
                 ) / b
             })
             .collect()
+    }
+}
+
+/// One draw of the eye samples' explicit direct light, summed per pixel with the samples'
+/// weights: NEE with MIS everywhere with `--direct nee`, at the traced glossy lobes only with
+/// `--direct photons` (none when nothing is traced); `None` when nothing is drawn. With the
+/// number of non-finite estimates dropped.
+fn nee_draw(
+    scene: &Scene,
+    eye: &EyeSamples,
+    settings: &RenderSettings,
+    seed: u64,
+) -> Option<(Vec<Vec3>, u64)> {
+    let (per_sample, invalid) = if settings.direct == DirectMode::Nee {
+        direct_light(scene, eye, settings.nee_samples, seed)
+    } else if eye.any_lobe_traced() {
+        traced_lobe_direct_light(scene, eye, settings.nee_samples, seed)
+    } else {
+        return None;
+    };
+    let pixels = (settings.width * settings.height) as usize;
+    let mut out = vec![Vec3::ZERO; pixels];
+    for (i, l) in per_sample.iter().enumerate() {
+        out[eye.pixel[i] as usize] += eye.weight[i].get() * *l;
+    }
+    Some((out, invalid))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::BuiltinScene;
+
+    /// Luminance-free squared difference of two per-pixel images, summed.
+    fn sq_diff(a: &[Vec3], b: &[Vec3]) -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (*x - *y).length_squared() as f64)
+            .sum()
+    }
+
+    /// Redrawn NEE averages independent draws: the image after k draws lies (1/k − 1/64)
+    /// of a draw's variance from the 64-draw mean, so one draw is about 21 times farther
+    /// from it than 16 draws are (asserted: more than 5 times), and averaging keeps the
+    /// image's mean (within 5%). Draws that reused one stream would not come closer at all.
+    #[test]
+    fn redrawn_nee_averages_independent_draws() {
+        let scene = Scene::builtin(BuiltinScene::CornellClassic);
+        let settings = RenderSettings {
+            width: 24,
+            height: 24,
+            spp: 1,
+            ..RenderSettings::default()
+        };
+        let camera = scene.camera_or_error(None).unwrap();
+        let options = EyeSideOptions {
+            lobes: LobeDraws::PerBatch,
+            pass: 0,
+            targets: TargetGeometry::Freed,
+        };
+        let mut timings = Timings::default();
+        let mut side = EyeSide::new(&scene, &camera, &settings, options, &mut timings).unwrap();
+        let pixels = 24 * 24;
+        let image = |side: &EyeSide| {
+            let mut out = vec![Vec3::ZERO; pixels];
+            side.direct_into(&mut out);
+            out
+        };
+        let one = image(&side);
+        let mut sixteen = Vec::new();
+        for k in 1..64 {
+            side.redraw_direct(&scene, &settings, &mut timings);
+            if k == 15 {
+                sixteen = image(&side);
+            }
+        }
+        assert_eq!(side.nee_draws, 64);
+        let all = image(&side);
+        let (far, near) = (sq_diff(&one, &all), sq_diff(&sixteen, &all));
+        assert!(far > 5.0 * near, "one draw {far}, sixteen {near}");
+        let mean = |v: &[Vec3]| v.iter().map(|x| x.element_sum() as f64).sum::<f64>();
+        let (m1, m64) = (mean(&one), mean(&all));
+        assert!((m1 / m64 - 1.0).abs() < 0.05, "{m1} vs {m64}");
     }
 }

@@ -285,6 +285,12 @@ pub trait Method: Send {
     /// every batch, as their films gather them.
     fn headless(&mut self) {}
 
+    /// The render is paced by the clock (a time budget, the window) rather than by a count of
+    /// steps: a method may then balance the cost of its eye passes against its batches by
+    /// their measured times (rs: docs/deviations.md §50). Renders of a given number of steps
+    /// do not call it and stay deterministic.
+    fn pace(&mut self) {}
+
     /// The image so far (resolving what the steps accumulated).
     fn film(&mut self) -> Film;
 
@@ -407,6 +413,9 @@ pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dy
     // Nothing re-splats in a headless render: stored rays are kept only where the film reads
     // them (docs/benchmarks.md, "Memory").
     method.headless();
+    if matches!(budget, Budget::Seconds(_)) {
+        method.pace();
+    }
     loop {
         method.step();
         if !progress(&*method) {

@@ -37,6 +37,36 @@ impl Scene {
         Some(self.hit_record(tri_id, origin + hit.t * dir, hit.t))
     }
 
+    /// The first hit's distance, unit geometric normal and triangle, without the shading
+    /// record [`Scene::intersect`] builds (texture reads, normal maps): for rays that only ask
+    /// how far the nearest surface is and which way it faces (the visible domains' probes).
+    #[inline]
+    pub fn intersect_geometry(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmax: f32,
+    ) -> Option<(f32, Vec3, u32)> {
+        let ray = query(origin, dir, tmax);
+        let mut hit = RayHit::none();
+        let tris = &self.triangles;
+        let idx = &self.bvh.primitive_indices;
+        if !self.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            let t = idx[id];
+            self.cut_out(r, t, tris[t as usize].intersect(r))
+        }) {
+            return None;
+        }
+        let tri_id = idx[hit.primitive_id as usize];
+        let tri = &tris[tri_id as usize];
+        let (v0, v1, v2): (Vec3, Vec3, Vec3) = (tri.v0.into(), tri.v1.into(), tri.v2.into());
+        Some((
+            hit.t,
+            (v1 - v0).cross(v2 - v0).normalize_or(Vec3::Y),
+            tri_id,
+        ))
+    }
+
     /// True when something blocks the open segment `origin + t·dir`, t ∈ (0, tmax).
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {

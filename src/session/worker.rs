@@ -370,6 +370,8 @@ impl Worker {
         match methods::build_for(self.scene.clone(), settings, self.camera.clone()) {
             Ok(mut r) => {
                 r.set_ray_budget(self.config.max_stored_rays);
+                // The window renders by the clock.
+                r.pace();
                 self.renderer = Some(r);
                 self.failed = None;
                 self.applied = self.config.settings.clone();

@@ -119,9 +119,7 @@ impl PhotonCore {
         // Direct light goes straight into the film (no second map, no copy: docs/benchmarks.md,
         // "Memory").
         // (A released side, after a failed eye pass, has no sums: its film stays black.)
-        if side.direct.len() == film.direct.len() {
-            film.direct.copy_from_slice(&side.direct);
-        }
+        side.direct_into(&mut film.direct);
         if direct_photons == DirectPhotons::Splatted {
             film.invalid_contributions += add_radiance_at(
                 &side.eye,

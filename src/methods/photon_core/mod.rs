@@ -106,6 +106,13 @@ pub struct CoreConfig {
 /// their time in eye passes.
 pub const EYE_PASS_PHOTONS_PER_SAMPLE: f64 = 0.05;
 
+/// A paced render ([`PhotonCore::pace`]) draws a new eye pass only once the photon batches
+/// splatted onto the current one have taken this many times the pass's own cost: at most
+/// half of the time goes to eye passes where they are dear (visible domains' probes at a
+/// high resolution, a room's few photons per batch), and cheap ones stay one per batch
+/// (docs/deviations.md §50).
+pub const EYE_PASS_COST_RATIO: f64 = 1.0;
+
 /// One view's eye side, the stored photon rays and the batch bookkeeping of the photon-based
 /// methods. Its state is private: anyone may read it through the accessors below; only the
 /// crate changes it (the methods' one step API is [`crate::methods::photon_method::PhotonMethod`],
@@ -145,6 +152,16 @@ pub struct PhotonCore {
     held: Option<(MemoryBreakdown, usize)>,
     /// Time per phase.
     timings: Timings,
+    /// Eye passes and NEE draws paced by their measured cost ([`PhotonCore::pace`]).
+    paced: bool,
+    /// Seconds the current eye pass took to draw (eye pass, splat tree, visible domains, NEE).
+    pub(crate) pass_cost: f64,
+    /// Seconds spent on new batches (and NEE redraws) since the current eye pass was drawn.
+    pass_spent: f64,
+    /// Seconds the last NEE draw took.
+    pub(crate) nee_cost: f64,
+    /// Seconds spent on new batches since the last NEE draw.
+    since_nee: f64,
 }
 
 impl PhotonCore {
@@ -164,6 +181,7 @@ impl PhotonCore {
             side_options(config, 0),
             &mut timings,
         )?;
+        let (pass_cost, nee_cost) = (timings.t_eye + timings.t_direct, timings.t_direct);
         let lobes = TracedLobes::new(&side.eye);
         let t = Instant::now();
         let mut store = PhotonStore::new(&scene, settings.seed);
@@ -191,6 +209,11 @@ impl PhotonCore {
             earlier: EarlierPasses::default(),
             held: None,
             timings,
+            paced: false,
+            pass_cost,
+            pass_spent: 0.0,
+            nee_cost,
+            since_nee: 0.0,
         })
     }
 
@@ -293,9 +316,42 @@ impl PhotonCore {
             self.draw_lobes(b);
             Step::Resplatted
         } else {
+            let t = Instant::now();
+            if self.paced_passes() && self.pass_batches() > 0 && self.since_nee >= self.nee_cost {
+                let before = self.timings.t_direct;
+                self.side
+                    .redraw_direct(&self.scene, &self.settings, &mut self.timings);
+                self.nee_cost = self.timings.t_direct - before;
+                self.since_nee = 0.0;
+            }
             self.run_batch();
+            let spent = t.elapsed().as_secs_f64();
+            self.pass_spent += spent;
+            self.since_nee += spent;
             Step::Traced
         }
+    }
+
+    /// The render is paced by the clock (a time budget, the window), not by a count of
+    /// batches: eye passes and NEE draws are then drawn as often as they pay for themselves
+    /// against the photon batches (docs/deviations.md §50). A render of a given number of
+    /// batches stays unpaced, and so deterministic.
+    pub(crate) fn pace(&mut self) {
+        self.paced = true;
+    }
+
+    /// Pacing applies to a method whose eye passes are redrawn (rs).
+    fn paced_passes(&self) -> bool {
+        self.paced && self.config.eye_passes == EyePasses::Redrawn && self.eye_passes_allowed()
+    }
+
+    /// Record the cost of the eye side just drawn (timings before it: `before`).
+    fn begin_pass_clock(&mut self, before: Timings) {
+        self.pass_cost =
+            self.timings.t_eye + self.timings.t_direct - before.t_eye - before.t_direct;
+        self.nee_cost = self.timings.t_direct - before.t_direct;
+        self.pass_spent = 0.0;
+        self.since_nee = 0.0;
     }
 
     /// True when the current eye pass has held its share of photons
@@ -306,6 +362,7 @@ impl PhotonCore {
             && self.resplat_queue.is_empty()
             && self.pass_batches() as f64 * self.settings.photons as f64
                 >= EYE_PASS_PHOTONS_PER_SAMPLE * self.side.eye.len().max(1) as f64
+            && (!self.paced_passes() || self.pass_spent >= EYE_PASS_COST_RATIO * self.pass_cost)
     }
 
     /// Eye passes are drawn with `progressive_eye`, but not while the image-space filter
@@ -327,6 +384,7 @@ impl PhotonCore {
         // docs/benchmarks.md, "Memory").
         self.side.release();
         self.lobes = TracedLobes::default();
+        let before = self.timings;
         match EyeSide::new(
             &self.scene,
             &self.camera,
@@ -344,6 +402,7 @@ impl PhotonCore {
             }
         }
         self.eye_pass = pass;
+        self.begin_pass_clock(before);
         self.lobes = TracedLobes::new(&self.side.eye);
         self.splatted = 0;
         self.folded = 0;
@@ -382,6 +441,7 @@ impl PhotonCore {
         spp: u32,
     ) -> Result<(), MethodError> {
         let settings = crate::methods::checked_view(&self.settings, width, height, spp)?;
+        let before = self.timings;
         self.side = EyeSide::new(
             &self.scene,
             &camera,
@@ -390,6 +450,7 @@ impl PhotonCore {
             &mut self.timings,
         )?;
         self.eye_pass = 0;
+        self.begin_pass_clock(before);
         self.lobes = TracedLobes::new(&self.side.eye);
         self.settings = settings;
         self.camera = camera;

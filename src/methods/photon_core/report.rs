@@ -34,7 +34,7 @@ impl PhotonCore {
                 - directional,
             directional_records: directional,
             photon_rays: self.store.memory_bytes(),
-            pixel_sums: side.direct.len() * vec3
+            pixel_sums: (side.emitted.len() + side.nee.len()) * vec3
                 + self.lobes.memory_bytes()
                 + self.earlier.memory_bytes(),
             film: pixels * Film::BYTES_PER_PIXEL,

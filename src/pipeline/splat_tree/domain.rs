@@ -179,19 +179,19 @@ pub fn probe(scene: &Scene, p: Vec3, n: Vec3) -> [f32; PROBES] {
             let dir = t * (c * ce) + b * (s * ce) + n * se;
             let (mut from, mut travelled) = (origin, 0.0);
             for _ in 0..PASS_OVER {
-                let Some(hit) = scene.intersect(from, dir, f32::INFINITY) else {
+                let Some((t, g, _)) = scene.intersect_geometry(from, dir, f32::INFINITY) else {
                     break;
                 };
-                travelled += hit.t;
-                let g = hit.geo_normal;
+                travelled += t;
                 let facing = if g.dot(dir) < 0.0 { g } else { -g };
                 if facing.dot(n) < SAME_SURFACE_COS {
                     free[ring * AZIMUTHS + k] = travelled;
                     break;
                 }
-                let off = surface_offset(hit.position.abs().max_element());
-                from = offset_ray_origin(hit.position, g, off, dir);
-                travelled += (from - hit.position).length();
+                let position = from + dir * t;
+                let off = surface_offset(position.abs().max_element());
+                from = offset_ray_origin(position, g, off, dir);
+                travelled += (from - position).length();
             }
         }
     }
