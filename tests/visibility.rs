@@ -216,13 +216,18 @@ fn furnace() -> Scene {
 /// Mean radiance of the corner line (the 4 middle columns) over that of the far field (8
 /// columns at each side), rows in the middle half.
 fn corner_over_far_field(scene: &Arc<Scene>, visibility: bool) -> f32 {
+    corner_over_far_field_with(scene, visibility, DirectMode::Photons)
+}
+
+/// [`corner_over_far_field`] with direct light from `direct`.
+fn corner_over_far_field_with(scene: &Arc<Scene>, visibility: bool, direct: DirectMode) -> f32 {
     let (w, h) = (64usize, 48usize);
     let s = RenderSettings {
         width: w as u32,
         height: h as u32,
         spp: 4,
         photons: 200_000,
-        direct: DirectMode::Photons,
+        direct,
         splat_visibility: visibility,
         camera: Some("corner".into()),
         ..RenderSettings::default()
@@ -249,12 +254,26 @@ fn corner_over_far_field(scene: &Arc<Scene>, visibility: bool) -> f32 {
     (corner / far) as f32
 }
 
-/// The issue's concave-corner furnace. Without the visible kernel domains the kernels that
-/// reach past the corner lose that part of their mass (docs/deviations.md §42): the corner is
-/// darker by more than 3% (measured 0.920). With them it must be nearer the far field than
-/// without. The issue asks for 3%; measured 1.055, the renormalisation overshoots at the
-/// corner line (docs/deviations.md §40, "What is left"), so the bound here is the one the
-/// domains meet today, not the issue's.
+/// The issue's concave-corner furnace at the default settings (direct light by NEE, the
+/// photons' kernels carrying the indirect half): the corner line within 3% of the far field
+/// (measured 1.003; 1.025 on seed 2; 0.939 without the visible domains).
+#[test]
+fn a_concave_corner_in_a_furnace_is_within_three_percent_of_the_far_field() {
+    let scene = Arc::new(furnace());
+    let ratio = corner_over_far_field_with(&scene, true, DirectMode::Nee);
+    assert!(
+        (ratio - 1.0).abs() < 0.03,
+        "the corner is {ratio} of the far field"
+    );
+}
+
+/// The same furnace with every photon splatted, direct ones too. Without the visible kernel
+/// domains the kernels that reach past the corner lose that part of their mass
+/// (docs/deviations.md §42): the corner is darker by more than 3% (measured 0.920). With them
+/// it must be nearer the far field than without. Measured 1.046 (1.055 before stopped rays
+/// were held to their planar point, §40): the point-like start of the walls' direct photons
+/// still overshoots at the corner line (docs/deviations.md §40, "What is left"), so the bound
+/// here is the one the domains meet today, not the issue's.
 #[test]
 fn a_concave_corner_in_a_furnace_keeps_its_light() {
     let scene = Arc::new(furnace());

@@ -402,6 +402,10 @@ fn visible_domain(
     let mut cut = [false; LANES];
     let mut len2 = [0.0f32; LANES];
     let mut cell = [0u32; LANES];
+    // For a ray that stopped on another surface: its planar v (where it would have landed
+    // on an open plane, the point N's model counts it at) must lie in view as well.
+    let mut stopped = [false; LANES];
+    let mut planar = [Vec3::ZERO; LANES];
     let mut share_x = [0.0f32; LANES];
     for l in 0..LANES {
         let r = radius[l];
@@ -425,8 +429,14 @@ fn visible_domain(
         let tc = (vx * nx + vy * ny + vz * nz) / dn;
         let (cx, cy, cz) = (d.x * tc - vx, d.y * tc - vy, d.z * tc - vz);
         let crossing_kept = (dn < 0.0) & (tc >= 0.0) & (cx * cx + cy * cy + cz * cz <= r * r);
+        // The planar v of a ray that stopped: its unclamped foot, or the crossing when that
+        // lies behind the plane (and is reached within r, as for any crossing pair).
+        let (px, py, pz) = (d.x * t_foot - vx, d.y * t_foot - vy, d.z * t_foot - vz);
+        let planar_crosses = px * nx + py * ny + pz * nz < -1e-4 * r;
         // A ray that stopped behind the target's plane before reaching it splats nothing.
-        keep[l] = !(stops & (behind < 0.0)) & (!crosses | crossing_kept);
+        keep[l] = !(stops & (behind < 0.0))
+            & (!crosses | crossing_kept)
+            & (!(stops & planar_crosses) | crossing_kept);
         let (ux, uy, uz) = if crosses { (cx, cy, cz) } else { (fx, fy, fz) };
         len2[l] = ux * ux + uy * uy + uz * uz;
         // Where the radius reaches past the nearest surface a probe met, v's cell decides.
@@ -436,6 +446,12 @@ fn visible_domain(
         let (t, b) = onb(n);
         let u = Vec3::new(ux, uy, uz);
         cell[l] = cell_index(u.dot(t), u.dot(b), u.dot(n));
+        stopped[l] = stops;
+        planar[l] = if planar_crosses {
+            Vec3::new(cx, cy, cz)
+        } else {
+            Vec3::new(px, py, pz)
+        };
         share_x[l] = share_position(r, dom.free_min[l]);
     }
     // The cells' free distances and N(x, r) read from each lane's table.
@@ -445,13 +461,28 @@ fn visible_domain(
         free[l] = free_distance(dom.free[l][cell[l] as usize % PROBES], dom.free_min[l]);
         share[l] = share_from_row(&dom.share[l], share_x[l]);
     }
+    // A ray that stopped on another surface is kept where N counts it: its planar v in view
+    // too (a ray landing on the far wall of a concave corner would otherwise add to the
+    // renormalised near wall's light what N's open plane has it land beyond the corner, where
+    // the cell cuts it). Rare outside corners and thin walls: only then are the cells read.
+    let mut planar_in_view = [true; LANES];
+    if stopped.iter().any(|&s| s) {
+        for l in 0..LANES {
+            let n = Vec3::new(dom.normal[0][l], dom.normal[1][l], dom.normal[2][l]);
+            let (t, b) = onb(n);
+            let p = planar[l];
+            let c = cell_index(p.dot(t), p.dot(b), p.dot(n));
+            let f = free_distance(dom.free[l][c as usize % PROBES], dom.free_min[l]) * (1.0 - 1e-3);
+            planar_in_view[l] = !stopped[l] | (p.length_squared() < f * f);
+        }
+    }
     let flagged: [bool; LANES] = std::array::from_fn(|l| near & (1 << l) != 0);
     let mut scale = [1.0f32; LANES];
     for l in 0..LANES {
         // Strictly nearer than the surface the probe met: a ray that ended on it lies on it,
         // and stands for rays the planar model lets pass on. N(x, r) renormalises.
         let f = free[l] * (1.0 - 1e-3);
-        let kept = keep[l] & (!cut[l] | (len2[l] < f * f));
+        let kept = keep[l] & (!cut[l] | ((len2[l] < f * f) & planar_in_view[l]));
         let n = if cut[l] { share[l] } else { 1.0 };
         let s = 1.0 / n.max(1.0 / 16.0);
         scale[l] = if !flagged[l] {
