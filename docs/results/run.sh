@@ -132,3 +132,4 @@ python3 -c "import bpy" 2>/dev/null && {
         fi
     done
 }
+bash docs/results/room.sh
