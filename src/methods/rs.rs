@@ -104,3 +104,71 @@ fn cache_from_map(core: &PhotonCore, batches: u32) -> (Cache, Interpolated) {
         },
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::methods::photon_method::PhotonMethod;
+    use crate::methods::{Method, Step};
+    use crate::scene::{BuiltinScene, Scene};
+    use crate::settings::RenderSettings;
+    use std::sync::Arc;
+
+    fn small_rs() -> PhotonMethod<RsResolver> {
+        let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
+        let settings = RenderSettings {
+            width: 16,
+            height: 16,
+            spp: 1,
+            photons: 2_000,
+            ..RenderSettings::default()
+        };
+        crate::methods::testing::open(scene, settings).unwrap()
+    }
+
+    fn traced(m: &mut PhotonMethod<RsResolver>) {
+        while m.step() != Step::Traced {}
+    }
+
+    /// Paced by the clock, an eye pass that costs more than the batches splatted onto it
+    /// stays (its NEE is redrawn with every batch instead, when a draw costs less than a
+    /// batch); once the batches have taken as long as the pass, the next one is drawn. The
+    /// costs are set here, not timed, so the test holds on any machine. Unpaced, every
+    /// batch gets its own pass (these batches hold far more than 0.05 photons per sample).
+    #[test]
+    fn a_paced_render_draws_eye_passes_as_they_pay() {
+        let mut m = small_rs();
+        traced(&mut m);
+        traced(&mut m);
+        assert_eq!(m.core().eye_passes(), 2, "unpaced: a pass per batch");
+        assert_eq!(m.core().side().nee_draws, 1);
+
+        let mut m = small_rs();
+        m.pace();
+        m.core_mut().pass_cost = 1e9;
+        for _ in 0..4 {
+            m.core_mut().nee_cost = 0.0;
+            traced(&mut m);
+        }
+        assert_eq!(m.core().eye_passes(), 1, "a dear pass is kept");
+        assert_eq!(m.core().pass_batches(), 4);
+        assert_eq!(
+            m.core().side().nee_draws,
+            4,
+            "NEE redrawn with each batch after the first"
+        );
+
+        m.core_mut().nee_cost = 1e9;
+        traced(&mut m);
+        assert_eq!(m.core().side().nee_draws, 4, "a dear NEE draw waits");
+
+        m.core_mut().pass_cost = 0.0;
+        traced(&mut m);
+        assert_eq!(
+            m.core().eye_passes(),
+            2,
+            "a pass that has paid for itself is redrawn"
+        );
+        assert_eq!(m.core().pass_batches(), 1);
+    }
+}

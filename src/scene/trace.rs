@@ -19,6 +19,14 @@ impl Scene {
     /// ones only).
     #[inline]
     pub fn intersect_except(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> Option<Hit> {
+        let (t, tri_id) = self.nearest(origin, dir, tmax, skip)?;
+        Some(self.hit_record(tri_id, origin + t * dir, t))
+    }
+
+    /// The closest hit's distance and triangle, never `skip` (the BVH traversal with the
+    /// alpha test; [`Scene::intersect_except`] and [`Scene::intersect_geometry`] build on it).
+    #[inline]
+    fn nearest(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> Option<(f32, u32)> {
         let ray = query(origin, dir, tmax);
         let mut hit = RayHit::none();
         let tris = &self.triangles;
@@ -33,8 +41,7 @@ impl Scene {
         }) {
             return None;
         }
-        let tri_id = idx[hit.primitive_id as usize];
-        Some(self.hit_record(tri_id, origin + hit.t * dir, hit.t))
+        Some((hit.t, idx[hit.primitive_id as usize]))
     }
 
     /// The first hit's distance, unit geometric normal and triangle, without the shading
@@ -47,24 +54,10 @@ impl Scene {
         dir: Vec3,
         tmax: f32,
     ) -> Option<(f32, Vec3, u32)> {
-        let ray = query(origin, dir, tmax);
-        let mut hit = RayHit::none();
-        let tris = &self.triangles;
-        let idx = &self.bvh.primitive_indices;
-        if !self.bvh.ray_traverse(ray, &mut hit, |r, id| {
-            let t = idx[id];
-            self.cut_out(r, t, tris[t as usize].intersect(r))
-        }) {
-            return None;
-        }
-        let tri_id = idx[hit.primitive_id as usize];
-        let tri = &tris[tri_id as usize];
+        let (t, tri_id) = self.nearest(origin, dir, tmax, u32::MAX)?;
+        let tri = &self.triangles[tri_id as usize];
         let (v0, v1, v2): (Vec3, Vec3, Vec3) = (tri.v0.into(), tri.v1.into(), tri.v2.into());
-        Some((
-            hit.t,
-            (v1 - v0).cross(v2 - v0).normalize_or(Vec3::Y),
-            tri_id,
-        ))
+        Some((t, (v1 - v0).cross(v2 - v0).normalize_or(Vec3::Y), tri_id))
     }
 
     /// True when something blocks the open segment `origin + t·dir`, t ∈ (0, tmax).
