@@ -51,7 +51,9 @@ impl Rng {
     }
 }
 
-fn splitmix64(mut z: u64) -> u64 {
+/// SplitMix64's finaliser (Steele et al. 2014): a well-mixed 64-bit value from `z`, to
+/// derive independent seeds from one seed and a counter.
+pub fn splitmix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);

@@ -9,6 +9,7 @@ use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
 use crate::pipeline::radiance_map::{Accumulators, Channel};
 use crate::pipeline::splat_tree::SplatTree;
+use crate::sampling::splitmix64;
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, RenderSettings};
 use glam::Vec3;
@@ -117,11 +118,12 @@ impl EyeSide {
         timings.t_eye += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
-        let (nee, invalid_direct) = match nee_draw(scene, &eye, settings, seed) {
-            Some((nee, invalid)) => (nee, invalid),
-            None => (Vec::new(), 0),
-        };
-        let nee_draws = (!nee.is_empty()) as u32;
+        let mut nee = vec![Vec3::ZERO; emitted.len()];
+        let (nee, nee_draws, invalid_direct) =
+            match add_nee_draw(scene, &eye, settings, seed, &mut nee) {
+                Some(invalid) => (nee, 1, invalid),
+                None => (Vec::new(), 0, 0),
+            };
         timings.t_direct += t.elapsed().as_secs_f64();
 
         let mode = settings.radiance_map;
@@ -170,18 +172,12 @@ impl EyeSide {
         settings: &RenderSettings,
         timings: &mut Timings,
     ) {
-        if self.nee_draws == 0 || self.nee.is_empty() {
+        if self.nee_draws == 0 {
             return;
         }
         let t = Instant::now();
-        let seed = self.eye_settings.seed
-            ^ (self.nee_draws as u64)
-                .wrapping_mul(0xd1b5_4a32_d192_ed03)
-                .rotate_left(17);
-        if let Some((nee, invalid)) = nee_draw(scene, &self.eye, settings, seed) {
-            for (sum, l) in self.nee.iter_mut().zip(&nee) {
-                *sum += *l;
-            }
+        let seed = self.eye_settings.seed ^ splitmix64(self.nee_draws as u64);
+        if let Some(invalid) = add_nee_draw(scene, &self.eye, settings, seed, &mut self.nee) {
             self.invalid_direct += invalid;
             self.nee_draws += 1;
         }
@@ -253,16 +249,17 @@ impl EyeSide {
     }
 }
 
-/// One draw of the eye samples' explicit direct light, summed per pixel with the samples'
-/// weights: NEE with MIS everywhere with `--direct nee`, at the traced glossy lobes only with
-/// `--direct photons` (none when nothing is traced); `None` when nothing is drawn. With the
-/// number of non-finite estimates dropped.
-fn nee_draw(
+/// One draw of the eye samples' explicit direct light, added per pixel with the samples'
+/// weights to `sum`: NEE with MIS everywhere with `--direct nee`, at the traced glossy lobes
+/// only with `--direct photons`. Returns the number of non-finite estimates dropped, or `None`
+/// when nothing is drawn (no NEE and nothing traced).
+fn add_nee_draw(
     scene: &Scene,
     eye: &EyeSamples,
     settings: &RenderSettings,
     seed: u64,
-) -> Option<(Vec<Vec3>, u64)> {
+    sum: &mut [Vec3],
+) -> Option<u64> {
     let (per_sample, invalid) = if settings.direct == DirectMode::Nee {
         direct_light(scene, eye, settings.nee_samples, seed)
     } else if eye.any_lobe_traced() {
@@ -270,12 +267,10 @@ fn nee_draw(
     } else {
         return None;
     };
-    let pixels = (settings.width * settings.height) as usize;
-    let mut out = vec![Vec3::ZERO; pixels];
     for (i, l) in per_sample.iter().enumerate() {
-        out[eye.pixel[i] as usize] += eye.weight[i].get() * *l;
+        sum[eye.pixel[i] as usize] += eye.weight[i].get() * *l;
     }
-    Some((out, invalid))
+    Some(invalid)
 }
 
 #[cfg(test)]

@@ -17,8 +17,9 @@ const PER_EYE_SAMPLE: u64 = EYE_SAMPLE_BYTES as u64 + 32 + 16 + 2 * 28 + 48 * 4;
 /// (8 bytes) and rs's per-batch lobe sums (24); the eye samples its lobe paths reach (one per
 /// second eye sample, `eye::trace_lobes`) are counted with the eye samples.
 const TRACED_LOBES_PER_PIXEL: u64 = 8 + 24;
-/// Per pixel for rs's finished eye passes (docs/deviations.md §41): rgb, direct and indirect sums.
-const EARLIER_PASSES_PER_PIXEL: u64 = 3 * 12;
+/// Per pixel for rs's finished eye passes (docs/deviations.md §41): rgb, direct and indirect
+/// sums; and the current pass's sum of NEE draws beside its emission (§50).
+const EARLIER_PASSES_PER_PIXEL: u64 = 3 * 12 + 12;
 /// Gather hits a final-gathering band holds at once (`fg::FgSettings::max_band_samples`) and
 /// their bytes each.
 const FG_BAND_BYTES: u64 = (1 << 17) * (EYE_SAMPLE_BYTES as u64 + 32 + 16 + 28);

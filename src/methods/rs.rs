@@ -145,9 +145,9 @@ mod tests {
 
         let mut m = small_rs();
         m.pace();
-        m.core_mut().pass_cost = 1e9;
+        m.core_mut().clock.pass_cost = 1e9;
         for _ in 0..4 {
-            m.core_mut().nee_cost = 0.0;
+            m.core_mut().clock.nee_cost = 0.0;
             traced(&mut m);
         }
         assert_eq!(m.core().eye_passes(), 1, "a dear pass is kept");
@@ -158,11 +158,11 @@ mod tests {
             "NEE redrawn with each batch after the first"
         );
 
-        m.core_mut().nee_cost = 1e9;
+        m.core_mut().clock.nee_cost = 1e9;
         traced(&mut m);
         assert_eq!(m.core().side().nee_draws, 4, "a dear NEE draw waits");
 
-        m.core_mut().pass_cost = 0.0;
+        m.core_mut().clock.pass_cost = 0.0;
         traced(&mut m);
         assert_eq!(
             m.core().eye_passes(),

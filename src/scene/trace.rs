@@ -44,20 +44,15 @@ impl Scene {
         Some((hit.t, idx[hit.primitive_id as usize]))
     }
 
-    /// The first hit's distance, unit geometric normal and triangle, without the shading
+    /// The first hit's distance and unit geometric normal, without the shading
     /// record [`Scene::intersect`] builds (texture reads, normal maps): for rays that only ask
     /// how far the nearest surface is and which way it faces (the visible domains' probes).
     #[inline]
-    pub fn intersect_geometry(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        tmax: f32,
-    ) -> Option<(f32, Vec3, u32)> {
+    pub fn intersect_geometry(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<(f32, Vec3)> {
         let (t, tri_id) = self.nearest(origin, dir, tmax, u32::MAX)?;
         let tri = &self.triangles[tri_id as usize];
         let (v0, v1, v2): (Vec3, Vec3, Vec3) = (tri.v0.into(), tri.v1.into(), tri.v2.into());
-        Some((t, (v1 - v0).cross(v2 - v0).normalize_or(Vec3::Y), tri_id))
+        Some((t, (v1 - v0).cross(v2 - v0).normalize_or(Vec3::Y)))
     }
 
     /// True when something blocks the open segment `origin + t·dir`, t ∈ (0, tmax).

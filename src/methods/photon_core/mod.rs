@@ -154,14 +154,42 @@ pub struct PhotonCore {
     timings: Timings,
     /// Eye passes and NEE draws paced by their measured cost ([`PhotonCore::pace`]).
     paced: bool,
-    /// Seconds the current eye pass took to draw (eye pass, splat tree, visible domains, NEE).
-    pub(crate) pass_cost: f64,
-    /// Seconds spent on new batches (and NEE redraws) since the current eye pass was drawn.
-    pass_spent: f64,
-    /// Seconds the last NEE draw took.
-    pub(crate) nee_cost: f64,
-    /// Seconds spent on new batches since the last NEE draw.
-    since_nee: f64,
+    /// What the current eye pass and its NEE draws cost, and what was spent since.
+    pub(crate) clock: PassClock,
+}
+
+/// The costs a paced render weighs (docs/deviations.md §50), in seconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct PassClock {
+    /// The current eye pass's own cost (eye pass, splat tree, visible domains, NEE).
+    pub pass_cost: f64,
+    /// Spent on new batches (and NEE redraws) since the pass was drawn.
+    pub pass_spent: f64,
+    /// The last NEE draw's cost.
+    pub nee_cost: f64,
+    /// Spent on new batches since the last NEE draw.
+    pub since_nee: f64,
+}
+
+impl PassClock {
+    /// A clock for an eye side whose drawing moved the timings from `before` to `after`.
+    fn started(before: &Timings, after: &Timings) -> Self {
+        Self {
+            pass_cost: after.t_eye + after.t_direct - before.t_eye - before.t_direct,
+            nee_cost: after.t_direct - before.t_direct,
+            ..Self::default()
+        }
+    }
+
+    /// Another NEE draw pays: the batches since the last took longer than it did.
+    fn nee_due(&self) -> bool {
+        self.since_nee >= self.nee_cost
+    }
+
+    /// A new eye pass pays: the batches on this one took [`EYE_PASS_COST_RATIO`] times its cost.
+    fn pass_due(&self) -> bool {
+        self.pass_spent >= EYE_PASS_COST_RATIO * self.pass_cost
+    }
 }
 
 impl PhotonCore {
@@ -181,7 +209,6 @@ impl PhotonCore {
             side_options(config, 0),
             &mut timings,
         )?;
-        let (pass_cost, nee_cost) = (timings.t_eye + timings.t_direct, timings.t_direct);
         let lobes = TracedLobes::new(&side.eye);
         let t = Instant::now();
         let mut store = PhotonStore::new(&scene, settings.seed);
@@ -208,12 +235,9 @@ impl PhotonCore {
             eye_pass: 0,
             earlier: EarlierPasses::default(),
             held: None,
-            timings,
             paced: false,
-            pass_cost,
-            pass_spent: 0.0,
-            nee_cost,
-            since_nee: 0.0,
+            clock: PassClock::started(&Timings::default(), &timings),
+            timings,
         })
     }
 
@@ -317,17 +341,17 @@ impl PhotonCore {
             Step::Resplatted
         } else {
             let t = Instant::now();
-            if self.paced_passes() && self.pass_batches() > 0 && self.since_nee >= self.nee_cost {
+            if self.paced_passes() && self.pass_batches() > 0 && self.clock.nee_due() {
                 let before = self.timings.t_direct;
                 self.side
                     .redraw_direct(&self.scene, &self.settings, &mut self.timings);
-                self.nee_cost = self.timings.t_direct - before;
-                self.since_nee = 0.0;
+                self.clock.nee_cost = self.timings.t_direct - before;
+                self.clock.since_nee = 0.0;
             }
             self.run_batch();
             let spent = t.elapsed().as_secs_f64();
-            self.pass_spent += spent;
-            self.since_nee += spent;
+            self.clock.pass_spent += spent;
+            self.clock.since_nee += spent;
             Step::Traced
         }
     }
@@ -345,15 +369,6 @@ impl PhotonCore {
         self.paced && self.config.eye_passes == EyePasses::Redrawn && self.eye_passes_allowed()
     }
 
-    /// Record the cost of the eye side just drawn (timings before it: `before`).
-    fn begin_pass_clock(&mut self, before: Timings) {
-        self.pass_cost =
-            self.timings.t_eye + self.timings.t_direct - before.t_eye - before.t_direct;
-        self.nee_cost = self.timings.t_direct - before.t_direct;
-        self.pass_spent = 0.0;
-        self.since_nee = 0.0;
-    }
-
     /// True when the current eye pass has held its share of photons
     /// ([`EYE_PASS_PHOTONS_PER_SAMPLE`]) and a new one should be drawn before the next batch.
     pub(crate) fn wants_new_eye_pass(&self) -> bool {
@@ -362,7 +377,7 @@ impl PhotonCore {
             && self.resplat_queue.is_empty()
             && self.pass_batches() as f64 * self.settings.photons as f64
                 >= EYE_PASS_PHOTONS_PER_SAMPLE * self.side.eye.len().max(1) as f64
-            && (!self.paced_passes() || self.pass_spent >= EYE_PASS_COST_RATIO * self.pass_cost)
+            && (!self.paced_passes() || self.clock.pass_due())
     }
 
     /// Eye passes are drawn with `progressive_eye`, but not while the image-space filter
@@ -402,7 +417,7 @@ impl PhotonCore {
             }
         }
         self.eye_pass = pass;
-        self.begin_pass_clock(before);
+        self.clock = PassClock::started(&before, &self.timings);
         self.lobes = TracedLobes::new(&self.side.eye);
         self.splatted = 0;
         self.folded = 0;
@@ -450,7 +465,7 @@ impl PhotonCore {
             &mut self.timings,
         )?;
         self.eye_pass = 0;
-        self.begin_pass_clock(before);
+        self.clock = PassClock::started(&before, &self.timings);
         self.lobes = TracedLobes::new(&self.side.eye);
         self.settings = settings;
         self.camera = camera;

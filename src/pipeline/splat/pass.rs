@@ -472,7 +472,7 @@ fn visible_domain(
             let (t, b) = onb(n);
             let p = planar[l];
             let c = cell_index(p.dot(t), p.dot(b), p.dot(n));
-            let f = free_distance(dom.free[l][c as usize % PROBES], dom.free_min[l]) * (1.0 - 1e-3);
+            let f = free_distance(dom.free[l][c as usize % PROBES], dom.free_min[l]) * NEARER;
             planar_in_view[l] = !stopped[l] | (p.length_squared() < f * f);
         }
     }
@@ -481,7 +481,7 @@ fn visible_domain(
     for l in 0..LANES {
         // Strictly nearer than the surface the probe met: a ray that ended on it lies on it,
         // and stands for rays the planar model lets pass on. N(x, r) renormalises.
-        let f = free[l] * (1.0 - 1e-3);
+        let f = free[l] * NEARER;
         let kept = keep[l] & (!cut[l] | ((len2[l] < f * f) & planar_in_view[l]));
         let n = if cut[l] { share[l] } else { 1.0 };
         let s = 1.0 / n.max(1.0 / 16.0);
@@ -505,6 +505,10 @@ fn visible_domain(
     }
     outside
 }
+
+/// A point of the footprint is in view when strictly nearer than the surface its cell's probe
+/// met, by this factor: a ray that ended on that surface lies on it ([`visible_domain`]).
+const NEARER: f32 = 1.0 - 1e-3;
 
 /// A target lies on the surface a ray landed on: within half the ray's end radius of the hit
 /// plane (signed distance `plane`) and facing the same way (`facing`, the cosine between the

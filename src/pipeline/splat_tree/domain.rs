@@ -179,7 +179,7 @@ pub fn probe(scene: &Scene, p: Vec3, n: Vec3) -> [f32; PROBES] {
             let dir = t * (c * ce) + b * (s * ce) + n * se;
             let (mut from, mut travelled) = (origin, 0.0);
             for _ in 0..PASS_OVER {
-                let Some((t, g, _)) = scene.intersect_geometry(from, dir, f32::INFINITY) else {
+                let Some((t, g)) = scene.intersect_geometry(from, dir, f32::INFINITY) else {
                     break;
                 };
                 travelled += t;
