@@ -121,6 +121,8 @@ impl Bsdf {
                 let p_s = self.specular_probability(cos_o.abs());
                 let h = (wo + wi).normalize_or_zero();
                 let cos_h = h.dot(n) * cos_o.signum();
+                // Visible normals' density G₁(ωo)·|ωo·h|·D(h)/cos θo (Heitz 2018's D_ωo) times
+                // the reflection's Jacobian 1/(4|ωo·h|) (Walter et al. 2007, eq. 14).
                 let spec = ggx_g1(cos_o.abs(), alpha) * ggx_d(cos_h, alpha) / (4.0 * cos_o.abs());
                 (1.0 - p_s) * cos_i.abs() * FRAC_1_PI + p_s * spec
             }
@@ -226,11 +228,6 @@ pub fn phong_equivalent(alpha: f32) -> f32 {
     (2.0 / (a * a) - 2.0).clamp(1.0, 1e4)
 }
 
-/// [`phong_equivalent`] of glTF's perceptual roughness (α = roughness²).
-pub fn phong_exponent(roughness: f32) -> f32 {
-    phong_equivalent(roughness * roughness)
-}
-
 /// Schlick's Fresnel f0 + (1 − f0)(1 − cos)⁵ (glTF appendix B.3.4), per channel.
 #[inline]
 pub fn schlick(f0: Vec3, cos: f32) -> Vec3 {
@@ -256,7 +253,10 @@ pub fn ggx_d(cos_h: f32, alpha: f32) -> f32 {
     a2 / (PI * d * d)
 }
 
-/// Smith's Λ for GGX at cos θ.
+/// Smith's Λ for GGX at cos θ: (√(1 + α² tan²θ) − 1)/2 (Heitz 2014, "Understanding the
+/// Masking-Shadowing Function in Microfacet-Based BRDFs", its Λ for the GGX distribution);
+/// G₁ = 1/(1 + Λ), and the height-correlated G₂ = 1/(1 + Λ(ωo) + Λ(ωi)) of glTF appendix
+/// B.3.2 (the same paper's height-correlated masking-shadowing).
 #[inline]
 fn ggx_lambda(cos: f32, alpha: f32) -> f32 {
     let c2 = (cos * cos).min(1.0);
@@ -506,7 +506,9 @@ impl Bsdf {
     /// The probability with which [`Bsdf::sample`] draws a glossy model's specular lobe
     /// rather than its diffuse layer, for cos θo = `cos_o`: the layers' reflectance there
     /// (Fresnel at the normal's angle for the specular, 1 − it for the diffuse) by luminance,
-    /// kept within [0.1, 0.9] where both reflect. 0 for other models.
+    /// kept within [0.1, 0.9] where both reflect, so that neither layer's samples grow rarer
+    /// than one in ten and the one-sample weight f·cos/pdf stays within 10× of the layer's
+    /// own. 0 for other models.
     #[inline]
     pub fn specular_probability(&self, cos_o: f32) -> f32 {
         let Bsdf::Glossy { kd, f0, f0_d, .. } = *self else {

@@ -128,7 +128,10 @@ fn sample_weights_match_eval_over_pdf() {
 /// roughness and metallic (white base colour, the worst case), estimated with 200k importance
 /// samples per case; the estimate may exceed 1 only by its own 4σ. A white metal loses only
 /// single scattering's share, as the albedo table says (`specular_albedo`, integrated apart
-/// on a grid): within 1% + 4σ, so a mis-normalised lobe or a wrong masking cannot pass.
+/// on a grid): within 1% + 4σ. For a white metal the sample weight is G₂/G₁ and D cancels, as
+/// it does in the table, so this agreement checks the sampler's weight and the table's
+/// integration, not D's normalisation or Λ: those are the χ² test's above and
+/// `bsdf::tests::the_albedo_table_matches_a_quadrature`'s (a brute-force quadrature of f·cos).
 #[test]
 fn glossy_conserves_energy_for_every_roughness() {
     let n = Vec3::Z;

@@ -223,7 +223,7 @@ fn the_metallic_roughness_texture_varies_the_model_across_a_surface() {
     let (metal, rough) = scene.metal_rough(&at(0.4));
     assert_eq!(metal, 0.0);
     assert!((rough - 128.0 / 255.0).abs() < 1e-6, "{rough}");
-    assert!(scene.specular_at(&at(-0.4)) && !scene.specular_at(&at(0.0)));
+    assert!(scene.bsdf(&at(-0.4)).is_specular() && !scene.bsdf(&at(0.0)).is_specular());
 }
 
 #[test]

@@ -402,16 +402,6 @@ impl Scene {
         }
     }
 
-    /// A hit's BSDF is all Dirac deltas (a mirror or glass there).
-    #[inline]
-    pub fn specular_at(&self, hit: &Hit) -> bool {
-        let m = &self.materials[hit.material as usize];
-        if m.metal_rough_texture.is_none() {
-            return m.is_specular();
-        }
-        self.bsdf(hit).is_specular()
-    }
-
     /// Emitted radiance of a material at texture coordinates: factor × emissive texture
     /// (glTF §3.9.3; `uv0`, `uv1` the hit's two sets).
     #[inline]
@@ -440,17 +430,6 @@ impl Scene {
         } else {
             Vec3::ZERO
         }
-    }
-}
-
-impl Material {
-    /// A mirror or glass (a Dirac-delta BSDF) wherever no texture varies it: eye paths and
-    /// photons pass on from it rather than being stored there.
-    pub fn is_specular(&self) -> bool {
-        matches!(
-            self.kind,
-            MaterialKind::Mirror | MaterialKind::Dielectric { .. }
-        )
     }
 }
 

@@ -312,7 +312,9 @@ fn gather_from(
         let Some(hit) = scene.intersect(origin, dir, f32::INFINITY) else {
             continue;
         };
-        if scene.specular_at(&hit) {
+        // One read of the hit's textures for both the test and the shading below.
+        let bsdf = scene.bsdf(&hit);
+        if bsdf.is_specular() {
             continue;
         }
         let (facing, geo_facing) = if hit.geo_normal.dot(dir) <= 0.0 {
@@ -331,7 +333,7 @@ fn gather_from(
             weight,
             // Gather hits are shaded as matte with the BSDF's whole reflectance (§8.4 uses no
             // radiance map there; docs/deviations.md).
-            albedo: match scene.bsdf(&hit) {
+            albedo: match bsdf {
                 crate::bsdf::Bsdf::Glossy {
                     kd,
                     f0,

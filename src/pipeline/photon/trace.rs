@@ -219,7 +219,9 @@ pub(super) fn trace_photon(
             }
         };
         // glTF's glossy model is not reciprocal in its diffuse layer (bsdf::Bsdf::Glossy):
-        // light goes from ωi to ωo, so a photon weighs by f(ωi, ωo).
+        // light goes from ωi to ωo, so a photon weighs by f(ωi, ωo): the adjoint BSDF of
+        // Veach 1997, §3.7.6 (eval is not swap-symmetric, so the sample's own weight, which
+        // holds f(ωo, ωi), cannot be used; one more eval per glossy bounce).
         let weight = match bsdf {
             Bsdf::Glossy { .. } => {
                 bsdf.eval(s.wi, wo, hit.normal) * s.wi.dot(hit.normal).abs() / s.pdf
