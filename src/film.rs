@@ -7,6 +7,7 @@
 
 pub mod display;
 pub mod error;
+pub mod estimate;
 
 use glam::Vec3;
 use std::io::Write;
@@ -46,6 +47,11 @@ pub struct Film {
     /// eye-sample weight on glossy samples whose lobe went through the radiance map (`[0]`) and on
     /// those whose lobe the eye path traced (`[1]`); both 0 where nothing glossy is seen.
     pub glossy_source: Vec<[f32; 2]>,
+    /// Per pixel, this eye pass's estimate of the splat kernels' bias and its splatted light
+    /// (luminance both; [`estimate`]); empty unless the error is estimated.
+    pub pass_error: Vec<estimate::PassError>,
+    /// The image's estimated error ([`estimate`]), once two eye passes give a spread.
+    pub estimate: Option<estimate::ErrorEstimate>,
     /// Contributions dropped on the way to this film because they were NaN or infinite
     /// (photon rays, light samples, eye-sample resolves, pixels), like Mitsuba's
     /// `warn_invalid`: counted, never written.
@@ -84,6 +90,8 @@ impl Film {
             indirect,
             info,
             glossy_source: vec![[0.0; 2]; n],
+            pass_error: Vec::new(),
+            estimate: None,
             invalid_contributions: 0,
         }
     }

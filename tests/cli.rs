@@ -421,3 +421,47 @@ fn bench_quality_rows_and_plot() {
     let png = image::open(dir.join("quality.png")).unwrap();
     assert_eq!((png.width(), png.height()), (900, 560));
 }
+
+/// `--until-error` stops once the estimate from the render's own eye passes falls below the
+/// threshold: exit status 0, the estimate (below it) and the flag in the stats JSON; and it
+/// is refused for a method that has no eye passes to estimate from.
+#[test]
+fn until_error_stops_when_the_estimate_is_below_it() {
+    let (out_path, stats) = (tmp("until_error.exr"), tmp("until_error.json"));
+    let out = bin()
+        .args([
+            "render",
+            "builtin:classic",
+            "--width",
+            "32",
+            "--height",
+            "32",
+        ])
+        .args(["--spp", "1", "--photons", "2000", "--until-error", "0.02"])
+        .args(["--time-budget", "120", "--out"])
+        .arg(&out_path)
+        .arg("--stats")
+        .arg(&stats)
+        .output()
+        .unwrap();
+    succeeded(&out);
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    assert_eq!(j["until_error_reached"], json!(true), "{j}");
+    let e = j["estimated_rel_mse"].as_f64().unwrap();
+    assert!(e > 0.0 && e < 0.02, "estimate {e}");
+    assert!(j["estimate_passes"].as_u64().unwrap() >= 2);
+    let out = bin()
+        .args([
+            "render",
+            "builtin:classic",
+            "--method",
+            "pt",
+            "--until-error",
+            "0.02",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("need --method rs"), "{err}");
+}

@@ -123,9 +123,10 @@ pub struct PhotonArgs {
         allow_negative_numbers = true
     )]
     pub fractions: Vec<f32>,
-    /// C: smoothness (eq. 8).
-    #[arg(long, default_value_t = BandwidthParams::default().smoothness_c, allow_negative_numbers = true)]
-    pub c: f32,
+    /// C: smoothness (eq. 8), or `auto`: rs chooses it between eye passes to minimise the
+    /// error it estimates from its own passes (docs/deviations.md §51; starts at 1).
+    #[arg(long, default_value = "1", allow_negative_numbers = true)]
+    pub c: Smoothness,
     /// S: bandwidth sensitivity in [0.01, 1] (eq. 8).
     #[arg(long, default_value_t = BandwidthParams::default().sensitivity_s, allow_negative_numbers = true)]
     pub s: f32,
@@ -194,6 +195,16 @@ pub struct RunArgs {
     /// passes): a deterministic multi-batch image, where a time budget's count varies.
     #[arg(long, conflicts_with = "time_budget")]
     pub batches: Option<u64>,
+    /// rs: stop once the error the render estimates from its own eye passes (relMSE, as
+    /// `compare` reports it) falls below this; with --time-budget, at whichever comes first
+    /// (docs/deviations.md §51).
+    #[arg(long, conflicts_with = "batches")]
+    pub until_error: Option<f64>,
+    /// rs: estimate the image's error from its own eye passes (variance from their spread,
+    /// bias from a second splat at half the bandwidth) and report it in the stats
+    /// (docs/deviations.md §51).
+    #[arg(long)]
+    pub estimate_error: bool,
     /// Camera by name (default: the scene's first).
     #[arg(long)]
     pub camera: Option<String>,
@@ -269,6 +280,16 @@ impl RenderArgs {
     /// The settings the arguments describe for `--method`, or a one-line error naming the
     /// bad flag.
     pub fn settings(&self) -> Result<RenderSettings, String> {
+        let (run, c) = (&self.settings.run, self.settings.photons.c);
+        if self.method != MethodKind::Rs
+            && (run.until_error.is_some() || run.estimate_error || c == Smoothness::Auto)
+        {
+            return Err(format!(
+                "--until-error, --estimate-error and --c auto need --method rs (the error is \
+                 estimated from its eye passes), not {}",
+                self.method.name()
+            ));
+        }
         self.settings.settings(self.method)
     }
 }
@@ -288,6 +309,11 @@ impl SettingsArgs {
                 image.spp
             ));
         }
+        if let Some(e) = self.run.until_error
+            && !(e > 0.0 && e.is_finite())
+        {
+            return Err(format!("--until-error must be a relMSE above 0, got {e}"));
+        }
         Ok(RenderSettings {
             width: image.width,
             height: image.height,
@@ -302,6 +328,13 @@ impl SettingsArgs {
             merge_targets: !method.no_merge,
             splat_visibility: !method.no_splat_visibility,
             guided_emission: method.guided_emission,
+            // rs only (`compare` runs other methods beside it): auto C and a stop at an error
+            // read the estimate.
+            auto_c: kind == MethodKind::Rs && self.photons.c == Smoothness::Auto,
+            estimate_error: kind == MethodKind::Rs
+                && (self.run.estimate_error
+                    || self.run.until_error.is_some()
+                    || self.photons.c == Smoothness::Auto),
             progressive_eye: !method.fixed_eye_samples,
             progressive_bandwidth: !method.paper_bandwidth_rate,
             method: kind,
@@ -324,11 +357,44 @@ impl SettingsArgs {
     }
 }
 
+/// `--c`: a value, or chosen by the render itself.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Smoothness {
+    /// This C.
+    Value(f32),
+    /// `auto`: chosen between eye passes from the estimated error, starting at the default.
+    Auto,
+}
+
+/// Without the range (`with_ranges` in `cli` puts a parser with it in place).
+impl std::str::FromStr for Smoothness {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.trim().eq_ignore_ascii_case("auto") {
+            return Ok(Smoothness::Auto);
+        }
+        s.trim()
+            .parse()
+            .map(Smoothness::Value)
+            .map_err(|_| format!("'{s}' is neither a number nor auto"))
+    }
+}
+
+impl Smoothness {
+    /// The C a render starts with.
+    pub fn start(self) -> f32 {
+        match self {
+            Smoothness::Value(c) => c,
+            Smoothness::Auto => BandwidthParams::default().smoothness_c,
+        }
+    }
+}
+
 impl PhotonArgs {
     /// C, S and R (their ranges are checked by the parser).
     fn bandwidth(&self) -> Result<BandwidthParams, String> {
         Ok(BandwidthParams {
-            smoothness_c: self.c,
+            smoothness_c: self.c.start(),
             sensitivity_s: self.s,
             max_bandwidth_r: self.r,
         })
@@ -353,6 +419,8 @@ impl RunArgs {
         match (self.time_budget, self.batches) {
             (Some(b), _) => Budget::Seconds(b),
             (None, Some(n)) => Budget::Passes(n),
+            // Until the estimate says so: no bound of its own.
+            (None, None) if self.until_error.is_some() => Budget::Seconds(f64::INFINITY),
             (None, None) => Budget::Fixed,
         }
     }

@@ -147,7 +147,7 @@ fn with_ranges(mut cmd: clap::Command) -> clap::Command {
             let c = ranged(c, "height", RESOLUTION);
             let c = ranged(c, "spp", PT_SPP);
             let c = ranged(c, "photons", PHOTONS);
-            let c = ranged(c, "c", SMOOTHNESS_C);
+            let c = smoothness_ranged(c);
             let c = ranged(c, "s", SENSITIVITY_S);
             let c = ranged(c, "r", MAX_BANDWIDTH_R);
             let c = ranged(c, "nee_samples", NEE_SAMPLES);
@@ -166,6 +166,31 @@ fn with_ranges(mut cmd: clap::Command) -> clap::Command {
         });
     }
     cmd
+}
+
+/// `cmd` with `--c` (if it has one) parsed as a C within its range or `auto`.
+fn smoothness_ranged(cmd: clap::Command) -> clap::Command {
+    use args::Smoothness;
+    use raysplat::settings::limits::SMOOTHNESS_C;
+    if !cmd.get_arguments().any(|a| a.get_id() == "c") {
+        return cmd;
+    }
+    cmd.mut_arg("c", |a| {
+        let help = a.get_help().map(|h| h.to_string()).unwrap_or_default();
+        let value = in_range(SMOOTHNESS_C);
+        a.value_parser(move |s: &str| {
+            if s.trim().eq_ignore_ascii_case("auto") {
+                Ok(Smoothness::Auto)
+            } else {
+                value(s).map(Smoothness::Value)
+            }
+        })
+        .allow_negative_numbers(true)
+        .help(format!(
+            "{help} [range: {}..={}, or auto]",
+            SMOOTHNESS_C.min, SMOOTHNESS_C.max
+        ))
+    })
 }
 
 /// `cmd` with the environment's numeric flags (if it has them) ranged.

@@ -68,12 +68,29 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
     let start = Instant::now();
     let mut m = methods::build(scene.clone(), settings)?;
     progress.set_message("rendering");
+    let until = args.settings.run.until_error;
+    let mut checked = Instant::now();
+    let mut reached = false;
     methods::run(m.as_mut(), args.settings.run.budget(), |m| {
         if let Some(b) = time_budget {
             let spent = start.elapsed().as_secs_f64();
             progress.set_position((spent * 1000.0).min(b * 1000.0) as u64);
         }
         progress.set_message(format!("pass {}", m.passes()));
+        // --until-error: the estimate is read from a film, made at most every
+        // UNTIL_ERROR_CHECK (a resolve costs a fraction of a batch).
+        if let Some(target) = until
+            && checked.elapsed() >= UNTIL_ERROR_CHECK
+        {
+            checked = Instant::now();
+            if let Some(e) = m.film().estimate {
+                progress.set_message(format!("pass {}, est. relMSE {:.4}", m.passes(), e.rel_mse));
+                if e.rel_mse < target {
+                    reached = true;
+                    return false;
+                }
+            }
+        }
         !interrupted.load(Ordering::Relaxed)
     });
     let stopped = interrupted.load(Ordering::Relaxed);
@@ -92,6 +109,21 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
     }
     let stats = m.stats();
     print_table(&scene.name, m.kind(), m.timings(), &stats);
+    if let Some(e) = &film.estimate {
+        println!(
+            "estimated error: relMSE {:.5} (bias² {:.5}, variance {:.5}) from {} eye passes, C {:.3}{}",
+            e.rel_mse,
+            e.bias2,
+            e.variance,
+            e.passes,
+            m.settings().bandwidth.smoothness_c,
+            match until {
+                Some(t) if reached => format!("; below --until-error {t}"),
+                Some(t) => format!("; --until-error {t} not reached"),
+                None => String::new(),
+            }
+        );
+    }
     let invalid = film.invalid_pixels();
     if invalid > 0 {
         eprintln!("warning: {invalid} pixels are NaN or infinite");
@@ -111,6 +143,8 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
     }
     if let (Some(path), Some(j)) = (&args.output.stats, j.as_mut()) {
         j["partial"] = json!(partial);
+        j["until_error"] = json!(until);
+        j["until_error_reached"] = json!(until.map(|_| reached));
         j["exposure"] = json!(stops);
         j["environment"] = json!(scene.environment);
         // The peak so far, image writing included.
@@ -124,6 +158,9 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
     }
     Ok(())
 }
+
+/// How often `--until-error` reads the estimate.
+const UNTIL_ERROR_CHECK: Duration = Duration::from_millis(500);
 
 /// Table 2's columns for one render, then the method's counters.
 fn print_table(scene: &str, kind: MethodKind, t: Timings, s: &MethodStats) {
@@ -242,6 +279,12 @@ fn stats_json(
         "glossy_traced_samples": s.glossy_traced_samples,
         "glossy_targets": s.glossy_targets,
         "directional_bytes_per_glossy_target": s.directional_bytes as f64 / s.glossy_targets.max(1) as f64,
+        "estimated_rel_mse": film.estimate.as_ref().map(|e| e.rel_mse),
+        "estimated_bias2": film.estimate.as_ref().map(|e| e.bias2),
+        "estimated_variance": film.estimate.as_ref().map(|e| e.variance),
+        "estimated_variance_splatted": film.estimate.as_ref().map(|e| e.variance_splatted),
+        "estimate_passes": film.estimate.as_ref().map(|e| e.passes),
+        "smoothness_c": settings.bandwidth.smoothness_c,
         "invalid_pixels": film.invalid_pixels(),
         "invalid_contributions": film.invalid_contributions,
         "method": m.kind(),

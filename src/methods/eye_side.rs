@@ -6,6 +6,7 @@
 
 use crate::methods::{MethodError, Timings};
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
+use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
 use crate::pipeline::radiance_map::{Accumulators, Channel};
 use crate::pipeline::splat_tree::SplatTree;
@@ -68,6 +69,9 @@ pub struct EyeSide {
     pub acc_indirect: Accumulators,
     /// Accumulators for direct photons (empty unless `--direct photons`).
     pub acc_direct: Accumulators,
+    /// Every splatted class again at half the bandwidth, irradiance only (empty unless the
+    /// error is estimated: docs/deviations.md §51).
+    pub acc_half: Accumulators,
     /// The eye pass's settings (for drawing traced lobes anew, [`crate::pipeline::eye::trace_lobes`]).
     pub eye_settings: EyeSettings,
 }
@@ -133,6 +137,11 @@ impl EyeSide {
             Accumulators::default()
         };
         let acc_indirect = Accumulators::for_tree(&tree, &targets.glossy, mode);
+        let acc_half = if settings.estimate_error {
+            Accumulators::for_tree(&tree, &targets.glossy, DirectionalMode::Diffuse)
+        } else {
+            Accumulators::default()
+        };
         Ok(Self {
             eye,
             targets,
@@ -143,6 +152,7 @@ impl EyeSide {
             invalid_direct,
             acc_indirect,
             acc_direct,
+            acc_half,
             eye_settings,
         })
     }
@@ -155,6 +165,7 @@ impl EyeSide {
         self.targets = SplatTargets::default();
         self.acc_indirect = Accumulators::default();
         self.acc_direct = Accumulators::default();
+        self.acc_half = Accumulators::default();
         self.emitted = Vec::new();
         self.nee = Vec::new();
         self.nee_draws = 0;
@@ -199,10 +210,11 @@ impl EyeSide {
         }
     }
 
-    /// Empty both accumulators (before a re-splat).
+    /// Empty the accumulators (before a re-splat).
     pub fn clear(&mut self) {
         self.acc_indirect.clear();
         self.acc_direct.clear();
+        self.acc_half.clear();
     }
 
     /// Bytes held by eye samples, splat tree and accumulators.
@@ -211,6 +223,7 @@ impl EyeSide {
             + self.tree.memory_bytes()
             + self.acc_indirect.memory_bytes()
             + self.acc_direct.memory_bytes()
+            + self.acc_half.memory_bytes()
     }
 
     /// Bytes of directional radiance-map records (§8.1) and the glossy splat targets owning

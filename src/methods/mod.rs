@@ -408,7 +408,11 @@ pub struct Rendered {
 
 /// Run `method` for `budget`, calling `progress` after every step; `progress` returning false
 /// stops early (an interrupt).
-pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dyn Method) -> bool) {
+pub fn run(
+    method: &mut dyn Method,
+    budget: Budget,
+    mut progress: impl FnMut(&mut dyn Method) -> bool,
+) {
     let start = Instant::now();
     // Nothing re-splats in a headless render: stored rays are kept only where the film reads
     // them (docs/benchmarks.md, "Memory").
@@ -418,7 +422,7 @@ pub fn run(method: &mut dyn Method, budget: Budget, mut progress: impl FnMut(&dy
     }
     loop {
         method.step();
-        if !progress(&*method) {
+        if !progress(&mut *method) {
             break;
         }
         let more = match budget {

@@ -147,6 +147,15 @@ pub struct RenderSettings {
     /// time than it saved noise), every batch emits in proportion to power (§3).
     #[serde(default)]
     pub guided_emission: bool,
+    /// rs: estimate the image's error from its own eye passes (variance from their spread,
+    /// kernel bias from a second splat of each batch at half the bandwidth;
+    /// docs/deviations.md §51). Needed by `--c auto` and `--until-error`; costs that splat.
+    #[serde(default)]
+    pub estimate_error: bool,
+    /// rs: choose C between eye passes to minimise the estimated error (`--c auto`;
+    /// docs/deviations.md §51); the chosen value replaces `bandwidth.smoothness_c`.
+    #[serde(default)]
+    pub auto_c: bool,
 }
 
 fn yes() -> bool {
@@ -181,6 +190,8 @@ impl Default for RenderSettings {
             progressive_eye: true,
             progressive_bandwidth: true,
             guided_emission: false,
+            estimate_error: false,
+            auto_c: false,
             filter: FilterParams::default(),
         }
     }

@@ -175,6 +175,8 @@ pub const SETTINGS: &[Setting] = &[
         Retrace,
         guided_emission
     ),
+    setting!("estimate_error", "error estimate", Retrace, estimate_error),
+    setting!("auto_c", "automatic C", Resolve, auto_c),
     setting!("method", "method", Retrace, method),
     setting!("pm_k", "K", Retrace, pm_k, Usize(PM_K)),
     setting!(
@@ -248,6 +250,8 @@ pub(super) fn classified(s: &RenderSettings) {
         progressive_eye: _,
         progressive_bandwidth: _,
         guided_emission: _,
+        estimate_error: _,
+        auto_c: _,
     } = s;
 }
 

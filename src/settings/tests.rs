@@ -212,6 +212,7 @@ fn the_effects_are_the_documented_ones() {
             "merge_targets",
             "splat_visibility",
             "guided_emission",
+            "estimate_error",
             "method",
             "pm_k",
             "pm_caustic_k",

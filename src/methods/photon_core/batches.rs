@@ -192,5 +192,23 @@ fn splat_rays(
             reach,
         );
     }
+    if !side.acc_half.is_empty() {
+        // The error estimate's second splat: every class splatted above, at half the
+        // bandwidth (C/2 in eq. 8, its bounds with it), irradiance only (deviations §51). Its
+        // pairs are about a quarter of the first splat's; they are not counted as splats.
+        let half = bw.map(|b| b.scaled(0.5));
+        let [d, i, c] = classes;
+        prepare_and_splat(
+            &side.tree,
+            rays,
+            &half,
+            [d || direct_photons, i, c],
+            DirectionalMode::Diffuse,
+            scene,
+            &mut side.acc_half,
+            Some(scene),
+            None,
+        );
+    }
     counters
 }

@@ -3,9 +3,13 @@
 
 use super::PhotonCore;
 use crate::film::Film;
+use crate::film::estimate::{PassError, pool_bias};
 use crate::pipeline::cache::{PixelGeometry, sample_values};
 use crate::pipeline::filter::filter_samples;
-use crate::pipeline::radiance_map::{Interpolated, RadianceMap, add_radiance_at};
+use crate::pipeline::radiance_map::{
+    Interpolated, RadianceMap, add_irradiance_shading_at, add_radiance_at,
+};
+use crate::sampling::luminance;
 use glam::Vec3;
 
 /// Per-sample incident light for [`PhotonCore::resolve_samples`].
@@ -145,6 +149,46 @@ impl PhotonCore {
             film.rgb[i] = d + ind;
         }
         side.eye.glossy_sources(&mut film.glossy_source);
+        film.pass_error = self.pass_error(&film, batches);
         film
+    }
+
+    /// This pass's values for the error estimate per pixel (docs/deviations.md §51): the
+    /// splat kernels' bias, 4/3·(L(h) − L(h/2)) from the accumulators at h and those at h/2
+    /// (both shaded from irradiance alone), pooled over neighbouring pixels, and the light
+    /// splatted by photons (`film` less the eye side's direct light); empty unless the error is
+    /// estimated.
+    fn pass_error(&self, film: &Film, batches: u32) -> Vec<PassError> {
+        let side = &self.side;
+        if side.acc_half.is_empty() || side.emitted.is_empty() {
+            return Vec::new();
+        }
+        let n = side.emitted.len();
+        let pixel = |i: usize| Some(side.eye.pixel[i] as usize);
+        let (slots, eye) = (&side.tree.target_slot, &side.eye);
+        let mut at_h = vec![Vec3::ZERO; n];
+        add_irradiance_shading_at(eye, slots, &side.acc_indirect, batches, &mut at_h, pixel);
+        add_irradiance_shading_at(eye, slots, &side.acc_direct, batches, &mut at_h, pixel);
+        let mut at_half = vec![Vec3::ZERO; n];
+        add_irradiance_shading_at(eye, slots, &side.acc_half, batches, &mut at_half, pixel);
+        let mut bias: Vec<f32> = at_h
+            .iter()
+            .zip(&at_half)
+            .map(|(h, half)| {
+                let b = 4.0 / 3.0 * (luminance(*h) - luminance(*half));
+                if b.is_finite() { b } else { 0.0 }
+            })
+            .collect();
+        pool_bias(&mut bias, self.settings.width as usize);
+        // The eye side's own direct light (emission, NEE) is what is not splatted.
+        let mut eye_direct = vec![Vec3::ZERO; n];
+        side.direct_into(&mut eye_direct);
+        bias.iter()
+            .zip(film.rgb.iter().zip(&eye_direct))
+            .map(|(&bias, (rgb, d))| PassError {
+                bias,
+                splatted: luminance(*rgb - *d).max(0.0),
+            })
+            .collect()
     }
 }

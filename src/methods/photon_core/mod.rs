@@ -113,6 +113,12 @@ pub const EYE_PASS_PHOTONS_PER_SAMPLE: f64 = 0.05;
 /// (docs/deviations.md §50).
 pub const EYE_PASS_COST_RATIO: f64 = 1.0;
 
+/// `--c auto` changes C by at most this factor per eye pass (docs/deviations.md §51).
+pub const AUTO_C_STEP: f32 = 1.1;
+
+/// `--c auto` waits for this many finished eye passes: the spread of fewer says little.
+pub const AUTO_C_PASSES: u32 = 4;
+
 /// One view's eye side, the stored photon rays and the batch bookkeeping of the photon-based
 /// methods. Its state is private: anyone may read it through the accessors below; only the
 /// crate changes it (the methods' one step API is [`crate::methods::photon_method::PhotonMethod`],
@@ -394,6 +400,9 @@ impl PhotonCore {
         let pass = self.eye_pass + 1;
         self.earlier
             .add(film, self.pass_batches(), self.store.invalid_photon_rays);
+        if self.settings.auto_c {
+            self.choose_c();
+        }
         // Free the finished side's arrays first (its film is kept), so that the peak holds
         // one eye side, not two (a `--time-budget` render of CORNELL BOX I at 500×500×4:
         // docs/benchmarks.md, "Memory").
@@ -422,6 +431,32 @@ impl PhotonCore {
         self.splatted = 0;
         self.folded = 0;
         self.generation += 1;
+    }
+
+    /// `--c auto` (docs/deviations.md §51): from the finished passes' estimated error, the C
+    /// that minimises it under the kernel's second-order model, bias² ∝ C⁴ and the splatted
+    /// light's variance ∝ 1/C² (the rest of the variance does not depend on C):
+    /// E(C′) = A·(C′/C)⁴ + V·(C/C′)², least at C′ = C·(V/2A)^(1/6). Taken a bounded step at a
+    /// time ([`AUTO_C_STEP`]), once [`AUTO_C_PASSES`] passes give a spread; later batches
+    /// are splatted with it (stored ones are not re-splatted).
+    fn choose_c(&mut self) {
+        let Some(e) = self.earlier.estimate() else {
+            return;
+        };
+        if e.passes < AUTO_C_PASSES {
+            return;
+        }
+        let c = self.settings.bandwidth.smoothness_c;
+        let (a, v) = (e.bias2, e.variance_splatted);
+        // Where the passes cannot tell the bias (or the splatted noise) from zero, the model
+        // has nothing to weigh: C stays. (Widening whenever no bias showed ran away: the
+        // image's bias is that of every pass so far, and lags behind C.)
+        if a <= 0.0 || v <= 0.0 {
+            return;
+        }
+        let ratio = ((v / (2.0 * a)).powf(1.0 / 6.0) as f32).clamp(1.0 / AUTO_C_STEP, AUTO_C_STEP);
+        let limit = crate::settings::limits::SMOOTHNESS_C;
+        self.settings.bandwidth.smoothness_c = (c * ratio).clamp(limit.min, limit.max);
     }
 
     /// `film` of the current pass becomes the batch-weighted mean over every eye pass.
@@ -482,6 +517,13 @@ impl PhotonCore {
     /// accumulators, then re-splats; the cache and the filter reach the next film.
     pub(crate) fn update(&mut self, s: &RenderSettings) -> Result<(), MethodError> {
         let new_map = s.radiance_map != self.settings.radiance_map;
+        // Under `--c auto` the C is the render's own: the caller's is only where it started.
+        let auto_c = s.auto_c.then_some(self.settings.bandwidth.smoothness_c);
+        let mut s = s.clone();
+        if let Some(c) = auto_c {
+            s.bandwidth.smoothness_c = c;
+        }
+        let s = &s;
         let new_bandwidth = s.bandwidth != self.settings.bandwidth;
         self.settings.adopt(s, &[Effect::Resolve, Effect::Resplat]);
         // Either can move the progressive schedule's M₁ (deviations §43).

@@ -2,6 +2,7 @@
 //! weighted by the batches it held, and blended with the current pass's film.
 
 use crate::film::Film;
+use crate::film::estimate::{ErrorEstimate, PassSpread, PassValues};
 use glam::Vec3;
 
 /// The films of finished eye passes, each weighted by the batches it held.
@@ -17,6 +18,8 @@ pub(super) struct EarlierPasses {
     pub(super) passes: u32,
     /// Their dropped contributions.
     invalid: u64,
+    /// Their spread, for the error estimate (films with a bias estimate only).
+    spread: PassSpread,
 }
 
 impl EarlierPasses {
@@ -40,6 +43,9 @@ impl EarlierPasses {
                 *s += w * *p;
             }
         }
+        if !film.pass_error.is_empty() {
+            self.spread.add(PassValues::of(film), batches);
+        }
         self.batches += batches;
         self.passes += 1;
         // The store's dropped photon rays are a running total every film carries: counted
@@ -47,9 +53,20 @@ impl EarlierPasses {
         self.invalid += film.invalid_contributions - film.invalid_contributions.min(store_invalid);
     }
 
-    /// Bytes of the three per-pixel sums.
+    /// Bytes of the per-pixel sums.
     pub(super) fn memory_bytes(&self) -> usize {
-        3 * self.rgb.len() * std::mem::size_of::<Vec3>()
+        3 * self.rgb.len() * std::mem::size_of::<Vec3>() + self.spread.memory_bytes()
+    }
+
+    /// The estimated error of the finished passes' mean (docs/deviations.md §51): None
+    /// before two passes, or when the error is not estimated.
+    pub(super) fn estimate(&self) -> Option<ErrorEstimate> {
+        if self.batches == 0 {
+            return None;
+        }
+        let inv = 1.0 / self.batches as f32;
+        let rgb: Vec<Vec3> = self.rgb.iter().map(|s| *s * inv).collect();
+        self.spread.estimate(&rgb, None)
     }
 
     /// `film` (of the current pass, holding `batches`) becomes the mean over every pass.
@@ -57,6 +74,8 @@ impl EarlierPasses {
         if self.batches == 0 || self.rgb.len() != film.rgb.len() {
             return;
         }
+        // The current pass's own values, for the error estimate.
+        let current = (!film.pass_error.is_empty()).then(|| film.rgb.clone());
         let w = batches as f32;
         let inv = 1.0 / (self.batches + batches) as f32;
         for (sum, px) in [
@@ -69,5 +88,12 @@ impl EarlierPasses {
             }
         }
         film.invalid_contributions += self.invalid;
+        if let Some(rgb) = current {
+            let pass = PassValues {
+                rgb: &rgb,
+                pass: &film.pass_error,
+            };
+            film.estimate = self.spread.estimate(&film.rgb, Some((pass, batches)));
+        }
     }
 }

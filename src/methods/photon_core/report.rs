@@ -30,7 +30,9 @@ impl PhotonCore {
             eye_samples: side.eye.memory_bytes(),
             splat_targets: side.targets.memory_bytes(),
             splat_tree: side.tree.memory_bytes(),
-            accumulators: side.acc_indirect.memory_bytes() + side.acc_direct.memory_bytes()
+            accumulators: side.acc_indirect.memory_bytes()
+                + side.acc_direct.memory_bytes()
+                + side.acc_half.memory_bytes()
                 - directional,
             directional_records: directional,
             photon_rays: self.store.memory_bytes(),

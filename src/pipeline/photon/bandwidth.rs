@@ -86,6 +86,17 @@ impl Bandwidth {
         b
     }
 
+    /// This bandwidth times `f`, bounds included: eq. 8 with C·`f`. The error estimate splats
+    /// each batch again at half the bandwidth (docs/deviations.md §51).
+    pub fn scaled(&self, f: f32) -> Self {
+        Self {
+            scale: self.scale * f,
+            h_min: self.h_min * f,
+            h_max: self.h_max * f,
+            ..*self
+        }
+    }
+
     /// The progressive schedule's factor on eq. 8 at M = `m` with M₁ = `m_first`
     /// ([`Bandwidth::progressive`]): 1 up to M₁ (or without one).
     pub fn shrink(m: u64, m_first: f64) -> f32 {

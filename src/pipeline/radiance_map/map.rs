@@ -140,7 +140,34 @@ pub fn add_radiance_at(
     out: &mut [Vec3],
     at: impl Fn(usize) -> Option<usize>,
 ) -> u64 {
-    if batches == 0 {
+    add_shaded_at(eye, target_slot, acc, batches, out, at, true)
+}
+
+/// [`add_radiance_at`] with every sample shaded from its target's irradiance alone, its
+/// directional record left out (glossy lobes as the diffuse mode shades them): two sets of
+/// accumulators, one with records and one without, compare like with like this way (the
+/// error estimate's two bandwidths, docs/deviations.md §51).
+pub fn add_irradiance_shading_at(
+    eye: &EyeSamples,
+    target_slot: &[u32],
+    acc: &Accumulators,
+    batches: u32,
+    out: &mut [Vec3],
+    at: impl Fn(usize) -> Option<usize>,
+) -> u64 {
+    add_shaded_at(eye, target_slot, acc, batches, out, at, false)
+}
+
+fn add_shaded_at(
+    eye: &EyeSamples,
+    target_slot: &[u32],
+    acc: &Accumulators,
+    batches: u32,
+    out: &mut [Vec3],
+    at: impl Fn(usize) -> Option<usize>,
+    records: bool,
+) -> u64 {
+    if batches == 0 || acc.is_empty() {
         return 0;
     }
     let inv_b = 1.0 / batches as f32;
@@ -150,7 +177,18 @@ pub fn add_radiance_at(
             continue;
         };
         let slot = target_slot[eye.target[i] as usize] as usize;
-        let l = sample_radiance(eye, i, slot, acc, inv_b);
+        let l = if records {
+            sample_radiance(eye, i, slot, acc, inv_b)
+        } else {
+            let a = &acc.chunks[slot / LANES].ch;
+            let k = slot % LANES;
+            let e = Vec3::new(
+                a[Channel::R as usize][k],
+                a[Channel::G as usize][k],
+                a[Channel::B as usize][k],
+            ) * inv_b;
+            eye.weight[i].get() * shade(eye, i, e, None, inv_b, DirectionalMode::Diffuse)
+        };
         if l.is_finite() {
             out[o] += l;
         } else {

@@ -1,0 +1,249 @@
+//! The error of a progressive image estimated from its own eye passes (issue 32,
+//! docs/deviations.md §51): variance from the spread between passes, kernel bias from each
+//! pass's splat at two bandwidths, h and h/2.
+//!
+//! Each finished eye pass i holds a film x_i, weighted by its batches w_i; the image is the
+//! weighted mean x̄ = Σ w_i x_i / W. The passes are independent (new eye samples, new photons),
+//! with variances σ_i² that differ (a pass of few batches is noisier), so the variance of x̄,
+//! Σ w_i² σ_i² / W², is estimated by Σ w_i² (x_i − x̄)² / W² · n/(n − 1) (the weighted form that
+//! needs no common σ²; with equal weights the textbook s²/n).
+//!
+//! For a second-order kernel (the Epanechnikov kernel, §6) the bias of a density estimate
+//! grows as h² (b(h) ≈ c·h²), so the estimates at h and at h/2 differ by 3/4 of b(h):
+//! b(h) ≈ 4/3 · (L(h) − L(h/2)). h/2 rather than the issue's 2h: the pairs within h/2 are a
+//! quarter of those within h, so the second splat costs a fraction of the first, where 2h
+//! would cost four times as much. Each pass's bias estimate b_i is averaged like the image, and
+//! its own noise, Var(b̄), is taken off its square: bias² ≈ b̄² − Var(b̄) (summed over pixels
+//! before clamping at zero, so the noise does not add up as a positive bias).
+//!
+//! All of it is per pixel on luminance (seven sums a pixel, in f64 against cancellation); a
+//! pixel's relative error is applied to each channel as `compare`'s relMSE weighs it,
+//! (x − r)² / (r² + 0.01), with the image's own value in place of the reference.
+
+use crate::film::Film;
+use crate::sampling::luminance;
+use glam::Vec3;
+
+/// The estimated error of an image, in `compare`'s relMSE units.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ErrorEstimate {
+    /// Estimated relMSE: bias² plus variance.
+    pub rel_mse: f64,
+    /// Its kernel-bias part (bias² with its own noise taken off).
+    pub bias2: f64,
+    /// Its variance part (everything the passes' spread shows: splatted light, direct light,
+    /// anti-aliasing).
+    pub variance: f64,
+    /// The variance of the splatted (indirect and caustic) light alone: the part a wider
+    /// kernel smooths (for `--c auto`).
+    pub variance_splatted: f64,
+    /// Eye passes the estimate is made from.
+    pub passes: u32,
+    /// Per pixel, the estimated relative squared error (bias² + variance) / luminance².
+    pub map: Vec<f32>,
+}
+
+/// Per pixel: Σw²y, Σw²y², Σw·s, Σw²s, Σw²s², Σw·b, Σw²b, Σw²b² (y: the film's luminance,
+/// s: the splatted light's, b: the pass's bias estimate).
+const SUMS: usize = 8;
+
+/// One pass's error-estimate values at a pixel ([`Film::pass_error`]), luminance.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassError {
+    /// The splat kernels' bias, 4/3·(L(h) − L(h/2)), pooled over [`BIAS_POOL`].
+    pub bias: f32,
+    /// The light splatted by photons (what a wider kernel smooths).
+    pub splatted: f32,
+}
+
+/// Each pass's bias estimate is averaged over a box of (2·BIAS_POOL + 1)² pixels before its
+/// spread is taken: the kernels' bias changes on the scale of their footprint, many pixels
+/// wide, while the difference of two splats is noisy per pixel (docs/deviations.md §51).
+pub const BIAS_POOL: usize = 3;
+
+/// `bias` (one value per pixel of a `width`-wide image) averaged over a box of
+/// (2·[`BIAS_POOL`] + 1)² pixels, clipped at the borders: two running-sum passes.
+pub fn pool_bias(bias: &mut [f32], width: usize) {
+    if width == 0 || bias.is_empty() {
+        return;
+    }
+    let height = bias.len() / width;
+    let r = BIAS_POOL;
+    let mut tmp = vec![0.0f32; bias.len()];
+    let box_1d = |src: &[f32], dst: &mut [f32], n: usize, at: &dyn Fn(usize) -> usize| {
+        let mut prefix = vec![0.0f64; n + 1];
+        for i in 0..n {
+            prefix[i + 1] = prefix[i] + src[at(i)] as f64;
+        }
+        for i in 0..n {
+            let (lo, hi) = (i.saturating_sub(r), (i + r + 1).min(n));
+            dst[at(i)] = ((prefix[hi] - prefix[lo]) / (hi - lo) as f64) as f32;
+        }
+    };
+    for y in 0..height {
+        box_1d(bias, &mut tmp, width, &|x| y * width + x);
+    }
+    for x in 0..width {
+        box_1d(&tmp, bias, height, &|y| y * width + x);
+    }
+}
+
+/// The finished passes' sums for [`ErrorEstimate`].
+#[derive(Clone, Debug, Default)]
+pub struct PassSpread {
+    sums: Vec<[f64; SUMS]>,
+    /// Σ w² over the passes.
+    w2: f64,
+    /// Σ w over the passes.
+    w: f64,
+    /// Passes added (with a weight above zero).
+    passes: u32,
+}
+
+/// One eye pass's own film (not blended with the others): its image, and its bias estimate
+/// and splatted light per pixel.
+#[derive(Clone, Copy)]
+pub struct PassValues<'a> {
+    /// The image.
+    pub rgb: &'a [Vec3],
+    /// Its [`Film::pass_error`].
+    pub pass: &'a [PassError],
+}
+
+impl<'a> PassValues<'a> {
+    /// A film's values.
+    pub fn of(film: &'a Film) -> Self {
+        Self {
+            rgb: &film.rgb,
+            pass: &film.pass_error,
+        }
+    }
+
+    /// The values at pixel `p` (luminance, splatted light, bias).
+    #[inline]
+    fn at(&self, p: usize) -> [f64; 3] {
+        let e = self.pass.get(p).copied().unwrap_or_default();
+        [
+            luminance(self.rgb[p]) as f64,
+            e.splatted as f64,
+            e.bias as f64,
+        ]
+    }
+}
+
+/// Add pass values y, s, b with weight `w` to a pixel's sums.
+#[inline]
+fn add_to(s: &mut [f64; SUMS], w: f64, [y, i, b]: [f64; 3]) {
+    let w2 = w * w;
+    s[0] += w2 * y;
+    s[1] += w2 * y * y;
+    s[2] += w * i;
+    s[3] += w2 * i;
+    s[4] += w2 * i * i;
+    s[5] += w * b;
+    s[6] += w2 * b;
+    s[7] += w2 * b * b;
+}
+
+impl PassSpread {
+    /// Add a finished pass's `film` (its own, not blended) holding `batches` batches.
+    pub fn add(&mut self, film: PassValues, batches: usize) {
+        let n = film.rgb.len();
+        if self.sums.len() != n {
+            *self = Self {
+                sums: vec![[0.0; SUMS]; n],
+                ..Self::default()
+            };
+        }
+        if batches == 0 {
+            return;
+        }
+        let w = batches as f64;
+        for (p, s) in self.sums.iter_mut().enumerate() {
+            add_to(s, w, film.at(p));
+        }
+        self.w += w;
+        self.w2 += w * w;
+        self.passes += 1;
+    }
+
+    /// Bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        self.sums.len() * std::mem::size_of::<[f64; SUMS]>()
+    }
+
+    /// The estimate for `blended` (the batch-weighted mean of every pass), with the current
+    /// pass `current` of `batches` batches counted as one more pass (none: the finished
+    /// passes alone, `blended` then being their mean). None before two passes.
+    pub fn estimate(
+        &self,
+        blended: &[Vec3],
+        current: Option<(PassValues, usize)>,
+    ) -> Option<ErrorEstimate> {
+        if self.sums.len() != blended.len() {
+            return None;
+        }
+        let (cw, cur) = match current {
+            Some((f, b)) if b > 0 && f.rgb.len() == blended.len() => (b as f64, Some(f)),
+            _ => (0.0, None),
+        };
+        let passes = self.passes + cur.is_some() as u32;
+        if passes < 2 {
+            return None;
+        }
+        let w = self.w + cw;
+        let w2 = self.w2 + cw * cw;
+        // n/(n − 1), the small-sample correction of the spread.
+        let correction = passes as f64 / (passes - 1) as f64;
+        let inv_w2 = 1.0 / (w * w);
+        let mut map = vec![0.0f32; blended.len()];
+        let (mut bias2, mut variance, mut splatted) = (0.0f64, 0.0f64, 0.0f64);
+        for (p, s) in self.sums.iter().enumerate() {
+            let mut s = *s;
+            if let Some(f) = cur {
+                add_to(&mut s, cw, f.at(p));
+            }
+            let y = luminance(blended[p]) as f64;
+            // Σ w²(x − x̄)² = Σw²x² − 2x̄Σw²x + x̄²Σw².
+            let spread = |sx: f64, sxx: f64, mean: f64| {
+                ((sxx - 2.0 * mean * sx + mean * mean * w2) * inv_w2 * correction).max(0.0)
+            };
+            let v = spread(s[0], s[1], y);
+            let vs = spread(s[3], s[4], s[2] / w);
+            let b_mean = s[5] / w;
+            let vb = spread(s[6], s[7], b_mean);
+            let b2 = b_mean * b_mean - vb;
+            let err = b2.max(0.0) + v;
+            // The pixel's relative error, applied to each channel as relMSE weighs it.
+            let weigh = |e: f64| -> f64 {
+                if y <= 0.0 {
+                    return 0.0;
+                }
+                let rel = e / (y * y);
+                let c = blended[p];
+                (0..3)
+                    .map(|k| {
+                        let x = c[k] as f64;
+                        rel * x * x / (x * x + 0.01)
+                    })
+                    .sum::<f64>()
+                    / 3.0
+            };
+            bias2 += weigh(b2);
+            variance += weigh(v);
+            splatted += weigh(vs);
+            map[p] = if y > 0.0 { (err / (y * y)) as f32 } else { 0.0 };
+        }
+        let n = blended.len().max(1) as f64;
+        let bias2 = (bias2 / n).max(0.0);
+        let variance = variance / n;
+        Some(ErrorEstimate {
+            rel_mse: bias2 + variance,
+            bias2,
+            variance,
+            variance_splatted: splatted / n,
+            passes,
+            map,
+        })
+    }
+}
