@@ -186,8 +186,9 @@ fn smoothness_ranged(cmd: clap::Command) -> clap::Command {
             }
         })
         .allow_negative_numbers(true)
+        // The same range note as every other numeric flag's; `auto` is in the help text.
         .help(format!(
-            "{help} [range: {}..={}, or auto]",
+            "{help} [range: {}..={}]",
             SMOOTHNESS_C.min, SMOOTHNESS_C.max
         ))
     })
