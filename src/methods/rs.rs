@@ -158,9 +158,25 @@ mod tests {
             "NEE redrawn with each batch after the first"
         );
 
+        // With its cost measured: the time since a draw counts the batches after it, not
+        // the draw (else every draw would pay for the next, and NEE be redrawn every batch).
+        m.core_mut().clock.nee_cost = 0.0;
+        let before = m.core().clock.pass_spent;
+        traced(&mut m);
+        let c = m.core().clock;
+        assert_eq!(m.core().side().nee_draws, 5);
+        assert!(c.nee_cost > 0.0, "the draw was timed");
+        assert!(
+            c.since_nee + c.nee_cost <= c.pass_spent - before + 1e-9,
+            "since the draw {} + the draw {} within the step {}",
+            c.since_nee,
+            c.nee_cost,
+            c.pass_spent - before
+        );
+
         m.core_mut().clock.nee_cost = 1e9;
         traced(&mut m);
-        assert_eq!(m.core().side().nee_draws, 4, "a dear NEE draw waits");
+        assert_eq!(m.core().side().nee_draws, 5, "a dear NEE draw waits");
 
         m.core_mut().clock.pass_cost = 0.0;
         traced(&mut m);

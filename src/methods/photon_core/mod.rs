@@ -354,10 +354,12 @@ impl PhotonCore {
                 self.clock.nee_cost = self.timings.t_direct - before;
                 self.clock.since_nee = 0.0;
             }
+            // The next NEE draw weighs the batches since this one, not the draw itself (which
+            // would make every draw pay for the next); the pass weighs both.
+            let batch = Instant::now();
             self.run_batch();
-            let spent = t.elapsed().as_secs_f64();
-            self.clock.pass_spent += spent;
-            self.clock.since_nee += spent;
+            self.clock.pass_spent += t.elapsed().as_secs_f64();
+            self.clock.since_nee += batch.elapsed().as_secs_f64();
             Step::Traced
         }
     }
