@@ -116,7 +116,7 @@ fn the_estimated_error_tracks_the_true_error() {
 /// issue's 10% stability over the last batches (measured: C climbs 1.25 → 2.2 over the last
 /// quarter; docs/deviations.md §51).
 #[test]
-fn auto_c_settles_and_the_image_converges() {
+fn auto_c_moves_within_bounds_and_the_image_converges() {
     let scene = scene();
     let truth = truth(&scene);
     let s = RenderSettings {

@@ -178,12 +178,10 @@ fn smoothness_ranged(cmd: clap::Command) -> clap::Command {
     cmd.mut_arg("c", |a| {
         let help = a.get_help().map(|h| h.to_string()).unwrap_or_default();
         let value = in_range(SMOOTHNESS_C);
-        a.value_parser(move |s: &str| {
-            if s.trim().eq_ignore_ascii_case("auto") {
-                Ok(Smoothness::Auto)
-            } else {
-                value(s).map(Smoothness::Value)
-            }
+        // `auto` as `Smoothness` reads it; a number within the range as every ranged flag's.
+        a.value_parser(move |s: &str| match s.parse::<Smoothness>() {
+            Ok(Smoothness::Auto) => Ok(Smoothness::Auto),
+            _ => value(s).map(Smoothness::Value),
         })
         .allow_negative_numbers(true)
         // The same range note as every other numeric flag's; `auto` is in the help text.

@@ -16,7 +16,7 @@
 //! its own noise, Var(b̄), is taken off its square: bias² ≈ b̄² − Var(b̄) (summed over pixels
 //! before clamping at zero, so the noise does not add up as a positive bias).
 //!
-//! All of it is per pixel on luminance (seven sums a pixel, in f64 against cancellation); a
+//! All of it is per pixel on luminance (eight sums a pixel, in f64 against cancellation); a
 //! pixel's relative error is applied to each channel as `compare`'s relMSE weighs it,
 //! (x − r)² / (r² + 0.01), with the image's own value in place of the reference.
 
@@ -39,8 +39,6 @@ pub struct ErrorEstimate {
     pub variance_splatted: f64,
     /// Eye passes the estimate is made from.
     pub passes: u32,
-    /// Per pixel, the estimated relative squared error (bias² + variance) / luminance².
-    pub map: Vec<f32>,
 }
 
 /// Per pixel: Σw²y, Σw²y², Σw·s, Σw²s, Σw²s², Σw·b, Σw²b, Σw²b² (y: the film's luminance,
@@ -68,10 +66,27 @@ pub fn pool_bias(bias: &mut [f32], width: usize) {
         return;
     }
     let height = bias.len() / width;
-    let r = BIAS_POOL;
     let mut tmp = vec![0.0f32; bias.len()];
-    let box_1d = |src: &[f32], dst: &mut [f32], n: usize, at: &dyn Fn(usize) -> usize| {
-        let mut prefix = vec![0.0f64; n + 1];
+    let mut prefix = vec![0.0f64; width.max(height) + 1];
+    // Rows into `tmp`, then columns back: element i of line `start` + i·`stride`.
+    box_lines(bias, &mut tmp, height, width, width, 1, &mut prefix);
+    box_lines(&tmp, bias, width, height, 1, width, &mut prefix);
+}
+
+/// A running-sum box of radius [`BIAS_POOL`] along `lines` lines of `n` values each, line l
+/// starting at l·`line_step` with its values `stride` apart, from `src` into `dst`.
+fn box_lines(
+    src: &[f32],
+    dst: &mut [f32],
+    lines: usize,
+    n: usize,
+    line_step: usize,
+    stride: usize,
+    prefix: &mut [f64],
+) {
+    let r = BIAS_POOL;
+    for l in 0..lines {
+        let at = |i: usize| l * line_step + i * stride;
         for i in 0..n {
             prefix[i + 1] = prefix[i] + src[at(i)] as f64;
         }
@@ -79,12 +94,6 @@ pub fn pool_bias(bias: &mut [f32], width: usize) {
             let (lo, hi) = (i.saturating_sub(r), (i + r + 1).min(n));
             dst[at(i)] = ((prefix[hi] - prefix[lo]) / (hi - lo) as f64) as f32;
         }
-    };
-    for y in 0..height {
-        box_1d(bias, &mut tmp, width, &|x| y * width + x);
-    }
-    for x in 0..width {
-        box_1d(&tmp, bias, height, &|y| y * width + x);
     }
 }
 
@@ -172,19 +181,17 @@ impl PassSpread {
         self.sums.len() * std::mem::size_of::<[f64; SUMS]>()
     }
 
-    /// The estimate for `blended` (the batch-weighted mean of every pass), with the current
-    /// pass `current` of `batches` batches counted as one more pass (none: the finished
-    /// passes alone, `blended` then being their mean). None before two passes.
+    /// The estimate for the image whose pixel `p` is `blended(p)` (the batch-weighted mean of
+    /// every pass, given as a function so that no image-sized copy is made), with the current
+    /// pass `current` of `batches` batches counted as one more pass (none: the finished passes
+    /// alone, `blended` then being their mean). None before two passes.
     pub fn estimate(
         &self,
-        blended: &[Vec3],
+        blended: impl Fn(usize) -> Vec3,
         current: Option<(PassValues, usize)>,
     ) -> Option<ErrorEstimate> {
-        if self.sums.len() != blended.len() {
-            return None;
-        }
         let (cw, cur) = match current {
-            Some((f, b)) if b > 0 && f.rgb.len() == blended.len() => (b as f64, Some(f)),
+            Some((f, b)) if b > 0 && f.rgb.len() == self.sums.len() => (b as f64, Some(f)),
             _ => (0.0, None),
         };
         let passes = self.passes + cur.is_some() as u32;
@@ -196,14 +203,14 @@ impl PassSpread {
         // n/(n − 1), the small-sample correction of the spread.
         let correction = passes as f64 / (passes - 1) as f64;
         let inv_w2 = 1.0 / (w * w);
-        let mut map = vec![0.0f32; blended.len()];
         let (mut bias2, mut variance, mut splatted) = (0.0f64, 0.0f64, 0.0f64);
         for (p, s) in self.sums.iter().enumerate() {
             let mut s = *s;
             if let Some(f) = cur {
                 add_to(&mut s, cw, f.at(p));
             }
-            let y = luminance(blended[p]) as f64;
+            let c = blended(p);
+            let y = luminance(c) as f64;
             // Σ w²(x − x̄)² = Σw²x² − 2x̄Σw²x + x̄²Σw².
             let spread = |sx: f64, sxx: f64, mean: f64| {
                 ((sxx - 2.0 * mean * sx + mean * mean * w2) * inv_w2 * correction).max(0.0)
@@ -213,14 +220,12 @@ impl PassSpread {
             let b_mean = s[5] / w;
             let vb = spread(s[6], s[7], b_mean);
             let b2 = b_mean * b_mean - vb;
-            let err = b2.max(0.0) + v;
             // The pixel's relative error, applied to each channel as relMSE weighs it.
             let weigh = |e: f64| -> f64 {
                 if y <= 0.0 {
                     return 0.0;
                 }
                 let rel = e / (y * y);
-                let c = blended[p];
                 (0..3)
                     .map(|k| {
                         let x = c[k] as f64;
@@ -232,9 +237,8 @@ impl PassSpread {
             bias2 += weigh(b2);
             variance += weigh(v);
             splatted += weigh(vs);
-            map[p] = if y > 0.0 { (err / (y * y)) as f32 } else { 0.0 };
         }
-        let n = blended.len().max(1) as f64;
+        let n = self.sums.len().max(1) as f64;
         let bias2 = (bias2 / n).max(0.0);
         let variance = variance / n;
         Some(ErrorEstimate {
@@ -243,7 +247,54 @@ impl PassSpread {
             variance,
             variance_splatted: splatted / n,
             passes,
-            map,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The box keeps a constant, spreads a spike evenly over (2r + 1)² pixels inside the
+    /// image, and clips at the border (a corner pixel averages (r + 1)² pixels).
+    #[test]
+    fn the_bias_pool_is_a_clipped_box() {
+        let (w, h) = (20, 15);
+        let mut c = vec![0.5f32; w * h];
+        pool_bias(&mut c, w);
+        assert!(c.iter().all(|v| (v - 0.5).abs() < 1e-6));
+        let mut spike = vec![0.0f32; w * h];
+        spike[7 * w + 9] = 49.0;
+        pool_bias(&mut spike, w);
+        let k = (2 * BIAS_POOL + 1) as f32;
+        assert!((spike[7 * w + 9] - 49.0 / (k * k)).abs() < 1e-5);
+        assert!((spike[(7 + BIAS_POOL) * w + 9 - BIAS_POOL] - 1.0).abs() < 1e-5);
+        assert_eq!(spike[(7 + BIAS_POOL + 1) * w + 9], 0.0);
+        let mut corner = vec![0.0f32; w * h];
+        corner[0] = 16.0;
+        pool_bias(&mut corner, w);
+        let m = (BIAS_POOL + 1) as f32;
+        assert!((corner[0] - 16.0 / (m * m)).abs() < 1e-5);
+    }
+
+    /// Two passes of equal weight, grey 1 and grey 3, no bias: the mean is 2 and the variance
+    /// of the mean s²/n = 2/2 = 1, relative 1/4, weighed per channel as relMSE does (4/4.01).
+    #[test]
+    fn two_passes_give_the_textbook_variance_of_their_mean() {
+        let n = 6;
+        let pass = |v: f32| (vec![Vec3::splat(v); n], vec![PassError::default(); n]);
+        let (a, ea) = pass(1.0);
+        let (b, eb) = pass(3.0);
+        let mut spread = PassSpread::default();
+        let of = |rgb, pass| PassValues { rgb, pass };
+        spread.add(of(&a, &ea), 2);
+        assert_eq!(spread.estimate(|_| Vec3::ONE, None), None, "one pass");
+        let e = spread
+            .estimate(|_| Vec3::splat(2.0), Some((of(&b, &eb), 2)))
+            .unwrap();
+        let expected = 0.25 * 4.0 / 4.01;
+        assert!((e.variance - expected).abs() < 1e-9, "{e:?}");
+        assert_eq!(e.bias2, 0.0);
+        assert_eq!(e.passes, 2);
     }
 }

@@ -11,7 +11,7 @@ use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::eye::trace_lobes;
 use crate::pipeline::photon::{Bandwidth, PhotonRay};
-use crate::pipeline::radiance_map::{Accumulators, add_radiance_at};
+use crate::pipeline::radiance_map::{Accumulators, Shading, add_radiance_at};
 use crate::pipeline::splat::prepare_and_splat;
 use crate::pipeline::splat_tree::SplatTree;
 use crate::scene::{Camera, Scene};
@@ -179,7 +179,8 @@ impl TracedLobes {
             if let Some(acc) = acc {
                 // Straight into the sums (a full-size radiance map per gather was +8 MB at
                 // the peak of a 500×500 render: docs/benchmarks.md, "Memory").
-                self.invalid += add_radiance_at(samples, target_slot, acc, 1, sums, at);
+                self.invalid +=
+                    add_radiance_at(samples, target_slot, acc, 1, sums, at, Shading::Records);
             }
         }
     }

@@ -6,9 +6,7 @@ use crate::film::Film;
 use crate::film::estimate::{PassError, pool_bias};
 use crate::pipeline::cache::{PixelGeometry, sample_values};
 use crate::pipeline::filter::filter_samples;
-use crate::pipeline::radiance_map::{
-    Interpolated, RadianceMap, add_irradiance_shading_at, add_radiance_at,
-};
+use crate::pipeline::radiance_map::{Interpolated, RadianceMap, Shading, add_radiance_at};
 use crate::sampling::luminance;
 use glam::Vec3;
 
@@ -132,6 +130,7 @@ impl PhotonCore {
                 batches,
                 &mut film.direct,
                 |i| Some(side.eye.pixel[i] as usize),
+                Shading::Records,
             );
         }
         film.invalid_contributions +=
@@ -166,11 +165,13 @@ impl PhotonCore {
         let n = side.emitted.len();
         let pixel = |i: usize| Some(side.eye.pixel[i] as usize);
         let (slots, eye) = (&side.tree.target_slot, &side.eye);
-        let mut at_h = vec![Vec3::ZERO; n];
-        add_irradiance_shading_at(eye, slots, &side.acc_indirect, batches, &mut at_h, pixel);
-        add_irradiance_shading_at(eye, slots, &side.acc_direct, batches, &mut at_h, pixel);
-        let mut at_half = vec![Vec3::ZERO; n];
-        add_irradiance_shading_at(eye, slots, &side.acc_half, batches, &mut at_half, pixel);
+        let shade = |acc, out: &mut [Vec3]| {
+            add_radiance_at(eye, slots, acc, batches, out, pixel, Shading::Irradiance)
+        };
+        let (mut at_h, mut at_half) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        shade(&side.acc_indirect, &mut at_h);
+        shade(&side.acc_direct, &mut at_h);
+        shade(&side.acc_half, &mut at_half);
         let mut bias: Vec<f32> = at_h
             .iter()
             .zip(&at_half)

@@ -65,8 +65,7 @@ impl EarlierPasses {
             return None;
         }
         let inv = 1.0 / self.batches as f32;
-        let rgb: Vec<Vec3> = self.rgb.iter().map(|s| *s * inv).collect();
-        self.spread.estimate(&rgb, None)
+        self.spread.estimate(|p| self.rgb[p] * inv, None)
     }
 
     /// `film` (of the current pass, holding `batches`) becomes the mean over every pass.
@@ -74,10 +73,17 @@ impl EarlierPasses {
         if self.batches == 0 || self.rgb.len() != film.rgb.len() {
             return;
         }
-        // The current pass's own values, for the error estimate.
-        let current = (!film.pass_error.is_empty()).then(|| film.rgb.clone());
         let w = batches as f32;
         let inv = 1.0 / (self.batches + batches) as f32;
+        // The estimate first, while the film still holds the current pass's own values: each
+        // pixel's blended value is (Σ + w·x)/W, made on the fly (no copy of the film).
+        if !film.pass_error.is_empty() {
+            let rgb = &film.rgb;
+            let pass = PassValues::of(film);
+            film.estimate = self
+                .spread
+                .estimate(|p| (self.rgb[p] + w * rgb[p]) * inv, Some((pass, batches)));
+        }
         for (sum, px) in [
             (&self.rgb, &mut film.rgb),
             (&self.direct, &mut film.direct),
@@ -88,12 +94,5 @@ impl EarlierPasses {
             }
         }
         film.invalid_contributions += self.invalid;
-        if let Some(rgb) = current {
-            let pass = PassValues {
-                rgb: &rgb,
-                pass: &film.pass_error,
-            };
-            film.estimate = self.spread.estimate(&film.rgb, Some((pass, batches)));
-        }
     }
 }

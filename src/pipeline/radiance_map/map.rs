@@ -80,7 +80,7 @@ impl RadianceMap {
                     let l = slot % LANES;
                     let get = |c: Channel| a[c as usize][l];
                     let px = eye.pixel[i] as usize - y * w;
-                    let out = sample_radiance(eye, i, slot, acc, inv_b);
+                    let out = sample_radiance(eye, i, slot, acc, inv_b, Shading::Records);
                     if !out.is_finite() {
                         invalid += 1;
                         continue;
@@ -126,12 +126,23 @@ fn sample_rows(eye: &EyeSamples, width: usize, height: usize) -> Vec<usize> {
     rows
 }
 
-/// Add the radiance of slot accumulators (summed over `batches` light passes) to
-/// `out[at(i)]` for eye sample `i` (None: not added), as [`RadianceMap::resolve_from`] folds
-/// it, without the splat statistics: direct photons added onto the film's direct light in
-/// place (`at` the sample's pixel), or sums that are not one per pixel
-/// ([`crate::methods::lobes::TracedLobes`] keeps them for the pixels with a traced lobe
-/// only). Returns the contributions dropped as NaN or infinite.
+/// How [`add_radiance_at`] shades a sample from its target's accumulated light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shading {
+    /// As the accumulators hold it: glossy lobes from their directional records (§8.1).
+    Records,
+    /// From the irradiance alone, directional records left out (glossy lobes as the diffuse
+    /// mode shades them): two sets of accumulators, one with records and one without, compare
+    /// like with like this way (the error estimate's two bandwidths, docs/deviations.md §51).
+    Irradiance,
+}
+
+/// Add the radiance of slot accumulators (summed over `batches` light passes), shaded as
+/// `shading` says, to `out[at(i)]` for eye sample `i` (None: not added), as
+/// [`RadianceMap::resolve_from`] folds it, without the splat statistics: direct photons added
+/// onto the film's direct light in place (`at` the sample's pixel), or sums that are not one
+/// per pixel ([`crate::methods::lobes::TracedLobes`] keeps them for the pixels with a traced
+/// lobe only). Returns the contributions dropped as NaN or infinite.
 pub fn add_radiance_at(
     eye: &EyeSamples,
     target_slot: &[u32],
@@ -139,33 +150,7 @@ pub fn add_radiance_at(
     batches: u32,
     out: &mut [Vec3],
     at: impl Fn(usize) -> Option<usize>,
-) -> u64 {
-    add_shaded_at(eye, target_slot, acc, batches, out, at, true)
-}
-
-/// [`add_radiance_at`] with every sample shaded from its target's irradiance alone, its
-/// directional record left out (glossy lobes as the diffuse mode shades them): two sets of
-/// accumulators, one with records and one without, compare like with like this way (the
-/// error estimate's two bandwidths, docs/deviations.md §51).
-pub fn add_irradiance_shading_at(
-    eye: &EyeSamples,
-    target_slot: &[u32],
-    acc: &Accumulators,
-    batches: u32,
-    out: &mut [Vec3],
-    at: impl Fn(usize) -> Option<usize>,
-) -> u64 {
-    add_shaded_at(eye, target_slot, acc, batches, out, at, false)
-}
-
-fn add_shaded_at(
-    eye: &EyeSamples,
-    target_slot: &[u32],
-    acc: &Accumulators,
-    batches: u32,
-    out: &mut [Vec3],
-    at: impl Fn(usize) -> Option<usize>,
-    records: bool,
+    shading: Shading,
 ) -> u64 {
     if batches == 0 || acc.is_empty() {
         return 0;
@@ -177,18 +162,7 @@ fn add_shaded_at(
             continue;
         };
         let slot = target_slot[eye.target[i] as usize] as usize;
-        let l = if records {
-            sample_radiance(eye, i, slot, acc, inv_b)
-        } else {
-            let a = &acc.chunks[slot / LANES].ch;
-            let k = slot % LANES;
-            let e = Vec3::new(
-                a[Channel::R as usize][k],
-                a[Channel::G as usize][k],
-                a[Channel::B as usize][k],
-            ) * inv_b;
-            eye.weight[i].get() * shade(eye, i, e, None, inv_b, DirectionalMode::Diffuse)
-        };
+        let l = sample_radiance(eye, i, slot, acc, inv_b, shading);
         if l.is_finite() {
             out[o] += l;
         } else {
@@ -199,7 +173,7 @@ fn add_shaded_at(
 }
 
 /// Radiance eye sample `i` sends towards the eye, its path weight applied, from the light its
-/// splat target's `slot` accumulated over 1/`inv_b` batches.
+/// splat target's `slot` accumulated over 1/`inv_b` batches, shaded as `shading` says.
 #[inline]
 fn sample_radiance(
     eye: &EyeSamples,
@@ -207,12 +181,17 @@ fn sample_radiance(
     slot: usize,
     acc: &Accumulators,
     inv_b: f32,
+    shading: Shading,
 ) -> Vec3 {
     let a = &acc.chunks[slot / LANES].ch;
     let l = slot % LANES;
     let get = |c: Channel| a[c as usize][l];
     let e = Vec3::new(get(Channel::R), get(Channel::G), get(Channel::B)) * inv_b;
-    eye.weight[i].get() * shade(eye, i, e, acc.record(slot), inv_b, acc.mode)
+    let (record, mode) = match shading {
+        Shading::Records => (acc.record(slot), acc.mode),
+        Shading::Irradiance => (None, DirectionalMode::Diffuse),
+    };
+    eye.weight[i].get() * shade(eye, i, e, record, inv_b, mode)
 }
 
 impl RadianceMap {

@@ -18,7 +18,7 @@ mod accumulators;
 mod map;
 
 pub use accumulators::{AccView, AccumChunk, Accumulators};
-pub use map::{RadianceMap, SplatInfo, add_irradiance_shading_at, add_radiance_at};
+pub use map::{RadianceMap, Shading, SplatInfo, add_radiance_at};
 
 use crate::pipeline::eye::EyeSamples;
 use glam::Vec3;
