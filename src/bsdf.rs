@@ -584,9 +584,9 @@ mod tests {
     }
 
     /// The albedo table against a brute-force quadrature of ∫ D·G₂/(4 cos θo) dωi over the
-    /// hemisphere (1600 × 3200 cells, not the sampler the table is built with): single
+    /// hemisphere (400 × 800 cells here, not the sampler the table is built with): single
     /// scattering loses what it should, e.g. 39% of a white metal's light at α 0.58 seen
-    /// straight on (values from that quadrature, done apart).
+    /// straight on (the quoted values from a finer quadrature, 1600 × 3200, done apart).
     #[test]
     fn the_albedo_table_matches_a_quadrature() {
         let quadrature = |cos_o: f32, alpha: f32| -> f64 {

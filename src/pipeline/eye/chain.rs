@@ -225,7 +225,9 @@ fn traces_lobe(bsdf: Bsdf, limit: f32) -> bool {
 /// One direction of a glossy lobe too sharp for the radiance map (its width as a Phong
 /// exponent above `limit`), drawn from GGX's visible normals at `wo` (`n` the shading normal
 /// facing the viewer, `ng` the geometric one): the direction and its weight
-/// F(ωo·h)·G₂/G₁(ωo)/p, an unbiased one-sample estimate of the specular layer's reflection.
+/// F(ωo·h)·G₂/G₁(ωo)/p, an unbiased one-sample estimate of the specular layer's reflection
+/// (f·cos θi over the visible-normal pdf D_ωo(h)/(4|ωo·h|) of Heitz 2018, JCGT 7(4), eq. 17,
+/// leaves F·G₂/G₁ of glTF's microfacet BRDF, appendix B).
 /// The lobe is traced with the probability p the BSDF's own sampling gives it (its share of
 /// the reflectance towards ωo, [`Bsdf::specular_probability`]), a Russian roulette that spends
 /// rays where the lobe carries light. `None` when the lobe is not traced, the roulette ends it,
