@@ -52,6 +52,9 @@ pub struct Film {
     pub pass_error: Vec<estimate::PassError>,
     /// The image's estimated error ([`estimate`]), once two eye passes give a spread.
     pub estimate: Option<estimate::ErrorEstimate>,
+    /// Per pixel, the estimated relative RMS error √((bias² + variance)/L²) behind
+    /// [`Film::estimate`] (the window's error view); empty without an estimate.
+    pub estimated_error: Vec<f32>,
     /// Contributions dropped on the way to this film because they were NaN or infinite
     /// (photon rays, light samples, eye-sample resolves, pixels), like Mitsuba's
     /// `warn_invalid`: counted, never written.
@@ -92,6 +95,7 @@ impl Film {
             glossy_source: vec![[0.0; 2]; n],
             pass_error: Vec::new(),
             estimate: None,
+            estimated_error: Vec::new(),
             invalid_contributions: 0,
         }
     }

@@ -111,12 +111,12 @@ fn the_estimated_error_tracks_the_true_error() {
     }
 }
 
-/// `--c auto` moves C and the image converges: its true error after 160 batches is below
-/// half its error after 20, and C stays within [0.5, 4]. Not asserted, because not met: the
-/// issue's 10% stability over the last batches (measured: C climbs 1.25 → 2.2 over the last
-/// quarter; docs/deviations.md §51).
+/// `--c auto` settles and the image converges: over the last quarter of 160 batches the
+/// chosen C stays within 10% (the stability; it drifts up as W^(1/6) by design,
+/// docs/deviations.md §51: measured 2.09..2.23), the true error after 160 batches is below half
+/// its error after 20 (consistent), and within 10% of the best fixed C's at the same batches.
 #[test]
-fn auto_c_moves_within_bounds_and_the_image_converges() {
+fn auto_c_settles_and_the_image_converges() {
     let scene = scene();
     let truth = truth(&scene);
     let s = RenderSettings {
@@ -144,9 +144,24 @@ fn auto_c_moves_within_bounds_and_the_image_converges() {
         &cs[..12]
     );
     assert!(cs.iter().any(|&c| c != 1.0), "auto C never moved");
-    assert!(
-        cs.iter().all(|&c| (0.5..=4.0).contains(&c)),
-        "C over the last quarter: {lo}..{hi}"
-    );
+    assert!(hi <= 1.1 * lo, "C over the last quarter: {lo}..{hi}");
     assert!(late < 0.5 * early, "relMSE {early} -> {late}");
+    // As good as the best fixed C at the same batches (the 10%; measured: auto
+    // 0.00076, fixed C 0.6 / 1 / 1.4 / 2: 0.00165 / 0.00090 / 0.00077 / 0.00089).
+    let best = [0.6f32, 1.0, 1.4, 2.0]
+        .map(|c| {
+            let s = RenderSettings {
+                estimate_error: false,
+                ..settings(c)
+            };
+            let r = render_method(&scene, MethodKind::Rs, &s, Budget::Passes(total)).unwrap();
+            rel_mse(&r.film.rgb, &truth)
+        })
+        .into_iter()
+        .fold(f64::MAX, f64::min);
+    eprintln!("best fixed C: {best:.5}");
+    assert!(
+        late <= 1.1 * best,
+        "auto {late} against the best fixed C's {best}"
+    );
 }

@@ -3,7 +3,7 @@
 
 use egui::accesskit::Role;
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 use raysplat::app::snapshot_writer::SnapshotMeta;
 use raysplat::app::{App, AppOptions, UiSettings};
 use raysplat::scene::BuiltinScene;
@@ -69,20 +69,36 @@ fn run_until(h: &mut Harness<'static, App>, secs: u64, what: &str, pred: impl Fn
     }
 }
 
-/// Scroll the control panel to the widget labelled `label` and click it.
-fn click(h: &mut Harness<'static, App>, label: &str) {
-    h.get_by_label(label).scroll_to_me();
-    // Let the scroll animation settle.
-    let mut rect = h.get_by_label(label).rect();
+/// Step until the control panel's scroll animation has settled: the rect `rect_of` reads
+/// stays put.
+fn settle(h: &mut Harness<'static, App>, rect_of: impl Fn(&Harness<'static, App>) -> egui::Rect) {
+    let mut rect = rect_of(h);
     for k in 0..120 {
         h.step();
-        let now = h.get_by_label(label).rect();
+        let now = rect_of(h);
         if k >= 5 && now == rect {
             break;
         }
         rect = now;
     }
+}
+
+/// Scroll the control panel to the widget labelled `label` and click it.
+fn click(h: &mut Harness<'static, App>, label: &str) {
+    h.get_by_label(label).scroll_to_me();
+    settle(h, |h| h.get_by_label(label).rect());
     h.get_by_label(label).click();
+}
+
+/// Scroll the control panel to the Display panel's "View" box and choose `mode` in it.
+fn choose_view(h: &mut Harness<'static, App>, mode: &str) {
+    let view = |h: &Harness<'static, App>| h.get_by_role_and_label(Role::ComboBox, "View").rect();
+    h.get_by_role_and_label(Role::ComboBox, "View")
+        .scroll_to_me();
+    settle(h, view);
+    h.get_by_role_and_label(Role::ComboBox, "View").click();
+    h.run_steps(3);
+    h.get_by_label(mode).click();
 }
 
 fn pause(h: &mut Harness<'static, App>) {
@@ -214,9 +230,7 @@ fn bandwidth_view_shows_a_legend() {
     run_until(&mut h, 60, "the first image", |a| {
         a.frame().is_some_and(|f| f.stats.method.passes >= 1)
     });
-    h.get_by_role_and_label(Role::ComboBox, "View").click();
-    h.run_steps(3);
-    h.get_by_label("Bandwidth (false colour)").click();
+    choose_view(&mut h, "Bandwidth (false colour)");
     run_until(&mut h, 10, "the legend", |a| {
         a.shown().is_some_and(|s| s.legend.is_some())
     });
@@ -232,9 +246,7 @@ fn window_renders_through_wgpu() {
     run_until(&mut h, 60, "the first image", |a| {
         a.frame().is_some_and(|f| f.stats.method.passes >= 2)
     });
-    h.get_by_role_and_label(Role::ComboBox, "View").click();
-    h.run_steps(3);
-    h.get_by_label("Bandwidth (false colour)").click();
+    choose_view(&mut h, "Bandwidth (false colour)");
     run_until(&mut h, 10, "the false-colour image", |a| {
         a.shown().is_some_and(|s| s.legend.is_some())
     });
@@ -347,9 +359,7 @@ fn reference_view_mode_path_traces_the_view() {
         a.frame()
             .is_some_and(|f| f.stats.method.passes >= 1 && !f.interactive)
     });
-    h.get_by_role_and_label(Role::ComboBox, "View").click();
-    h.run_steps(3);
-    h.get_by_label("Reference (path traced)").click();
+    choose_view(&mut h, "Reference (path traced)");
     run_until(&mut h, 60, "a reference with a few paths per pixel", |a| {
         a.frame()
             .is_some_and(|f| f.stats.reference_spp >= 4 && f.reference.is_some())
@@ -366,7 +376,14 @@ fn reference_view_mode_path_traces_the_view() {
     // The shown image is the reference's (brightness within reach of the splatted film's).
     let (m_ref, m_rs) = (reference.mean(), f.film.mean());
     assert!((m_ref.x / m_rs.x - 1.0).abs() < 0.5, "{m_ref} vs {m_rs}");
-    h.get_by_label_contains("reference");
+    let s = app.settings();
+    let expected = raysplat::film::display::display(
+        reference,
+        raysplat::film::display::ViewMode::Reference,
+        s.exposure,
+        s.tone_map,
+    );
+    assert_eq!(app.shown().unwrap().rgba, expected.rgba, "the shown image");
 }
 
 /// The glossy radiance-map mode (§8.1) reaches the worker, re-splats the stored rays without
@@ -490,9 +507,7 @@ fn epsilon_slider_reruns_the_cache_live() {
             .count()
     };
     let before = count_white(&h.state().shown().unwrap().rgba);
-    h.get_by_role_and_label(Role::ComboBox, "View").click();
-    h.run_steps(3);
-    h.get_by_label("Cache records (radii)").click();
+    choose_view(&mut h, "Cache records (radii)");
     h.run_steps(3);
     let white = count_white(&h.state().shown().unwrap().rgba);
     assert!(
@@ -596,4 +611,86 @@ fn the_stats_line_counts_eye_passes() {
     assert!(m.eye_samples > 0 && m.splat_tree > 0 && m.photon_rays > 0 && m.film > 0);
     assert!(m.scene > 0 && m.accumulators > 0 && m.pixel_sums > 0);
     h.get_by_label(&format!("memory {:.0} MB", m.total() as f64 / 1e6));
+}
+
+/// The Auto box beside the C slider reaches the worker: the render chooses C from its own
+/// error estimate, and the disabled slider shows the C it chose.
+#[test]
+fn the_auto_box_lets_the_render_choose_c_and_the_slider_shows_it() {
+    let mut h = harness(tmp("auto_c"));
+    run_until(&mut h, 60, "the first image", |a| a.frame().is_some());
+    click(&mut h, "Auto");
+    run_until(&mut h, 150, "a C of the render's own", |a| {
+        a.frame().is_some_and(|f| {
+            f.settings.auto_c && (f.settings.bandwidth.smoothness_c - 1.0).abs() > 1e-3
+        })
+    });
+    h.step();
+    let app = h.state();
+    let chosen = app.frame().unwrap().settings.bandwidth.smoothness_c;
+    assert_eq!(app.settings().render.bandwidth.smoothness_c, chosen);
+    let slider = h.get_by_role_and_label(Role::Slider, "C");
+    assert!(slider.accesskit_node().is_disabled());
+    let shown = slider.accesskit_node().numeric_value().unwrap();
+    assert!((shown - chosen as f64).abs() < 1e-6, "{shown} vs {chosen}");
+}
+
+/// The split view: the path-traced reference refines beside the batches, the image right of
+/// the divider is the reference's, the panel shows their relMSE, and dragging the divider in
+/// the image moves it without moving the camera.
+#[test]
+fn the_split_view_shows_the_reference_right_of_a_draggable_divider() {
+    use raysplat::film::display::{ViewMode, display};
+    let mut h = harness(tmp("split"));
+    run_until(&mut h, 60, "the first image", |a| {
+        a.frame().is_some_and(|f| !f.interactive)
+    });
+    click(&mut h, "Split view with the reference");
+    run_until(&mut h, 120, "the reference beside the batches", |a| {
+        a.frame().is_some_and(|f| {
+            f.stats.reference_spp >= 3 && f.stats.method.passes >= 3 && f.reference.is_some()
+        }) && a.shown().is_some()
+    });
+    h.step();
+    h.step();
+    let app = h.state();
+    let f = app.frame().unwrap();
+    let s = app.settings();
+    let shown = app.shown().unwrap();
+    let r = f.reference.as_ref().unwrap();
+    let right = display(r, ViewMode::Final, s.exposure, s.tone_map);
+    let left = display(&f.film, ViewMode::Final, s.exposure, s.tone_map);
+    let w = shown.width as usize;
+    let x0 = (0.5 * w as f32).round() as usize;
+    for y in 0..shown.height as usize {
+        let row = |img: &[u8]| img[4 * y * w..4 * (y + 1) * w].to_vec();
+        let (got, l, rr) = (row(&shown.rgba), row(&left.rgba), row(&right.rgba));
+        assert_eq!(got[..4 * x0], l[..4 * x0], "row {y}: left of the divider");
+        assert_eq!(got[4 * x0..], rr[4 * x0..], "row {y}: right of the divider");
+    }
+    h.get_by_label_contains("relMSE against the reference:");
+    // Drag the divider from the middle of the image to a quarter of its width.
+    let image = h.get_by_role(Role::Image).rect();
+    let from = egui::pos2(image.center().x, image.center().y);
+    let to = egui::pos2(image.min.x + 0.25 * image.width(), image.center().y);
+    h.hover_at(from);
+    h.step();
+    h.drag_at(from);
+    h.step();
+    for k in 1..=5 {
+        h.hover_at(from + (to - from) * (k as f32 / 5.0));
+        h.step();
+    }
+    h.drop_at(to);
+    h.run_steps(3);
+    let at = h.state().settings().split_at;
+    assert!((at - 0.25).abs() < 0.03, "divider at {at}");
+    run_until(&mut h, 30, "a frame after the drag", |a| {
+        a.frame().is_some()
+    });
+    assert_ne!(
+        h.state().frame().unwrap().camera.name,
+        "orbit",
+        "the drag moved the camera"
+    );
 }

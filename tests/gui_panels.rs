@@ -5,13 +5,14 @@
 
 use egui::accesskit::Role;
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 use raysplat::app::UiSettings;
 use raysplat::app::bandwidth::BandwidthPanel;
 use raysplat::app::cache_filter::CacheFilterPanel;
 use raysplat::app::camera::CameraPanel;
 use raysplat::app::display::DisplayPanel;
 use raysplat::app::environment::{EnvironmentPanel, EnvironmentRequest};
+use raysplat::app::error_panel::ErrorPanel;
 use raysplat::app::rendering::RenderingPanel;
 use raysplat::app::snapshots::{SnapshotPanel, SnapshotRequest};
 use raysplat::app::stats::{Messages, StatsPanel};
@@ -116,6 +117,147 @@ fn bandwidth_panel_emits_set_bandwidth() {
         &[Command::SetBandwidth(expected.render.bandwidth)],
     );
     assert!(h.query_by_label_contains("Ray store full").is_none());
+}
+
+/// The Auto box beside C: on, it asks the worker to choose C (the estimate comes on with it)
+/// and the C slider is disabled but shows the C it is given (the window writes the chosen one
+/// from each frame); off, the worker keeps the C the slider shows.
+#[test]
+fn the_auto_box_lets_the_render_choose_c() {
+    let mut h = bandwidth_harness(None);
+    assert!(
+        !h.get_by_role_and_label(Role::Slider, "C")
+            .accesskit_node()
+            .is_disabled()
+    );
+    h.get_by_role_and_label(Role::CheckBox, "Auto").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::SetAutoC(true)]);
+    let r = &h.state().settings.render;
+    assert!(r.auto_c && r.estimate_error);
+    assert!(
+        h.get_by_role_and_label(Role::Slider, "C")
+            .accesskit_node()
+            .is_disabled()
+    );
+    // The render chose 0.7: the slider shows it.
+    h.state_mut().settings.render.bandwidth.smoothness_c = 0.7;
+    h.run_steps(2);
+    let shown = h
+        .get_by_role_and_label(Role::Slider, "C")
+        .accesskit_node()
+        .numeric_value();
+    assert!(shown.is_some_and(|v| (v - 0.7).abs() < 1e-6), "{shown:?}");
+    assert_commands(&mut h.state_mut().out, &[]);
+    h.get_by_role_and_label(Role::CheckBox, "Auto").click();
+    h.run_steps(2);
+    let b = h.state().settings.render.bandwidth;
+    assert_eq!(b.smoothness_c, 0.7);
+    assert_commands(
+        &mut h.state_mut().out,
+        &[Command::SetAutoC(false), Command::SetBandwidth(b)],
+    );
+    assert!(!h.state().settings.render.auto_c);
+    assert!(
+        !h.get_by_role_and_label(Role::Slider, "C")
+            .accesskit_node()
+            .is_disabled()
+    );
+}
+
+fn error_harness(frame: Option<Frame>) -> Harness<'static, State<ErrorPanel>> {
+    harness(ErrorPanel, settings(), move |ui, s| {
+        s.panel.ui(ui, &mut s.settings, frame.as_ref(), &mut s.out)
+    })
+}
+
+/// The error panel's boxes: the estimate, the pause (which needs the estimate: on with it) and
+/// the split view, whose divider is the window's alone (no command).
+#[test]
+fn error_panel_turns_the_estimate_the_pause_and_the_split_on() {
+    let mut h = error_harness(None);
+    h.get_by_label("Pause below").click();
+    h.run_steps(2);
+    assert_commands(
+        &mut h.state_mut().out,
+        &[
+            Command::SetErrorEstimate(true),
+            Command::SetPauseBelow(Some(0.002)),
+        ],
+    );
+    h.get_by_label("Estimate the error").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::SetErrorEstimate(false)]);
+    h.get_by_label("Pause below").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::SetPauseBelow(None)]);
+    assert!(h.query_by_label("Divider").is_none());
+    h.get_by_label("Split view with the reference").click();
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[Command::SetSplit(true)]);
+    h.get_by_role_and_label(Role::Slider, "Divider")
+        .set_value_accesskit(0.3);
+    h.run_steps(2);
+    assert_commands(&mut h.state_mut().out, &[]);
+    let s = &h.state().settings;
+    assert!(s.split && (s.split_at - 0.3).abs() < 1e-6 && !s.render.estimate_error);
+}
+
+/// With automatic C the estimate cannot be turned off: its box is disabled.
+#[test]
+fn error_panel_keeps_the_estimate_while_c_is_automatic() {
+    let mut s = settings();
+    s.render.auto_c = true;
+    s.render.estimate_error = true;
+    let h = harness(ErrorPanel, s, move |ui, s: &mut State<ErrorPanel>| {
+        s.panel.ui(ui, &mut s.settings, None, &mut s.out)
+    });
+    assert!(
+        h.get_by_label("Estimate the error")
+            .accesskit_node()
+            .is_disabled()
+    );
+}
+
+/// The panel shows the frame's estimate, the threshold it paused at, and in the split view the
+/// relMSE against the reference with the reference's paths.
+#[test]
+fn error_panel_shows_the_estimate_and_the_error_against_the_reference() {
+    let mut film = Film::new(8, 8);
+    film.estimate = Some(raysplat::film::estimate::ErrorEstimate {
+        rel_mse: 0.00123,
+        bias2: 0.0002,
+        variance: 0.00103,
+        passes: 7,
+        ..Default::default()
+    });
+    let frame = Frame {
+        film,
+        seq: 3,
+        generation: 1,
+        scene_name: "box".into(),
+        scene_path: None,
+        camera: Camera::look_at("c", glam::Vec3::Z, glam::Vec3::ZERO, 0.8),
+        settings: RenderSettings::default(),
+        interactive: false,
+        cache_records: Vec::new(),
+        stats: SessionStats {
+            paused: true,
+            paused_below: Some(0.002),
+            reference_spp: 16,
+            reference_rel_mse: Some(0.0456),
+            ..SessionStats::default()
+        },
+        reference: None,
+    };
+    let mut s = settings();
+    s.split = true;
+    let h = harness(ErrorPanel, s, move |ui, s: &mut State<ErrorPanel>| {
+        s.panel.ui(ui, &mut s.settings, Some(&frame), &mut s.out)
+    });
+    h.get_by_label("estimated relMSE 0.00123 (bias² 0.00020, variance 0.00103) from 7 eye passes");
+    h.get_by_label_contains("paused: the estimate fell below 0.002");
+    h.get_by_label_contains("relMSE against the reference: 0.04560 (16 paths per pixel");
 }
 
 #[test]

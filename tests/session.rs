@@ -518,3 +518,75 @@ fn the_first_coarse_image_traces_half_a_batch_and_the_next_ones_a_whole() {
     });
     assert_eq!(later.settings.photons, m);
 }
+
+/// The split view: the path tracer refines the same view beside the photon batches, both
+/// advancing, and each frame carries their relMSE against each other.
+#[test]
+fn the_split_view_refines_the_reference_beside_the_batches() {
+    let _w = Watchdog::new(180);
+    let config = small_config();
+    let (w, h) = (config.settings.width, config.settings.height);
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+    session.send(Command::SetSplit(true));
+    let first = wait(&session, 60, |f| {
+        f.reference
+            .as_ref()
+            .is_some_and(|r| (r.width, r.height) == (w, h))
+            && f.stats.reference_spp >= 1
+    });
+    let later = wait(&session, 120, |f| {
+        f.stats.reference_spp >= first.stats.reference_spp + 4
+            && f.stats.method.passes >= first.stats.method.passes + 4
+    });
+    let r = later.reference.as_ref().unwrap();
+    let expected = rel_mse(&later.film.rgb, &r.rgb);
+    let shown = later
+        .stats
+        .reference_rel_mse
+        .expect("the relMSE between the two");
+    assert!(
+        (shown - expected).abs() <= 1e-9 * expected.max(1.0),
+        "{shown} vs {expected}"
+    );
+    // Both images of one box: a relMSE of noise, not of different scenes or sizes.
+    assert!(shown < 0.5, "relMSE {shown}");
+    // Leaving the split view drops the reference.
+    session.send(Command::SetSplit(false));
+    wait(&session, 60, |f| {
+        f.reference.is_none() && f.stats.reference_spp == 0
+    });
+}
+
+/// The pause at an estimated error: with a threshold the estimate is soon below, the worker
+/// pauses itself and says at which threshold; a resume refines on without pausing again.
+#[test]
+fn the_worker_pauses_itself_below_the_error_threshold() {
+    let _w = Watchdog::new(180);
+    let mut config = small_config();
+    config.settings.estimate_error = true;
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+    session.send(Command::SetPauseBelow(Some(0.5)));
+    let paused = wait(&session, 120, |f| f.stats.paused);
+    let e = paused.film.estimate.as_ref().expect("an estimate");
+    assert!(e.rel_mse < 0.5, "{e:?}");
+    assert_eq!(paused.stats.paused_below, Some(0.5));
+    session.send(Command::Resume);
+    let resumed = wait(&session, 60, |f| {
+        !f.stats.paused && f.stats.method.passes >= paused.stats.method.passes + 3
+    });
+    assert_eq!(resumed.stats.paused_below, None);
+}
+
+/// Automatic C from the window's command: the estimate comes on with it (the worker's
+/// settings say so), and after a few eye passes the batches use a C of the render's own.
+#[test]
+fn auto_c_from_a_command_turns_the_estimate_on_and_moves_c() {
+    let _w = Watchdog::new(180);
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, small_config(), None);
+    session.send(Command::SetAutoC(true));
+    let f = wait(&session, 150, |f| {
+        f.settings.auto_c && (f.settings.bandwidth.smoothness_c - 1.0).abs() > 1e-3
+    });
+    assert!(f.settings.estimate_error);
+    assert!(f.film.estimate.is_some());
+}

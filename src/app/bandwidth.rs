@@ -14,8 +14,10 @@ use egui::Color32;
 pub struct BandwidthPanel;
 
 impl BandwidthPanel {
-    /// Draw the sliders (accessible names "C", "S", "R"); a moved slider emits
-    /// `SetBandwidth` with all three values. `stats` are the newest frame's counters.
+    /// Draw the sliders (accessible names "C", "S", "R") and the "Auto" box beside C; a moved
+    /// slider emits `SetBandwidth` with all three values, the box `SetAutoC` (and, turned off,
+    /// `SetBandwidth` with the chosen C the slider shows). `stats` are the newest frame's
+    /// counters.
     pub fn ui(
         &mut self,
         ui: &mut egui::Ui,
@@ -25,17 +27,30 @@ impl BandwidthPanel {
     ) {
         let defaults = BandwidthParams::default();
         ui.heading("Bandwidth (eq. 8)");
+        let auto_before = settings.render.auto_c;
+        let mut auto = auto_before;
         out.on_change(
             &mut settings.render.bandwidth,
             |b| {
-                param_slider(
-                    ui,
-                    &mut b.smoothness_c,
-                    limits::SMOOTHNESS_C.range(),
-                    "C",
-                    "smoothness",
-                    defaults.smoothness_c,
-                );
+                // C, or the C the render chooses (the slider then follows it, disabled).
+                ui.horizontal(|ui| {
+                    ui.add_enabled(
+                        !auto,
+                        egui::Slider::new(&mut b.smoothness_c, limits::SMOOTHNESS_C.range())
+                            .text("C"),
+                    )
+                    .on_hover_text("smoothness");
+                    if ui
+                        .add_enabled(!auto, egui::Button::new("reset").small())
+                        .on_hover_text(format!("reset C to {}", defaults.smoothness_c))
+                        .clicked()
+                    {
+                        b.smoothness_c = defaults.smoothness_c;
+                    }
+                    ui.checkbox(&mut auto, "Auto").on_hover_text(
+                        "Choose C between eye passes to minimise the error the render estimates                          from its own passes (docs/deviations.md §51); the slider shows the                          chosen value, and keeps it when Auto is turned off",
+                    );
+                });
                 param_slider(
                     ui,
                     &mut b.sensitivity_s,
@@ -55,6 +70,17 @@ impl BandwidthPanel {
             },
             |&b| Command::SetBandwidth(b),
         );
+        if auto != auto_before {
+            settings.render.auto_c = auto;
+            out.push(Command::SetAutoC(auto));
+            if auto {
+                // The estimate it chooses from.
+                settings.render.estimate_error = true;
+            } else {
+                // The worker's C becomes the chosen one the slider shows.
+                out.push(Command::SetBandwidth(settings.render.bandwidth));
+            }
+        }
         if let Some(s) = stats
             && s.method.folded_batches > 0
         {

@@ -41,9 +41,10 @@ impl DisplayPanel {
     }
 }
 
-/// Show `mode`: entering or leaving the reference mode emits `SetReference`, and entering the
-/// cache-records mode with the cache off turns it on (`SetCache`). Nothing when `mode` is
-/// already shown.
+/// Show `mode`: entering or leaving the reference mode emits `SetReference`, entering the
+/// cache-records mode with the cache off turns it on (`SetCache`), and entering the
+/// estimated-error mode with the estimate off turns that on (`SetErrorEstimate`). Nothing when
+/// `mode` is already shown.
 pub fn set_view_mode(settings: &mut UiSettings, mode: ViewMode, out: &mut Commands) {
     let old = settings.view_mode;
     if mode == old {
@@ -53,6 +54,10 @@ pub fn set_view_mode(settings: &mut UiSettings, mode: ViewMode, out: &mut Comman
     let reference = mode == ViewMode::Reference;
     if reference != (old == ViewMode::Reference) {
         out.push(Command::SetReference(reference));
+    }
+    if mode == ViewMode::EstimatedError && !settings.render.estimate_error {
+        settings.render.estimate_error = true;
+        out.push(Command::SetErrorEstimate(true));
     }
     if mode == ViewMode::CacheRecords && !settings.render.cache_on {
         settings.render.cache_on = true;
@@ -74,6 +79,7 @@ pub fn view_mode_label(m: ViewMode) -> &'static str {
         ViewMode::HarmonicDistance => "Harmonic mean distance",
         ViewMode::Reference => "Reference (path traced)",
         ViewMode::CacheRecords => "Cache records (radii)",
+        ViewMode::EstimatedError => "Estimated error (per pixel)",
     }
 }
 

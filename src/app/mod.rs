@@ -6,12 +6,13 @@
 //!
 //! | file | panel | emits |
 //! |---|---|---|
-//! | [`bandwidth`] | C, S, R of eq. 8 | `SetBandwidth` |
+//! | [`bandwidth`] | C, S, R of eq. 8; automatic C | `SetBandwidth`, `SetAutoC` |
 //! | [`cache_filter`] | radiance cache ε, records per pixel; image filter | `SetCache`, `SetFilter` |
 //! | [`rendering`] | photons per batch, spp, resolution, direct light, glossy radiance map, ray budget, pause, restart, reference | one command per widget |
 //! | [`environment`] | none, uniform, sky or a map file; strength, rotation, sun | `SetEnvironment` (a map file once the window's dialog has chosen one) |
 //! | [`camera`] | the scene's cameras | `SetCamera` |
-//! | [`display`] | view mode, exposure, tone mapping | `SetReference`, `SetCache` (two view modes) |
+//! | [`display`] | view mode, exposure, tone mapping | `SetReference`, `SetCache`, `SetErrorEstimate` (three view modes) |
+//! | [`error_panel`] | the estimated error, pause below a threshold, split view with the reference | `SetErrorEstimate`, `SetPauseBelow`, `SetSplit` |
 //! | [`snapshots`] | snapshot folder, save | nothing (asks the window) |
 //! | [`stats`] | the frame's counters, messages | nothing |
 //!
@@ -25,6 +26,7 @@ pub mod cache_filter;
 pub mod camera;
 pub mod display;
 pub mod environment;
+pub mod error_panel;
 pub mod rendering;
 pub mod snapshot_writer;
 pub mod snapshots;

@@ -29,6 +29,14 @@ pub struct UiSettings {
     pub snapshot_dir: PathBuf,
     /// The environment scenes are lit by.
     pub environment: EnvironmentSettings,
+    /// Pause when the estimated relMSE falls below [`UiSettings::pause_below`].
+    pub pause_below_on: bool,
+    /// The pause threshold (estimated relMSE), kept while the pause is off.
+    pub pause_below: f64,
+    /// The split view: the image left of the divider, the path-traced reference right of it.
+    pub split: bool,
+    /// Where the divider is, as a fraction of the image's width.
+    pub split_at: f32,
 }
 
 impl Default for UiSettings {
@@ -42,6 +50,10 @@ impl Default for UiSettings {
             tone_map: ToneMap::Aces,
             snapshot_dir: std::env::current_dir().unwrap_or_else(|_| PathBuf::from(".")),
             environment: EnvironmentSettings::default(),
+            pause_below_on: false,
+            pause_below: 0.002,
+            split: false,
+            split_at: 0.5,
         }
     }
 }
@@ -73,7 +85,23 @@ impl UiSettings {
         if e.sun.is_some_and(|s| s.check().is_err()) {
             e.sun = None;
         }
+        let pause = crate::app::error_panel::PAUSE_RANGE;
+        self.pause_below = if self.pause_below.is_finite() {
+            self.pause_below.clamp(*pause.start(), *pause.end())
+        } else {
+            0.002
+        };
+        self.split_at = if self.split_at.is_finite() {
+            self.split_at.clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
         self
+    }
+
+    /// The threshold the worker pauses at, if the pause is on.
+    pub fn pause_threshold(&self) -> Option<f64> {
+        self.pause_below_on.then_some(self.pause_below)
     }
 
     /// The worker's configuration for these settings.

@@ -4,7 +4,6 @@
 
 use crate::app::widgets::Commands;
 use crate::film::display::{DisplayImage, ViewMode};
-use crate::film::false_colour;
 use crate::scene::Camera;
 use crate::session::{Command, Frame};
 use egui::{Color32, TextureHandle, TextureOptions, Vec2};
@@ -62,7 +61,12 @@ pub(crate) struct Viewport {
     orbit: Option<Orbit>,
     /// The camera is being moved (interactive frames); when it settles a final view is sent.
     moving_since: Option<Instant>,
+    /// The split view's divider is being dragged (the drag moves it, not the camera).
+    dragging_divider: bool,
 }
+
+/// How near the split view's divider (screen points) a drag takes hold of it.
+const DIVIDER_GRIP: f32 = 8.0;
 
 impl Viewport {
     /// A new scene: orbit around `center`, starting at `camera`.
@@ -91,13 +95,16 @@ impl Viewport {
     }
 
     /// Draw the image (scaled to fit), the pixel probe and the legend; mouse input moves the
-    /// orbit and emits `SetCamera`.
+    /// orbit and emits `SetCamera`. With `split` (the divider's place as a fraction of the
+    /// width), the image is the split view's: the divider is drawn, and a drag that starts on
+    /// it moves it instead of the camera.
     pub(crate) fn ui(
         &mut self,
         ui: &mut egui::Ui,
         frame: Option<&Frame>,
         shown: Option<&DisplayImage>,
         view_mode: ViewMode,
+        split: Option<&mut f32>,
         out: &mut Commands,
     ) {
         let Some(tex) = &self.texture else {
@@ -111,7 +118,18 @@ impl Viewport {
         let scale = (avail.x / size.x).min(avail.y / size.y).max(0.05);
         let response =
             ui.add(egui::Image::new((tex.id(), size * scale)).sense(egui::Sense::click_and_drag()));
-        self.camera_input(ui, &response, out);
+        match split {
+            Some(at) => {
+                self.divider(ui, &response, at);
+                if !self.dragging_divider {
+                    self.camera_input(ui, &response, out);
+                }
+            }
+            None => {
+                self.dragging_divider = false;
+                self.camera_input(ui, &response, out);
+            }
+        }
         if let (Some(pos), Some(f)) = (response.hover_pos(), frame) {
             probe(response, pos, f);
         }
@@ -122,7 +140,7 @@ impl Viewport {
                     ui.allocate_exact_size(Vec2::new(200.0, 14.0), egui::Sense::hover());
                 let n = 50;
                 for k in 0..n {
-                    let c = false_colour(k as f32 / (n - 1) as f32);
+                    let c = legend.scale.colour(k as f32 / (n - 1) as f32);
                     let x0 = rect.min.x + rect.width() * k as f32 / n as f32;
                     let x1 = rect.min.x + rect.width() * (k + 1) as f32 / n as f32;
                     ui.painter().rect_filled(
@@ -136,11 +154,61 @@ impl Viewport {
                 }
                 ui.label(format!("{:.4} {}", legend.max, legend.unit));
                 ui.label(format!(
-                    "({}, red = smallest)",
-                    super::display::view_mode_label(view_mode)
+                    "({}, {})",
+                    super::display::view_mode_label(view_mode),
+                    legend.scale.note()
                 ));
             });
         }
+    }
+
+    /// The split view's divider: drawn at `at`, with the two sides named; a drag that starts
+    /// within [`DIVIDER_GRIP`] of it moves it.
+    fn divider(&mut self, ui: &egui::Ui, response: &egui::Response, at: &mut f32) {
+        let rect = response.rect;
+        let x = rect.min.x + *at * rect.width();
+        let near = |p: egui::Pos2| (p.x - x).abs() <= DIVIDER_GRIP;
+        if response.drag_started() {
+            // Where the button went down: egui starts a drag only after some movement.
+            let origin = ui.input(|i| i.pointer.press_origin());
+            self.dragging_divider = origin.is_some_and(near);
+        }
+        if self.dragging_divider {
+            if let Some(p) = response.interact_pointer_pos() {
+                *at = ((p.x - rect.min.x) / rect.width().max(1.0)).clamp(0.0, 1.0);
+            }
+            if !response.dragged() {
+                self.dragging_divider = false;
+            }
+        }
+        if self.dragging_divider || response.hover_pos().is_some_and(near) {
+            ui.ctx().set_cursor_icon(egui::CursorIcon::ResizeHorizontal);
+        }
+        let x = rect.min.x + *at * rect.width();
+        let painter = ui.painter_at(rect);
+        painter.line_segment(
+            [egui::pos2(x, rect.min.y), egui::pos2(x, rect.max.y)],
+            egui::Stroke::new(2.0, Color32::WHITE),
+        );
+        let label = |pos: egui::Pos2, align: egui::Align2, text: &str| {
+            painter.text(
+                pos,
+                align,
+                text,
+                egui::FontId::proportional(13.0),
+                Color32::WHITE,
+            );
+        };
+        label(
+            egui::pos2(x - 6.0, rect.min.y + 4.0),
+            egui::Align2::RIGHT_TOP,
+            "image",
+        );
+        label(
+            egui::pos2(x + 6.0, rect.min.y + 4.0),
+            egui::Align2::LEFT_TOP,
+            "reference",
+        );
     }
 
     fn camera_input(&mut self, ui: &egui::Ui, response: &egui::Response, out: &mut Commands) {

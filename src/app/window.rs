@@ -8,6 +8,7 @@ use crate::app::cache_filter::CacheFilterPanel;
 use crate::app::camera::CameraPanel;
 use crate::app::display::{DisplayPanel, set_view_mode};
 use crate::app::environment::{EnvironmentPanel, EnvironmentRequest};
+use crate::app::error_panel::ErrorPanel;
 use crate::app::rendering::{RenderingPanel, toggle_pause};
 use crate::app::snapshot_writer::{SnapshotFiles, SnapshotMeta, write_snapshot_in_background};
 use crate::app::snapshots::{SnapshotPanel, SnapshotRequest};
@@ -67,6 +68,7 @@ pub struct App {
     paused: bool,
     viewport: Viewport,
     bandwidth: BandwidthPanel,
+    error_panel: ErrorPanel,
     cache_filter: CacheFilterPanel,
     rendering: RenderingPanel,
     environment: EnvironmentPanel,
@@ -135,6 +137,12 @@ impl App {
         if settings.view_mode == ViewMode::Reference {
             session.send(Command::SetReference(true));
         }
+        if settings.split {
+            session.send(Command::SetSplit(true));
+        }
+        if let Some(t) = settings.pause_threshold() {
+            session.send(Command::SetPauseBelow(Some(t)));
+        }
         Self {
             session,
             settings,
@@ -145,6 +153,7 @@ impl App {
             paused: false,
             viewport: Viewport::default(),
             bandwidth: BandwidthPanel,
+            error_panel: ErrorPanel,
             cache_filter: CacheFilterPanel,
             rendering: RenderingPanel,
             environment: EnvironmentPanel::default(),
@@ -261,6 +270,11 @@ impl App {
         }
         if let Some(f) = self.session.try_frame() {
             self.paused = f.stats.paused;
+            // Under automatic C the slider shows the C the render chose (and keeps it when
+            // Auto is turned off).
+            if self.settings.render.auto_c && f.settings.auto_c {
+                self.settings.render.bandwidth.smoothness_c = f.settings.bandwidth.smoothness_c;
+            }
             self.frame = Some(f);
             self.display_dirty = true;
         }
@@ -309,8 +323,29 @@ impl App {
             // Records are in the film's pixels (the cache runs at the frame's resolution).
             img.draw_records(&f.cache_records, 7.0);
         }
+        // The split view: the reference's final image right of the divider.
+        if let Some(r) = self.split_reference() {
+            let right = display(
+                r,
+                ViewMode::Final,
+                self.settings.exposure,
+                self.settings.tone_map,
+            );
+            img.split_with(&right, self.settings.split_at);
+        }
         self.viewport.set_image(ctx, &img);
         self.shown = Some(img);
+    }
+
+    /// The reference the split view shows beside the image: the split is on, the reference
+    /// has the image's size, and the image is not the reference already.
+    fn split_reference(&self) -> Option<&crate::film::Film> {
+        let f = self.frame.as_ref()?;
+        let r = f.reference.as_ref()?;
+        (self.settings.split
+            && self.settings.view_mode != ViewMode::Reference
+            && (r.width, r.height) == (f.film.width, f.film.height))
+            .then_some(r)
     }
 
     fn shortcuts(&mut self, ctx: &egui::Context, out: &mut Commands) {
@@ -403,6 +438,9 @@ impl App {
         let stats = self.frame.as_ref().map(|f| &f.stats);
         self.bandwidth.ui(ui, &mut self.settings, stats, out);
         ui.separator();
+        self.error_panel
+            .ui(ui, &mut self.settings, self.frame.as_ref(), out);
+        ui.separator();
         self.cache_filter.ui(ui, &mut self.settings, stats, out);
         ui.separator();
         self.rendering
@@ -434,7 +472,7 @@ impl eframe::App for App {
         let mut out = Commands::new();
         self.poll();
         self.shortcuts(&ctx, &mut out);
-        let look = |s: &UiSettings| (s.view_mode, s.exposure, s.tone_map);
+        let look = |s: &UiSettings| (s.view_mode, s.exposure, s.tone_map, s.split, s.split_at);
         let before = look(&self.settings);
         egui::Panel::top("menu").show(ui, |ui| self.menu(ui, &mut out));
         egui::Panel::bottom("status").show(ui, |ui| {
@@ -451,15 +489,23 @@ impl eframe::App for App {
             self.display_dirty = true;
         }
         self.update_texture(&ctx);
+        let split = self.split_reference().is_some();
+        let split_before = self.settings.split_at;
         egui::CentralPanel::default().show(ui, |ui| {
             self.viewport.ui(
                 ui,
                 self.frame.as_ref(),
                 self.shown.as_ref(),
                 self.settings.view_mode,
+                split.then_some(&mut self.settings.split_at),
                 &mut out,
             );
         });
+        if self.settings.split_at != split_before {
+            // The divider was dragged: show it where it is now.
+            self.display_dirty = true;
+            ctx.request_repaint();
+        }
         for c in out.take() {
             self.session.send(c);
         }

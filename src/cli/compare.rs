@@ -59,6 +59,12 @@ struct CompareRow {
     dots: usize,
     photons: u64,
     passes: u64,
+    /// rs with `--estimate-error`: the relMSE the render estimated from its own passes
+    /// (docs/deviations.md §51).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    estimated_relmse: Option<f64>,
+    /// The C the last batch was splatted with (under `--c auto`, the chosen one).
+    smoothness_c: f32,
 }
 
 /// One column of the montage: a tone-mapped image over its error map (8-bit sRGB).
@@ -155,6 +161,8 @@ pub fn run(args: CompareArgs) -> Result<(), CliError> {
             dots: bright_dots(&r.film.rgb, &reference, settings.width, settings.height),
             photons: r.photons,
             passes: r.passes,
+            estimated_relmse: r.film.estimate.as_ref().map(|e| e.rel_mse),
+            smoothness_c: r.smoothness_c,
         };
         println!(
             "{:<6} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.5} {:>10.5} {:>+7.2}% {:>6}",
@@ -168,6 +176,12 @@ pub fn run(args: CompareArgs) -> Result<(), CliError> {
             row.mean_bias * 100.0,
             row.dots
         );
+        if let Some(e) = row.estimated_relmse {
+            println!(
+                "{:<6} estimated relMSE {e:.5} from its own passes, C {:.3}",
+                "", row.smoothness_c
+            );
+        }
         r.film
             .write_exr(&args.out_dir.join(format!("{}.exr", m.name())))
             .map_err(CliError::Output)?;

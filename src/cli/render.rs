@@ -283,6 +283,7 @@ fn stats_json(
         "estimated_bias2": film.estimate.as_ref().map(|e| e.bias2),
         "estimated_variance": film.estimate.as_ref().map(|e| e.variance),
         "estimated_variance_splatted": film.estimate.as_ref().map(|e| e.variance_splatted),
+        "estimated_variance_photons": film.estimate.as_ref().map(|e| e.variance_photons),
         "estimate_passes": film.estimate.as_ref().map(|e| e.passes),
         "smoothness_c": settings.bandwidth.smoothness_c,
         "invalid_pixels": film.invalid_pixels(),

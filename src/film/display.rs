@@ -1,6 +1,7 @@
 //! What the previewer shows: a view mode of the film, tone-mapped (final, direct, indirect) or
 //! in false colour (bandwidth as in Fig. 5, kernel density, harmonic mean distance), as RGBA8.
 
+use super::error::error_colour;
 use super::{Film, SplatInfo, false_colour, linear_to_srgb};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -24,11 +25,14 @@ pub enum ViewMode {
     Reference,
     /// The image with the radiance cache's records drawn as circles of their radii (Fig. 8b).
     CacheRecords,
+    /// The error the render estimates from its own passes (docs/deviations.md §51), per pixel
+    /// as a relative RMS error in Fig. 10's colours; black until two passes give a spread.
+    EstimatedError,
 }
 
 impl ViewMode {
     /// Every mode, in menu order.
-    pub const ALL: [ViewMode; 8] = [
+    pub const ALL: [ViewMode; 9] = [
         ViewMode::Final,
         ViewMode::DirectOnly,
         ViewMode::IndirectOnly,
@@ -37,6 +41,7 @@ impl ViewMode {
         ViewMode::HarmonicDistance,
         ViewMode::Reference,
         ViewMode::CacheRecords,
+        ViewMode::EstimatedError,
     ];
 
     /// The splat statistic a false-colour mode shows, with its unit.
@@ -81,16 +86,49 @@ impl ToneMap {
     }
 }
 
-/// The numeric range a false-colour image maps from red (min) to blue (max).
+/// The numeric range a false-colour image maps onto its colour scale.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Legend {
-    /// Value shown in red.
+    /// Value at the scale's start.
     pub min: f32,
-    /// Value shown in blue.
+    /// Value at its end.
     pub max: f32,
     /// Unit of the values ("m", "1/m²").
     pub unit: &'static str,
+    /// The colours between.
+    pub scale: Scale,
 }
+
+/// A legend's colours.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scale {
+    /// Red (min) to blue (max), [`false_colour`].
+    FalseColour,
+    /// Fig. 10's error colours, blue (≤ min) through green to red (≥ max), [`error_colour`].
+    Fig10,
+}
+
+impl Scale {
+    /// The colour at `t` ∈ [0, 1] along the legend.
+    pub fn colour(self, t: f32) -> [u8; 3] {
+        match self {
+            Scale::FalseColour => false_colour(t),
+            Scale::Fig10 => error_colour(FIG10_LOW + t * (FIG10_HIGH - FIG10_LOW)),
+        }
+    }
+
+    /// How to read the colours.
+    pub fn note(self) -> &'static str {
+        match self {
+            Scale::FalseColour => "red = smallest",
+            Scale::Fig10 => "Fig. 10's colours: blue below, red above",
+        }
+    }
+}
+
+/// The relative errors where Fig. 10's scale leaves blue and reaches red ([`error_colour`]).
+const FIG10_LOW: f32 = 0.05;
+const FIG10_HIGH: f32 = 0.30;
 
 /// An image ready for the screen or a PNG.
 #[derive(Clone, Debug)]
@@ -133,6 +171,23 @@ impl DisplayImage {
         }
     }
 
+    /// The split view: the columns from `at` (a fraction of the width) rightwards taken from
+    /// `right`, an image of the same size (nothing when the sizes differ).
+    pub fn split_with(&mut self, right: &DisplayImage, at: f32) {
+        if (right.width, right.height) != (self.width, self.height) {
+            return;
+        }
+        let w = self.width as usize;
+        let x0 = ((at.clamp(0.0, 1.0) * w as f32).round() as usize).min(w);
+        for (row, src) in self
+            .rgba
+            .chunks_exact_mut(4 * w)
+            .zip(right.rgba.chunks_exact(4 * w))
+        {
+            row[4 * x0..].copy_from_slice(&src[4 * x0..]);
+        }
+    }
+
     /// The image as RGB8 (alpha dropped), for PNG files.
     pub fn rgb(&self) -> Vec<u8> {
         self.rgba
@@ -171,6 +226,20 @@ pub fn display(film: &Film, mode: ViewMode, exposure_stops: f32, tone: ToneMap) 
             min: lo,
             max: hi,
             unit,
+            scale: Scale::FalseColour,
+        });
+    } else if mode == ViewMode::EstimatedError {
+        // Black until the estimate exists (fewer than two passes, or the estimate is off).
+        let map = &film.estimated_error;
+        for i in 0..n {
+            let c = map.get(i).map_or([0, 0, 0], |&e| error_colour(e));
+            rgba.extend_from_slice(&[c[0], c[1], c[2], 255]);
+        }
+        legend = Some(Legend {
+            min: FIG10_LOW,
+            max: FIG10_HIGH,
+            unit: "relative error",
+            scale: Scale::Fig10,
         });
     } else {
         let src: &[Vec3] = match mode {
@@ -209,6 +278,46 @@ mod tests {
         assert_eq!(&d.rgba[8..12], &[0, 0, 255, 255]); // largest: blue
         let l = d.legend.unwrap();
         assert_eq!((l.min, l.max, l.unit), (0.01, 0.05, "m"));
+    }
+
+    /// The split takes the right image's columns from the divider on, and nothing else.
+    #[test]
+    fn split_takes_the_right_columns() {
+        let img = |v: u8| DisplayImage {
+            width: 4,
+            height: 2,
+            rgba: vec![v; 32],
+            legend: None,
+        };
+        let mut left = img(10);
+        left.split_with(&img(200), 0.5);
+        for row in left.rgba.chunks(16) {
+            assert_eq!(&row[..8], &[10; 8]);
+            assert_eq!(&row[8..], &[200; 8]);
+        }
+        let mut same = img(10);
+        same.split_with(&img(200), 1.0);
+        assert_eq!(same.rgba, vec![10; 32]);
+    }
+
+    /// The estimated-error view shows each pixel's estimate in Fig. 10's colours, black where
+    /// there is none yet, with a legend over Fig. 10's range.
+    #[test]
+    fn estimated_error_view_uses_fig_10_colours() {
+        let mut film = Film::new(3, 1);
+        let d = display(&film, ViewMode::EstimatedError, 0.0, ToneMap::Clamp);
+        assert!(
+            d.rgba.chunks(4).all(|p| p == [0, 0, 0, 255]),
+            "no estimate yet"
+        );
+        film.estimated_error = vec![0.01, 0.15, 0.5];
+        let d = display(&film, ViewMode::EstimatedError, 0.0, ToneMap::Clamp);
+        assert_eq!(&d.rgba[0..4], &[0, 0, 255, 255]);
+        assert_eq!(&d.rgba[4..8], &[0, 255, 0, 255]);
+        assert_eq!(&d.rgba[8..12], &[255, 0, 0, 255]);
+        let l = d.legend.unwrap();
+        assert_eq!(l.scale.colour(0.0), [0, 0, 255]);
+        assert_eq!(l.scale.colour(1.0), [255, 0, 0]);
     }
 
     #[test]

@@ -34,22 +34,35 @@ pub struct ErrorEstimate {
     /// Its variance part (everything the passes' spread shows: splatted light, direct light,
     /// anti-aliasing).
     pub variance: f64,
-    /// The variance of the splatted (indirect and caustic) light alone: the part a wider
-    /// kernel smooths (for `--c auto`).
+    /// The variance of the splatted (indirect and caustic) light alone (photons and eye
+    /// samples both).
     pub variance_splatted: f64,
+    /// The photons' share of the variance, the part a wider kernel smooths (for `--c auto`):
+    /// from the spread of L(h) − L(h/2), in which the eye samples' noise cancels
+    /// ([`DIFFERENCE_VARIANCE`]).
+    pub variance_photons: f64,
     /// Eye passes the estimate is made from.
     pub passes: u32,
 }
 
-/// Per pixel: Σw²y, Σw²y², Σw·s, Σw²s, Σw²s², Σw·b, Σw²b, Σw²b² (y: the film's luminance,
-/// s: the splatted light's, b: the pass's bias estimate).
-const SUMS: usize = 8;
+/// Per pixel: Σw²y, Σw²y², Σw·s, Σw²s, Σw²s², Σw·b, Σw²b, Σw²b², Σw·d, Σw²d, Σw²d² (y: the
+/// film's luminance, s: the splatted light's, b: the pass's bias estimate, d: its
+/// L(h) − L(h/2) unpooled).
+const SUMS: usize = 11;
+
+/// Var(L(h) − L(h/2)) over Var(L(h)) for the same photons under the Epanechnikov kernel in
+/// two dimensions, K_h = 2/(πh²)·(1 − r²/h²): ∫K_h² = (4/3)/(πh²), ∫K_{h/2}² = (16/3)/(πh²),
+/// ∫K_h·K_{h/2} = (11/6)/(πh²), so the difference has (4/3 + 16/3 − 11/3)/(4/3) = 9/4 times
+/// the photons' variance at h (docs/deviations.md §51).
+pub const DIFFERENCE_VARIANCE: f64 = 2.25;
 
 /// One pass's error-estimate values at a pixel ([`Film::pass_error`]), luminance.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PassError {
     /// The splat kernels' bias, 4/3·(L(h) − L(h/2)), pooled over [`BIAS_POOL`].
     pub bias: f32,
+    /// L(h) − L(h/2) at this pixel alone (its spread measures the photons' noise).
+    pub difference: f32,
     /// The light splatted by photons (what a wider kernel smooths).
     pub splatted: f32,
 }
@@ -128,21 +141,22 @@ impl<'a> PassValues<'a> {
         }
     }
 
-    /// The values at pixel `p` (luminance, splatted light, bias).
+    /// The values at pixel `p` (luminance, splatted light, bias, difference).
     #[inline]
-    fn at(&self, p: usize) -> [f64; 3] {
+    fn at(&self, p: usize) -> [f64; 4] {
         let e = self.pass.get(p).copied().unwrap_or_default();
         [
             luminance(self.rgb[p]) as f64,
             e.splatted as f64,
             e.bias as f64,
+            e.difference as f64,
         ]
     }
 }
 
-/// Add pass values y, s, b with weight `w` to a pixel's sums.
+/// Add pass values y, s, b, d with weight `w` to a pixel's sums.
 #[inline]
-fn add_to(s: &mut [f64; SUMS], w: f64, [y, i, b]: [f64; 3]) {
+fn add_to(s: &mut [f64; SUMS], w: f64, [y, i, b, d]: [f64; 4]) {
     let w2 = w * w;
     s[0] += w2 * y;
     s[1] += w2 * y * y;
@@ -152,6 +166,9 @@ fn add_to(s: &mut [f64; SUMS], w: f64, [y, i, b]: [f64; 3]) {
     s[5] += w * b;
     s[6] += w2 * b;
     s[7] += w2 * b * b;
+    s[8] += w * d;
+    s[9] += w2 * d;
+    s[10] += w2 * d * d;
 }
 
 impl PassSpread {
@@ -184,11 +201,13 @@ impl PassSpread {
     /// The estimate for the image whose pixel `p` is `blended(p)` (the batch-weighted mean of
     /// every pass, given as a function so that no image-sized copy is made), with the current
     /// pass `current` of `batches` batches counted as one more pass (none: the finished passes
-    /// alone, `blended` then being their mean). None before two passes.
+    /// alone, `blended` then being their mean). None before two passes. `map`, when given,
+    /// receives each pixel's relative RMS error √((b² + v)/y²) (0 where the image is black).
     pub fn estimate(
         &self,
         blended: impl Fn(usize) -> Vec3,
         current: Option<(PassValues, usize)>,
+        mut map: Option<&mut Vec<f32>>,
     ) -> Option<ErrorEstimate> {
         let (cw, cur) = match current {
             Some((f, b)) if b > 0 && f.rgb.len() == self.sums.len() => (b as f64, Some(f)),
@@ -203,7 +222,11 @@ impl PassSpread {
         // n/(n − 1), the small-sample correction of the spread.
         let correction = passes as f64 / (passes - 1) as f64;
         let inv_w2 = 1.0 / (w * w);
-        let (mut bias2, mut variance, mut splatted) = (0.0f64, 0.0f64, 0.0f64);
+        if let Some(m) = map.as_deref_mut() {
+            m.clear();
+            m.reserve(self.sums.len());
+        }
+        let (mut bias2, mut variance, mut splatted, mut photons) = (0.0f64, 0.0, 0.0, 0.0);
         for (p, s) in self.sums.iter().enumerate() {
             let mut s = *s;
             if let Some(f) = cur {
@@ -220,6 +243,7 @@ impl PassSpread {
             let b_mean = s[5] / w;
             let vb = spread(s[6], s[7], b_mean);
             let b2 = b_mean * b_mean - vb;
+            let vd = spread(s[9], s[10], s[8] / w);
             // The pixel's relative error, applied to each channel as relMSE weighs it.
             let weigh = |e: f64| -> f64 {
                 if y <= 0.0 {
@@ -237,6 +261,15 @@ impl PassSpread {
             bias2 += weigh(b2);
             variance += weigh(v);
             splatted += weigh(vs);
+            photons += weigh(vd / DIFFERENCE_VARIANCE);
+            if let Some(m) = map.as_deref_mut() {
+                let rel = if y > 0.0 {
+                    ((b2.max(0.0) + v) / (y * y)).sqrt()
+                } else {
+                    0.0
+                };
+                m.push(rel as f32);
+            }
         }
         let n = self.sums.len().max(1) as f64;
         let bias2 = (bias2 / n).max(0.0);
@@ -246,6 +279,7 @@ impl PassSpread {
             bias2,
             variance,
             variance_splatted: splatted / n,
+            variance_photons: photons / n,
             passes,
         })
     }
@@ -288,10 +322,14 @@ mod tests {
         let mut spread = PassSpread::default();
         let of = |rgb, pass| PassValues { rgb, pass };
         spread.add(of(&a, &ea), 2);
-        assert_eq!(spread.estimate(|_| Vec3::ONE, None), None, "one pass");
+        assert_eq!(spread.estimate(|_| Vec3::ONE, None, None), None, "one pass");
+        let mut map = Vec::new();
         let e = spread
-            .estimate(|_| Vec3::splat(2.0), Some((of(&b, &eb), 2)))
+            .estimate(|_| Vec3::splat(2.0), Some((of(&b, &eb), 2)), Some(&mut map))
             .unwrap();
+        // Per pixel: √(variance/y²) = √(1/4) = 0.5.
+        assert_eq!(map.len(), n);
+        assert!(map.iter().all(|&e| (e - 0.5).abs() < 1e-6), "{map:?}");
         let expected = 0.25 * 4.0 / 4.01;
         assert!((e.variance - expected).abs() < 1e-9, "{e:?}");
         assert_eq!(e.bias2, 0.0);

@@ -404,6 +404,8 @@ pub struct Rendered {
     pub passes: u64,
     /// Pixels that are NaN or infinite.
     pub invalid: u64,
+    /// The smoothness C the last batch was splatted with (under `--c auto`, the chosen one).
+    pub smoothness_c: f32,
 }
 
 /// Run `method` for `budget`, calling `progress` after every step; `progress` returning false
@@ -466,6 +468,7 @@ pub fn finish(m: &mut dyn Method) -> Rendered {
         timings: m.timings(),
         photons: stats.photons_traced,
         passes: m.passes(),
+        smoothness_c: m.settings().bandwidth.smoothness_c,
         stats,
     }
 }

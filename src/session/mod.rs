@@ -90,6 +90,19 @@ pub enum Command {
     /// Path trace the current view progressively (the reference view mode) instead of tracing
     /// photon batches, or stop doing so.
     SetReference(bool),
+    /// Path trace the current view progressively beside the photon batches (the split view),
+    /// the two sharing the worker's time equally, or stop doing so.
+    SetSplit(bool),
+    /// Estimate the image's error from its own eye passes (docs/deviations.md §51): a new
+    /// eye side, then a re-splat (no re-trace).
+    SetErrorEstimate(bool),
+    /// Choose C between eye passes from the estimated error (`--c auto`; turns the estimate
+    /// on): a re-splat.
+    SetAutoC(bool),
+    /// Pause once the estimated relMSE falls below this (none: never). After such a pause,
+    /// a resume refines on until the estimate has risen above the threshold again (a change
+    /// of view or parameters) and fallen below it once more.
+    SetPauseBelow(Option<f64>),
     /// End the worker thread.
     Shutdown,
 }
@@ -145,6 +158,11 @@ pub struct SessionStats {
     pub resplat_pending: bool,
     /// Paths per pixel of the reference image, 0 when it is off.
     pub reference_spp: u32,
+    /// relMSE of the image against the reference (the reference's own noise included), when
+    /// both exist at the same size.
+    pub reference_rel_mse: Option<f64>,
+    /// The worker paused itself because the estimated relMSE fell below this threshold.
+    pub paused_below: Option<f64>,
     /// Fraction of the indirect photon rays whose bandwidth sits at h_min (eq. 8's lower
     /// bound; docs/deviations.md §5); of all rays when there are no indirect ones.
     pub indirect_at_h_min: f64,

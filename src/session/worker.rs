@@ -47,6 +47,19 @@ pub(super) struct Worker {
     /// The reference mode's path tracer, for the current view.
     reference: Option<Box<dyn Method>>,
     reference_on: bool,
+    /// The split view: the reference refines beside the method, each taking turns by the
+    /// time it has spent since the reference started.
+    split_on: bool,
+    /// Seconds of batches and of reference paths since the reference started (split view).
+    t_method: f64,
+    t_reference: f64,
+    /// Pause once the estimated relMSE is below this.
+    pause_below: Option<f64>,
+    /// The next estimate below `pause_below` pauses (cleared by such a pause, set again once
+    /// the estimate is missing or above the threshold).
+    pause_armed: bool,
+    /// The threshold the worker paused itself at (cleared by a resume).
+    paused_below: Option<f64>,
     generation: u64,
     seq: u64,
     started: Instant,
@@ -82,6 +95,12 @@ impl Worker {
             paused: false,
             reference: None,
             reference_on: false,
+            split_on: false,
+            t_method: 0.0,
+            t_reference: 0.0,
+            pause_below: None,
+            pause_armed: true,
+            paused_below: None,
             generation: 0,
             seq: 0,
             started: Instant::now(),
@@ -135,6 +154,11 @@ impl Worker {
             if self.reference_on && !self.paused && self.renderer.is_some() {
                 self.reference_step();
                 traced = true;
+            } else if self.reference_turn() {
+                let t = Instant::now();
+                self.reference_step();
+                self.t_reference += t.elapsed().as_secs_f64();
+                traced = true;
             } else if let Some(r) = self.renderer.as_mut()
                 && (r.catching_up() || !self.paused)
             {
@@ -142,7 +166,10 @@ impl Worker {
                 match r.step() {
                     // Show re-splat progress at once: it follows a user's change.
                     Step::Resplatted => unseen = true,
-                    Step::Traced => traced = true,
+                    Step::Traced => {
+                        traced = true;
+                        self.t_method += t.elapsed().as_secs_f64();
+                    }
                 }
                 self.last_splat_ms = t.elapsed().as_secs_f64() * 1e3;
             }
@@ -204,7 +231,10 @@ impl Worker {
                 }
             }
             Command::Pause => self.paused = true,
-            Command::Resume => self.paused = false,
+            Command::Resume => {
+                self.paused = false;
+                self.paused_below = None;
+            }
             Command::LoadScene(path) => p.load = Some(path),
             Command::SetEnvironment(env) => {
                 self.config.environment = env;
@@ -213,9 +243,21 @@ impl Worker {
             Command::Restart => p.restart = true,
             Command::SetReference(on) => {
                 self.reference_on = on;
-                if !on {
+                if !on && !self.split_on {
                     self.reference = None;
                 }
+            }
+            Command::SetSplit(on) => {
+                self.split_on = on;
+                if !on && !self.reference_on {
+                    self.reference = None;
+                }
+            }
+            Command::SetErrorEstimate(on) => s.estimate_error = on,
+            Command::SetAutoC(on) => s.auto_c = on,
+            Command::SetPauseBelow(threshold) => {
+                self.pause_below = threshold;
+                self.pause_armed = true;
             }
             Command::Shutdown => return false,
         }
@@ -224,7 +266,7 @@ impl Worker {
 
     /// Apply gathered changes at the batch boundary.
     fn apply(&mut self, p: Pending) {
-        if p.view || p.restart || p.load.is_some() {
+        if p.view || p.restart || p.load.is_some() || p.environment {
             // The reference shows the current view only.
             self.reference = None;
         }
@@ -325,6 +367,22 @@ impl Worker {
         }
     }
 
+    /// The split view's reference takes the next turn: it has spent no more time than the
+    /// batches since it started, and nothing more urgent waits (a re-splat after a change, a
+    /// moving camera's coarse frames, the first image).
+    fn reference_turn(&self) -> bool {
+        self.split_on
+            && !self.reference_on
+            && !self.paused
+            && !self.interactive
+            && !self.coarse_start
+            && self.t_reference <= self.t_method
+            && self
+                .renderer
+                .as_ref()
+                .is_some_and(|r| !r.catching_up() && r.passes() > 0)
+    }
+
     /// Add one path per pixel to the reference of the current view.
     fn reference_step(&mut self) {
         let Some(r) = self.renderer.as_ref() else {
@@ -337,7 +395,11 @@ impl Worker {
                 ..r.settings().clone()
             };
             match methods::build_for(self.scene.clone(), settings, r.camera().clone()) {
-                Ok(pt) => self.reference = Some(pt),
+                Ok(pt) => {
+                    self.reference = Some(pt);
+                    self.t_method = 0.0;
+                    self.t_reference = 0.0;
+                }
                 Err(e) => {
                     self.reference_on = false;
                     self.emit(Event::Error(e.to_string()));
@@ -352,6 +414,8 @@ impl Worker {
 
     fn restart(&mut self) {
         self.started = Instant::now();
+        // The reference shows the scene and settings of the method it is beside.
+        self.reference = None;
         let mut settings = self.config.settings.clone();
         self.coarse_start = self.config.interactive_divisor > 1;
         if self.interactive || self.coarse_start {
@@ -409,6 +473,24 @@ impl Worker {
         };
         let film = r.film();
         let m = r.stats();
+        let reference = self.reference.as_mut().map(|p| p.film());
+        let reference_rel_mse = reference
+            .as_ref()
+            .filter(|f| (f.width, f.height) == (film.width, film.height))
+            .map(|f| crate::film::rel_mse(&film.rgb, &f.rgb));
+        // Pause at the user's threshold, once per crossing (see `pause_armed`).
+        if let Some(threshold) = self.pause_below {
+            match &film.estimate {
+                Some(e) if e.rel_mse < threshold => {
+                    if self.pause_armed && !self.paused {
+                        self.paused = true;
+                        self.paused_below = Some(threshold);
+                    }
+                    self.pause_armed = false;
+                }
+                _ => self.pause_armed = true,
+            }
+        }
         let elapsed = self.started.elapsed().as_secs_f64();
         // The indirect class's rays at the bandwidth bounds (all classes when it is empty).
         let (at_min, at_max) = m.bandwidth_clamps.map_or((0.0, 0.0), |clamps| {
@@ -429,6 +511,8 @@ impl Worker {
             paused: self.paused,
             resplat_pending: r.catching_up(),
             reference_spp: self.reference.as_ref().map_or(0, |p| p.passes() as u32),
+            reference_rel_mse,
+            paused_below: self.paused_below,
             indirect_at_h_min: at_min,
             indirect_at_h_max: at_max,
         };
@@ -456,7 +540,7 @@ impl Worker {
                     .collect()
             }),
             stats,
-            reference: self.reference.as_mut().map(|p| p.film()),
+            reference,
         };
         // Keep only the newest frame: drop one the UI has not taken yet.
         while self.stale.try_recv().is_ok() {}

@@ -216,6 +216,8 @@ impl RenderSettings {
         for setting in SETTINGS {
             setting.range.clamp(&mut self);
         }
+        // Automatic C chooses from the error estimate: it needs one.
+        self.estimate_error |= self.auto_c;
         self
     }
 }

@@ -175,7 +175,8 @@ pub const SETTINGS: &[Setting] = &[
         Retrace,
         guided_emission
     ),
-    setting!("estimate_error", "error estimate", Retrace, estimate_error),
+    // A new eye side with (or without) the half-bandwidth accumulators, then a re-splat.
+    setting!("estimate_error", "error estimate", Resplat, estimate_error),
     setting!("auto_c", "automatic C", Resolve, auto_c),
     setting!("method", "method", Retrace, method),
     setting!("pm_k", "K", Retrace, pm_k, Usize(PM_K)),

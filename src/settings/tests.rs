@@ -212,7 +212,6 @@ fn the_effects_are_the_documented_ones() {
             "merge_targets",
             "splat_visibility",
             "guided_emission",
-            "estimate_error",
             "method",
             "pm_k",
             "pm_caustic_k",
@@ -228,7 +227,8 @@ fn the_effects_are_the_documented_ones() {
             "bandwidth.sensitivity_s",
             "bandwidth.max_bandwidth_r",
             "progressive_bandwidth",
-            "radiance_map"
+            "radiance_map",
+            "estimate_error"
         ]
     );
 }

@@ -62,7 +62,9 @@ impl PhotonCore {
         let plan = plan_light_pass(&self.scene, &lps);
         let b = self.store.add_streamed(&plan, self.settings.photons);
         self.timings.t_light += t.elapsed().as_secs_f64();
-        let bw = self.bandwidths(self.store.batches()[b].m);
+        let m = self.store.batches()[b].m;
+        let bw = self.bandwidths(m);
+        self.note_bandwidth(&bw, m);
         let classes = self.config.splatted.mask();
         let mut lobes = if self.config.lobes == LobeDraws::PerBatch {
             self.lobes.begin_batch(
@@ -108,8 +110,10 @@ impl PhotonCore {
     /// Splat stored batch `b` with the bandwidth of its M under the current parameters; a
     /// `new` batch (just traced, not re-splatted) teaches the emission guide what it reached.
     pub(super) fn splat_stored(&mut self, b: usize, new: bool) {
+        let m = self.store.batches()[b].m;
+        let bw = self.bandwidths(m);
+        self.note_bandwidth(&bw, m);
         let batch = &self.store.batches()[b];
-        let bw = self.bandwidths(batch.m);
         let mut reach = vec![0u32; if new { self.store.guide_cells() } else { 0 }];
         self.counters += splat_rays(
             &self.scene,

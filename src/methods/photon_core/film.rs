@@ -154,7 +154,8 @@ impl PhotonCore {
 
     /// This pass's values for the error estimate per pixel (docs/deviations.md §51): the
     /// splat kernels' bias, 4/3·(L(h) − L(h/2)) from the accumulators at h and those at h/2
-    /// (both shaded from irradiance alone), pooled over neighbouring pixels, and the light
+    /// (both shaded from irradiance alone), pooled over neighbouring pixels, the difference
+    /// L(h) − L(h/2) itself per pixel (for the photons' share of the variance), and the light
     /// splatted by photons (`film` less the eye side's direct light); empty unless the error is
     /// estimated.
     fn pass_error(&self, film: &Film, batches: u32) -> Vec<PassError> {
@@ -172,22 +173,25 @@ impl PhotonCore {
         shade(&side.acc_indirect, &mut at_h);
         shade(&side.acc_direct, &mut at_h);
         shade(&side.acc_half, &mut at_half);
-        let mut bias: Vec<f32> = at_h
+        let difference: Vec<f32> = at_h
             .iter()
             .zip(&at_half)
             .map(|(h, half)| {
-                let b = 4.0 / 3.0 * (luminance(*h) - luminance(*half));
-                if b.is_finite() { b } else { 0.0 }
+                let d = luminance(*h) - luminance(*half);
+                if d.is_finite() { d } else { 0.0 }
             })
             .collect();
+        let mut bias: Vec<f32> = difference.iter().map(|d| 4.0 / 3.0 * d).collect();
         pool_bias(&mut bias, self.settings.width as usize);
         // The eye side's own direct light (emission, NEE) is what is not splatted.
         let mut eye_direct = vec![Vec3::ZERO; n];
         side.direct_into(&mut eye_direct);
         bias.iter()
+            .zip(&difference)
             .zip(film.rgb.iter().zip(&eye_direct))
-            .map(|(&bias, (rgb, d))| PassError {
+            .map(|((&bias, &difference), (rgb, d))| PassError {
                 bias,
+                difference,
                 splatted: luminance(*rgb - *d).max(0.0),
             })
             .collect()

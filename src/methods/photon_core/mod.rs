@@ -34,7 +34,7 @@ use crate::pipeline::radiance_map::Accumulators;
 use crate::pipeline::splat::SplatCounters;
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, Effect, RenderSettings};
-use passes::EarlierPasses;
+use passes::{BandwidthHistory, EarlierPasses};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -153,6 +153,8 @@ pub struct PhotonCore {
     eye_pass: u32,
     /// The films of the finished eye passes of this view.
     earlier: EarlierPasses,
+    /// The bandwidths of the batches the current eye pass holds (`--c auto`).
+    pass_history: BandwidthHistory,
     /// The memory and splat-tree nodes held before [`PhotonCore::release_search`] (the
     /// stats report what the render held, not what its final resolve left).
     held: Option<(MemoryBreakdown, usize)>,
@@ -240,6 +242,7 @@ impl PhotonCore {
             lobes,
             eye_pass: 0,
             earlier: EarlierPasses::default(),
+            pass_history: BandwidthHistory::default(),
             held: None,
             paced: false,
             clock: PassClock::started(&Timings::default(), &timings),
@@ -400,8 +403,13 @@ impl PhotonCore {
     /// a new eye pass; the next batches are splatted onto it.
     pub(crate) fn next_eye_pass(&mut self, film: &crate::film::Film) {
         let pass = self.eye_pass + 1;
-        self.earlier
-            .add(film, self.pass_batches(), self.store.invalid_photon_rays);
+        self.earlier.add(
+            film,
+            self.pass_batches(),
+            self.store.invalid_photon_rays,
+            &self.pass_history,
+        );
+        self.pass_history = BandwidthHistory::default();
         if self.settings.auto_c {
             self.choose_c();
         }
@@ -435,12 +443,18 @@ impl PhotonCore {
         self.generation += 1;
     }
 
-    /// `--c auto` (docs/deviations.md §51): from the finished passes' estimated error, the C
-    /// that minimises it under the kernel's second-order model, bias² ∝ C⁴ and the splatted
-    /// light's variance ∝ 1/C² (the rest of the variance does not depend on C):
-    /// E(C′) = A·(C′/C)⁴ + V·(C/C′)², least at C′ = C·(V/2A)^(1/6). Taken a bounded step at a
-    /// time ([`AUTO_C_STEP`]), once [`AUTO_C_PASSES`] passes give a spread; later batches
-    /// are splatted with it (stored ones are not re-splatted).
+    /// `--c auto` (docs/deviations.md §51): from the finished passes' estimated kernel bias²
+    /// A and photon variance V (the share a wider kernel smooths), and the bandwidths their
+    /// batches had, the model's
+    /// coefficients (bias ∝ h², variance ∝ 1/h² per batch) and from them the bandwidth h* that
+    /// minimises the error of an image of as many batches ([`BandwidthHistory::best_h`]); C
+    /// moves towards C·h*/h_last (h_last: the last batch's), by at most [`AUTO_C_STEP`] a pass
+    /// once [`AUTO_C_PASSES`] passes give a spread. The target is absolute, made from every
+    /// batch's own bandwidth, so a C that moved does not feed back into it as a lagging
+    /// image bias would. Later batches are splatted with the new C (stored ones are not
+    /// re-splatted). The progressive schedule goes on (deviations §43): h* falls as W^(−1/6)
+    /// for constant coefficients where the schedule's h falls as W^(−1/3), so the chosen C
+    /// drifts up as W^(1/6), 5% over the last quarter of a render (§51).
     fn choose_c(&mut self) {
         let Some(e) = self.earlier.estimate() else {
             return;
@@ -448,17 +462,26 @@ impl PhotonCore {
         if e.passes < AUTO_C_PASSES {
             return;
         }
-        let c = self.settings.bandwidth.smoothness_c;
-        let (a, v) = (e.bias2, e.variance_splatted);
+        let history = &self.earlier.history;
         // Where the passes cannot tell the bias (or the splatted noise) from zero, the model
-        // has nothing to weigh: C stays. (Widening whenever no bias showed ran away: the
-        // image's bias is that of every pass so far, and lags behind C.)
-        if a <= 0.0 || v <= 0.0 {
+        // has nothing to weigh: C stays.
+        let Some(best) = history.best_h(e.bias2, e.variance_photons) else {
+            return;
+        };
+        if history.last <= 0.0 {
             return;
         }
-        let ratio = ((v / (2.0 * a)).powf(1.0 / 6.0) as f32).clamp(1.0 / AUTO_C_STEP, AUTO_C_STEP);
+        let c = self.settings.bandwidth.smoothness_c;
+        let ratio = ((best / history.last as f64) as f32).clamp(1.0 / AUTO_C_STEP, AUTO_C_STEP);
         let limit = crate::settings::limits::SMOOTHNESS_C;
         self.settings.bandwidth.smoothness_c = (c * ratio).clamp(limit.min, limit.max);
+    }
+
+    /// Note the bandwidth batch `m` was splatted with onto the current pass (its most
+    /// populous class's h_min, a fixed fraction R of its typical h).
+    pub(super) fn note_bandwidth(&mut self, bw: &[Bandwidth; 3], m: [u64; 3]) {
+        let c = (0..3).max_by_key(|&c| m[c]).unwrap_or(0);
+        self.pass_history.add(bw[c].h_min);
     }
 
     /// `film` of the current pass becomes the batch-weighted mean over every eye pass.
@@ -478,6 +501,7 @@ impl PhotonCore {
         // Earlier eye passes hold light of the old bandwidth: every stored batch goes onto
         // the current pass instead.
         self.earlier = EarlierPasses::default();
+        self.pass_history = BandwidthHistory::default();
         self.generation += 1;
         // Newest first: it has the smallest bandwidth, so the first frame is the sharpest.
         self.resplat_queue = (0..self.store.batches().len()).collect();
@@ -518,7 +542,9 @@ impl PhotonCore {
     /// it moves the progressive schedule's M₁ (deviations §43); a new radiance map builds new
     /// accumulators, then re-splats; the cache and the filter reach the next film.
     pub(crate) fn update(&mut self, s: &RenderSettings) -> Result<(), MethodError> {
+        // Both need a new eye side (its accumulators), then a re-splat.
         let new_map = s.radiance_map != self.settings.radiance_map;
+        let new_estimate = s.estimate_error != self.settings.estimate_error;
         // Under `--c auto` the C is the render's own: the caller's is only where it started.
         let auto_c = s.auto_c.then_some(self.settings.bandwidth.smoothness_c);
         let mut s = s.clone();
@@ -536,13 +562,15 @@ impl PhotonCore {
         // Earlier passes' films were made without the cache and filter now asked for: their
         // batches go onto the current pass (a re-splat), so that the change reaches all of it.
         resplat |= !self.eye_passes_allowed() && self.earlier.batches > 0;
-        if new_map {
-            // New accumulators with the new directional records, then a re-splat; refused,
-            // the accumulators keep the mode they were built for.
+        if new_map || new_estimate {
+            // New accumulators (with the new directional records, or with or without the
+            // half-bandwidth ones of the error estimate), then a re-splat; refused, the
+            // accumulators keep the mode they were built for.
             let (w, h, spp) = (self.settings.width, self.settings.height, self.settings.spp);
             let result = self.set_view(self.camera.clone(), w, h, spp);
             if result.is_err() {
                 self.settings.radiance_map = self.side.acc_indirect.mode;
+                self.settings.estimate_error = !self.side.acc_half.is_empty();
             }
             return result;
         }

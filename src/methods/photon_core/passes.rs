@@ -20,10 +20,71 @@ pub(super) struct EarlierPasses {
     invalid: u64,
     /// Their spread, for the error estimate (films with a bias estimate only).
     spread: PassSpread,
+    /// The bandwidths their batches were splatted with (`--c auto`'s model).
+    pub(super) history: BandwidthHistory,
+}
+
+/// The bandwidths an image's batches were splatted with, for `--c auto`'s model
+/// (docs/deviations.md §51): a batch at bandwidth h adds bias ∝ h² and variance ∝ 1/h², so the
+/// image of W batches has bias β·Σh²/W and variance ν·Σh⁻²/W².
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct BandwidthHistory {
+    /// Σ h² over the batches.
+    pub h2: f64,
+    /// Σ 1/h² over the batches.
+    pub inv_h2: f64,
+    /// Batches.
+    pub batches: f64,
+    /// The last batch's h.
+    pub last: f32,
+}
+
+impl BandwidthHistory {
+    /// A batch splatted at (typical) bandwidth `h`.
+    pub fn add(&mut self, h: f32) {
+        if h > 0.0 && h.is_finite() {
+            let h2 = (h as f64) * (h as f64);
+            self.h2 += h2;
+            self.inv_h2 += 1.0 / h2;
+            self.batches += 1.0;
+            self.last = h;
+        }
+    }
+
+    /// Both histories' batches.
+    pub fn merge(&mut self, other: &Self) {
+        self.h2 += other.h2;
+        self.inv_h2 += other.inv_h2;
+        self.batches += other.batches;
+        if other.batches > 0.0 {
+            self.last = other.last;
+        }
+    }
+
+    /// The bandwidth h* that minimises the error of an image of as many batches, all at h*,
+    /// given its estimated kernel bias² `a` and splatted variance `v` (deviations §51):
+    /// with bias² = α·(Σh²/W)² and variance = ν·Σh⁻²/W², E(h) = α·h⁴ + ν/(W·h²) is least at
+    /// h*⁶ = ν/(2αW). None when the history is empty or the estimate cannot weigh the two.
+    pub fn best_h(&self, a: f64, v: f64) -> Option<f64> {
+        let w = self.batches;
+        if w <= 0.0 || a <= 0.0 || v <= 0.0 || self.inv_h2 <= 0.0 {
+            return None;
+        }
+        let mean_h2 = self.h2 / w;
+        let alpha = a / (mean_h2 * mean_h2);
+        let nu = v * w * w / self.inv_h2;
+        Some((nu / (2.0 * alpha * w)).powf(1.0 / 6.0))
+    }
 }
 
 impl EarlierPasses {
-    pub(super) fn add(&mut self, film: &Film, batches: usize, store_invalid: u64) {
+    pub(super) fn add(
+        &mut self,
+        film: &Film,
+        batches: usize,
+        store_invalid: u64,
+        history: &BandwidthHistory,
+    ) {
         let n = film.rgb.len();
         if self.rgb.len() != n {
             *self = Self {
@@ -48,6 +109,7 @@ impl EarlierPasses {
         }
         self.batches += batches;
         self.passes += 1;
+        self.history.merge(history);
         // The store's dropped photon rays are a running total every film carries: counted
         // once, by the current pass's film.
         self.invalid += film.invalid_contributions - film.invalid_contributions.min(store_invalid);
@@ -65,7 +127,7 @@ impl EarlierPasses {
             return None;
         }
         let inv = 1.0 / self.batches as f32;
-        self.spread.estimate(|p| self.rgb[p] * inv, None)
+        self.spread.estimate(|p| self.rgb[p] * inv, None, None)
     }
 
     /// `film` (of the current pass, holding `batches`) becomes the mean over every pass.
@@ -78,11 +140,18 @@ impl EarlierPasses {
         // The estimate first, while the film still holds the current pass's own values: each
         // pixel's blended value is (Σ + w·x)/W, made on the fly (no copy of the film).
         if !film.pass_error.is_empty() {
+            let mut map = std::mem::take(&mut film.estimated_error);
             let rgb = &film.rgb;
             let pass = PassValues::of(film);
-            film.estimate = self
-                .spread
-                .estimate(|p| (self.rgb[p] + w * rgb[p]) * inv, Some((pass, batches)));
+            film.estimate = self.spread.estimate(
+                |p| (self.rgb[p] + w * rgb[p]) * inv,
+                Some((pass, batches)),
+                Some(&mut map),
+            );
+            if film.estimate.is_none() {
+                map.clear();
+            }
+            film.estimated_error = map;
         }
         for (sum, px) in [
             (&self.rgb, &mut film.rgb),
