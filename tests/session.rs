@@ -550,6 +550,24 @@ fn the_split_view_refines_the_reference_beside_the_batches() {
     );
     // Both images of one box: a relMSE of noise, not of different scenes or sizes.
     assert!(shown < 0.5, "relMSE {shown}");
+    // The reference's own noise is part of it, and known from its paths' spread.
+    let noise = later
+        .stats
+        .reference_noise
+        .expect("the reference's own noise");
+    assert!(noise > 0.0 && noise < shown, "noise {noise} of {shown}");
+    // A new size: the reference starts again at it.
+    session.send(Command::SetResolution {
+        width: 40,
+        height: 32,
+    });
+    wait(&session, 120, |f| {
+        f.reference
+            .as_ref()
+            .is_some_and(|r| (r.width, r.height) == (40, 32))
+            && (f.film.width, f.film.height) == (40, 32)
+            && f.stats.reference_rel_mse.is_some()
+    });
     // Leaving the split view drops the reference.
     session.send(Command::SetSplit(false));
     wait(&session, 60, |f| {
@@ -589,4 +607,12 @@ fn auto_c_from_a_command_turns_the_estimate_on_and_moves_c() {
     });
     assert!(f.settings.estimate_error);
     assert!(f.film.estimate.is_some());
+    // Off, the batches keep the C it chose (no return to the slider's old 1).
+    let chosen = f.settings.bandwidth.smoothness_c;
+    session.send(Command::SetAutoC(false));
+    let g = wait(&session, 60, |g| !g.settings.auto_c);
+    let kept = g.settings.bandwidth.smoothness_c;
+    assert!((kept - 1.0).abs() > 1e-3, "C went back to 1");
+    // It may have moved once more before the command arrived.
+    assert!((kept / chosen - 1.0).abs() <= 0.11, "{chosen} -> {kept}");
 }

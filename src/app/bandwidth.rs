@@ -15,9 +15,8 @@ pub struct BandwidthPanel;
 
 impl BandwidthPanel {
     /// Draw the sliders (accessible names "C", "S", "R") and the "Auto" box beside C; a moved
-    /// slider emits `SetBandwidth` with all three values, the box `SetAutoC` (and, turned off,
-    /// `SetBandwidth` with the chosen C the slider shows). `stats` are the newest frame's
-    /// counters.
+    /// slider emits `SetBandwidth` with all three values, the box `SetAutoC` (turned off, the
+    /// worker keeps the chosen C). `stats` are the newest frame's counters.
     pub fn ui(
         &mut self,
         ui: &mut egui::Ui,
@@ -48,7 +47,12 @@ impl BandwidthPanel {
                         b.smoothness_c = defaults.smoothness_c;
                     }
                     ui.checkbox(&mut auto, "Auto").on_hover_text(
-                        "Choose C between eye passes to minimise the error the render estimates                          from its own passes (docs/deviations.md §51); the slider shows the                          chosen value, and keeps it when Auto is turned off",
+                        "Choose C between eye passes to minimise the error the render estimates \
+                         from its own passes (docs/deviations.md §51); the slider shows the \
+                         chosen value, and keeps it when Auto is turned off. It rises slowly as \
+                         batches come in: the progressive schedule shrinks the bandwidth faster \
+                         than the error's optimum, and Auto makes up the difference. Turning it \
+                         on re-splats the stored batches (the estimate needs a second splat)",
                     );
                 });
                 param_slider(
@@ -72,13 +76,12 @@ impl BandwidthPanel {
         );
         if auto != auto_before {
             settings.render.auto_c = auto;
+            // Off, the worker keeps the C the render chose last (the window's slider follows
+            // it from the frames rendered under Auto).
             out.push(Command::SetAutoC(auto));
             if auto {
                 // The estimate it chooses from.
                 settings.render.estimate_error = true;
-            } else {
-                // The worker's C becomes the chosen one the slider shows.
-                out.push(Command::SetBandwidth(settings.render.bandwidth));
             }
         }
         if let Some(s) = stats

@@ -16,6 +16,7 @@ use crate::app::stats::{Messages, StatsPanel};
 use crate::app::viewport::Viewport;
 use crate::app::widgets::Commands;
 use crate::film::display::{DisplayImage, ViewMode, display};
+use crate::film::error::error_map;
 use crate::scene::Scene;
 use crate::scene::environment::describe;
 use crate::session::{Command, Event, Frame, Session};
@@ -270,9 +271,9 @@ impl App {
         }
         if let Some(f) = self.session.try_frame() {
             self.paused = f.stats.paused;
-            // Under automatic C the slider shows the C the render chose (and keeps it when
-            // Auto is turned off).
-            if self.settings.render.auto_c && f.settings.auto_c {
+            // A frame rendered under automatic C: the slider shows the C the render chose (and
+            // keeps it once Auto is off: the worker keeps it too).
+            if f.settings.auto_c {
                 self.settings.render.bandwidth.smoothness_c = f.settings.bandwidth.smoothness_c;
             }
             self.frame = Some(f);
@@ -323,14 +324,19 @@ impl App {
             // Records are in the film's pixels (the cache runs at the frame's resolution).
             img.draw_records(&f.cache_records, 7.0);
         }
-        // The split view: the reference's final image right of the divider.
+        // The split view: the reference's final image right of the divider; beside the
+        // estimated error, the image's error against the reference in the same colours.
         if let Some(r) = self.split_reference() {
-            let right = display(
-                r,
-                ViewMode::Final,
-                self.settings.exposure,
-                self.settings.tone_map,
-            );
+            let right = if mode == ViewMode::EstimatedError {
+                DisplayImage::from_rgb(r.width, r.height, &error_map(&f.film.rgb, &r.rgb))
+            } else {
+                display(
+                    r,
+                    ViewMode::Final,
+                    self.settings.exposure,
+                    self.settings.tone_map,
+                )
+            };
             img.split_with(&right, self.settings.split_at);
         }
         self.viewport.set_image(ctx, &img);

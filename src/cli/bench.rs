@@ -100,7 +100,14 @@ struct PreviewLatencies {
     resplat: f64,
     resplat_full: f64,
     camera: f64,
+    /// A camera move while batches are traced (not paused): the mean and the largest over
+    /// [`RUNNING_MOVES`] moves, without and with the split view's reference beside them.
+    running_camera: [f64; 2],
+    running_camera_max: [f64; 2],
 }
+
+/// Camera moves timed while the worker traces.
+const RUNNING_MOVES: usize = 6;
 
 /// Table 2's CORNELL BOX I settings: 500×500×4, M = 200,000, (0.3, 0.6, 0.1), C = 1, S = 0.4, R = 0.2.
 fn cornell1_settings(direct: DirectMode) -> RenderSettings {
@@ -451,22 +458,65 @@ fn preview_bench(progressive_eye: bool) -> Result<PreviewLatencies, String> {
         h.generation == g.generation && !h.stats.resplat_pending
     })?;
     let resplat_full = t.elapsed().as_secs_f64() * 1e3;
-    let mut camera = g.camera.clone();
-    camera.position += camera.right() * 0.05;
-    let t = Instant::now();
-    session.send(C::SetCamera {
-        camera,
-        interactive: true,
-    });
-    wait(&session, &|h| {
-        h.generation > g.generation && h.stats.method.passes >= 1
-    })?;
-    let camera = t.elapsed().as_secs_f64() * 1e3;
+    // Move the camera of frame `f` sideways by `dx` (an interactive view): the milliseconds
+    // until a frame of the new view with indirect light, and that frame.
+    let move_camera = |session: &Session, f: &Frame, dx: f32| -> Result<(f64, Frame), String> {
+        let mut camera = f.camera.clone();
+        camera.position += camera.right() * dx;
+        let t = Instant::now();
+        session.send(C::SetCamera {
+            camera,
+            interactive: true,
+        });
+        let generation = f.generation;
+        let g = wait(session, &|h| {
+            h.generation > generation && h.stats.method.passes >= 1
+        })?;
+        Ok((t.elapsed().as_secs_f64() * 1e3, g))
+    };
+    let (camera, _) = move_camera(&session, &g, 0.05)?;
+    drop(session);
+    // While tracing, a command waits for the step in flight (a batch, or in the split view a
+    // reference pass): camera moves at spaced moments, without and with the split view.
+    let mut running_camera = [0.0; 2];
+    let mut running_camera_max = [0.0; 2];
+    for (k, split) in [false, true].into_iter().enumerate() {
+        let mut config = SessionConfig::default();
+        config.settings.progressive_eye = progressive_eye;
+        let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+        session.send(C::SetSplit(split));
+        let mut f = wait(&session, &|f| {
+            f.stats.method.passes >= 3 && !f.interactive && (!split || f.stats.reference_spp >= 2)
+        })?;
+        let mut times = Vec::new();
+        for m in 0..RUNNING_MOVES {
+            // Spaced by an odd number of milliseconds, so the moves land at different points
+            // of the steps in flight.
+            std::thread::sleep(Duration::from_millis(137 + 61 * m as u64));
+            let (ms, g) = move_camera(&session, &f, 0.02)?;
+            times.push(ms);
+            // The camera comes to rest: full size again, and the reference refining beside.
+            session.send(C::SetCamera {
+                camera: g.camera.clone(),
+                interactive: false,
+            });
+            f = wait(&session, &|h| {
+                h.generation > g.generation
+                    && !h.interactive
+                    && h.stats.method.passes >= 2
+                    && (!split || h.stats.reference_spp >= 1)
+            })?;
+        }
+        running_camera[k] = times.iter().sum::<f64>() / times.len() as f64;
+        running_camera_max[k] = times.iter().fold(0.0, |a: f64, &b| a.max(b));
+    }
     Ok(PreviewLatencies {
         first_image,
         resplat,
         resplat_full,
         camera,
+        running_camera,
+        running_camera_max,
     })
 }
 
@@ -478,6 +528,10 @@ impl PreviewLatencies {
             ("preview_resplat_ms", self.resplat),
             ("preview_resplat_full_ms", self.resplat_full),
             ("preview_camera_ms", self.camera),
+            ("preview_running_camera_ms", self.running_camera[0]),
+            ("preview_running_camera_max_ms", self.running_camera_max[0]),
+            ("preview_split_camera_ms", self.running_camera[1]),
+            ("preview_split_camera_max_ms", self.running_camera_max[1]),
         ] {
             println!("{name:<24} {ms:8.0} ms");
             rows.insert(name.to_string(), json!({ "ms": ms }));

@@ -171,6 +171,19 @@ impl DisplayImage {
         }
     }
 
+    /// An opaque image of 8-bit RGB pixels (an error map), no legend.
+    pub fn from_rgb(width: u32, height: u32, rgb: &[u8]) -> Self {
+        Self {
+            width,
+            height,
+            rgba: rgb
+                .chunks_exact(3)
+                .flat_map(|p| [p[0], p[1], p[2], 255])
+                .collect(),
+            legend: None,
+        }
+    }
+
     /// The split view: the columns from `at` (a fraction of the width) rightwards taken from
     /// `right`, an image of the same size (nothing when the sizes differ).
     pub fn split_with(&mut self, right: &DisplayImage, at: f32) {

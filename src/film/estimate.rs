@@ -16,7 +16,7 @@
 //! its own noise, Var(b̄), is taken off its square: bias² ≈ b̄² − Var(b̄) (summed over pixels
 //! before clamping at zero, so the noise does not add up as a positive bias).
 //!
-//! All of it is per pixel on luminance (eight sums a pixel, in f64 against cancellation); a
+//! All of it is per pixel on luminance (eleven sums a pixel, in f64 against cancellation); a
 //! pixel's relative error is applied to each channel as `compare`'s relMSE weighs it,
 //! (x − r)² / (r² + 0.01), with the image's own value in place of the reference.
 
@@ -51,7 +51,9 @@ pub struct ErrorEstimate {
 const SUMS: usize = 11;
 
 /// Var(L(h) − L(h/2)) over Var(L(h)) for the same photons under the Epanechnikov kernel in
-/// two dimensions, K_h = 2/(πh²)·(1 − r²/h²): ∫K_h² = (4/3)/(πh²), ∫K_{h/2}² = (16/3)/(πh²),
+/// two dimensions, for one evaluation point where the photons' density is locally uniform and
+/// neither bandwidth is clamped (a pixel of several eye samples, or rays at h_min, depart from
+/// it), K_h = 2/(πh²)·(1 − r²/h²): ∫K_h² = (4/3)/(πh²), ∫K_{h/2}² = (16/3)/(πh²),
 /// ∫K_h·K_{h/2} = (11/6)/(πh²), so the difference has (4/3 + 16/3 − 11/3)/(4/3) = 9/4 times
 /// the photons' variance at h (docs/deviations.md §51).
 pub const DIFFERENCE_VARIANCE: f64 = 2.25;
@@ -108,6 +110,60 @@ fn box_lines(
             dst[at(i)] = ((prefix[hi] - prefix[lo]) / (hi - lo) as f64) as f32;
         }
     }
+}
+
+/// A pixel of colour `c` with a squared luminance error `e`, in `compare`'s relMSE units: its
+/// relative error e/y² applied to each channel as relMSE weighs it, (x − r)²/(r² + 0.01), with
+/// the pixel's own value in place of the reference's; 0 where the pixel is black.
+#[inline]
+fn weigh(e: f64, c: Vec3) -> f64 {
+    let y = luminance(c) as f64;
+    if y <= 0.0 {
+        return 0.0;
+    }
+    let rel = e / (y * y);
+    (0..3)
+        .map(|k| {
+            let x = c[k] as f64;
+            rel * x * x / (x * x + 0.01)
+        })
+        .sum::<f64>()
+        / 3.0
+}
+
+/// The error of a mean of `n` independent samples per pixel (a path tracer's image), from each
+/// pixel's mean colour and Σ of its samples' squared luminance: the variance of the mean,
+/// (Σy² − n·ȳ²)/(n(n − 1)), in relMSE units, and its map (relative RMS per pixel). No bias
+/// (an unbiased estimator). None below two samples.
+pub fn of_independent_samples(
+    mean: &[Vec3],
+    sum_sq: &[f64],
+    n: u32,
+    map: &mut Vec<f32>,
+) -> Option<ErrorEstimate> {
+    map.clear();
+    if n < 2 || mean.len() != sum_sq.len() {
+        return None;
+    }
+    let n = n as f64;
+    let mut variance = 0.0;
+    for (c, &s2) in mean.iter().zip(sum_sq) {
+        let y = luminance(*c) as f64;
+        let v = ((s2 - n * y * y) / (n * (n - 1.0))).max(0.0);
+        variance += weigh(v, *c);
+        map.push(if y > 0.0 {
+            (v / (y * y)).sqrt() as f32
+        } else {
+            0.0
+        });
+    }
+    let variance = variance / mean.len().max(1) as f64;
+    Some(ErrorEstimate {
+        rel_mse: variance,
+        variance,
+        passes: n as u32,
+        ..ErrorEstimate::default()
+    })
 }
 
 /// The finished passes' sums for [`ErrorEstimate`].
@@ -245,19 +301,7 @@ impl PassSpread {
             let b2 = b_mean * b_mean - vb;
             let vd = spread(s[9], s[10], s[8] / w);
             // The pixel's relative error, applied to each channel as relMSE weighs it.
-            let weigh = |e: f64| -> f64 {
-                if y <= 0.0 {
-                    return 0.0;
-                }
-                let rel = e / (y * y);
-                (0..3)
-                    .map(|k| {
-                        let x = c[k] as f64;
-                        rel * x * x / (x * x + 0.01)
-                    })
-                    .sum::<f64>()
-                    / 3.0
-            };
+            let weigh = |e: f64| weigh(e, c);
             bias2 += weigh(b2);
             variance += weigh(v);
             splatted += weigh(vs);
@@ -309,6 +353,20 @@ mod tests {
         pool_bias(&mut corner, w);
         let m = (BIAS_POOL + 1) as f32;
         assert!((corner[0] - 16.0 / (m * m)).abs() < 1e-5);
+    }
+
+    /// Two grey samples 1 and 3 per pixel: mean 2, variance of the mean s²/n = 2/2 = 1,
+    /// relative ¼, weighed per channel as relMSE does.
+    #[test]
+    fn independent_samples_give_the_variance_of_their_mean() {
+        let mean = vec![Vec3::splat(2.0); 4];
+        let sum_sq = vec![1.0 + 9.0; 4];
+        let mut map = Vec::new();
+        let e = of_independent_samples(&mean, &sum_sq, 2, &mut map).unwrap();
+        assert!((e.variance - 0.25 * 4.0 / 4.01).abs() < 1e-9, "{e:?}");
+        assert_eq!((e.bias2, e.passes), (0.0, 2));
+        assert!(map.iter().all(|&m| (m - 0.5).abs() < 1e-6));
+        assert!(of_independent_samples(&mean, &sum_sq, 1, &mut map).is_none());
     }
 
     /// Two passes of equal weight, grey 1 and grey 3, no bias: the mean is 2 and the variance

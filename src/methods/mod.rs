@@ -96,6 +96,10 @@ pub enum Step {
     Resplatted,
     /// Added new light: a photon batch, a path-tracing pass or a gathering pass.
     Traced,
+    /// Splatted part of a new batch (a paced render cuts its splat into pieces, so that a
+    /// command waits for a piece, not a batch): the light is not counted yet, so no image is
+    /// taken until the batch is whole ([`Method::mid_step`]).
+    Partial,
 }
 
 /// Seconds spent per phase (Table 2: T_E, T_L, T_S).
@@ -258,6 +262,12 @@ pub trait Method: Send {
 
     /// True while stored work is being redone after a change (the next step re-splats).
     fn catching_up(&self) -> bool {
+        false
+    }
+
+    /// True between the pieces of a step ([`Step::Partial`]): the film would hold part of a
+    /// batch's light, uncounted, until the next steps finish it.
+    fn mid_step(&self) -> bool {
         false
     }
 
@@ -436,7 +446,7 @@ pub fn run(
             break;
         }
     }
-    while method.catching_up() {
+    while method.catching_up() || method.mid_step() {
         method.step();
     }
 }

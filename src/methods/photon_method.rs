@@ -117,6 +117,10 @@ impl<R: Resolver> Method for PhotonMethod<R> {
         self.core.resplat_pending()
     }
 
+    fn mid_step(&self) -> bool {
+        self.core.mid_batch()
+    }
+
     fn set_view(
         &mut self,
         camera: Camera,

@@ -3,9 +3,10 @@
 //! Progressive: each call adds samples per pixel; every sample has its own random stream.
 
 use crate::film::Film;
+use crate::film::estimate::of_independent_samples;
 use crate::methods::{Method, MethodError, MethodStats, Step, Timings};
 use crate::pipeline::direct::{bsdf_emission_weight, escaped_weight, power_heuristic};
-use crate::sampling::Rng;
+use crate::sampling::{Rng, luminance};
 use crate::scene::{Camera, Scene};
 use crate::settings::{MethodKind, RenderSettings};
 use glam::Vec3;
@@ -69,6 +70,9 @@ pub struct PathTracer {
     /// The render settings it was built from (`pt_spp` paths per pixel per step).
     render: RenderSettings,
     sum: Vec<Vec3>,
+    /// Σ of each path's squared luminance per pixel: the image's own variance
+    /// ([`crate::film::estimate::of_independent_samples`]).
+    sum_sq: Vec<f64>,
     spp: u32,
     /// Contributions dropped because they were NaN or infinite.
     pub invalid: u64,
@@ -117,6 +121,7 @@ impl PathTracer {
             settings,
             render,
             sum: vec![Vec3::ZERO; n],
+            sum_sq: vec![0.0; n],
             spp: 0,
             invalid: 0,
             timings: Timings::default(),
@@ -129,13 +134,15 @@ impl PathTracer {
         let aspect = s.width as f32 / s.height as f32;
         let first = self.spp;
         let (scene, camera) = (&*self.scene, &self.camera);
+        let w = s.width as usize;
         let invalid: u64 = self
             .sum
-            .par_chunks_mut(s.width as usize)
+            .par_chunks_mut(w)
+            .zip(self.sum_sq.par_chunks_mut(w))
             .enumerate()
-            .map(|(y, row)| {
+            .map(|(y, (row, row_sq))| {
                 let mut bad = 0;
-                for (x, acc) in row.iter_mut().enumerate() {
+                for (x, (acc, acc_sq)) in row.iter_mut().zip(row_sq.iter_mut()).enumerate() {
                     let pixel = (y as u64) * s.width as u64 + x as u64;
                     for k in first..first + n {
                         let mut rng = Rng::new(s.seed ^ 0x7074_7261_6365, (pixel << 32) | k as u64);
@@ -155,6 +162,8 @@ impl PathTracer {
                         );
                         if l.is_finite() {
                             *acc += l;
+                            let lum = luminance(l) as f64;
+                            *acc_sq += lum * lum;
                         } else {
                             bad += 1;
                         }
@@ -167,7 +176,8 @@ impl PathTracer {
         self.spp += n;
     }
 
-    /// The mean radiance per pixel so far.
+    /// The mean radiance per pixel so far, with its own variance as the film's estimate (from
+    /// two paths per pixel on).
     pub fn film(&self) -> Film {
         let mut f = Film::new(self.settings.width, self.settings.height);
         let inv = 1.0 / self.spp.max(1) as f32;
@@ -175,6 +185,9 @@ impl PathTracer {
             *o = *s * inv;
         }
         f.invalid_contributions = self.invalid;
+        let mut map = Vec::new();
+        f.estimate = of_independent_samples(&f.rgb, &self.sum_sq, self.spp, &mut map);
+        f.estimated_error = map;
         f
     }
 }
@@ -213,6 +226,7 @@ impl Method for PathTracer {
         self.settings.height = height;
         self.camera = camera;
         self.sum = vec![Vec3::ZERO; (width * height) as usize];
+        self.sum_sq = vec![0.0; (width * height) as usize];
         self.spp = 0;
         self.invalid = 0;
         Ok(())

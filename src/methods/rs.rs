@@ -130,6 +130,63 @@ mod tests {
         while m.step() != Step::Traced {}
     }
 
+    /// The relative difference of two films' images (largest over pixels and channels).
+    fn largest_difference(a: &crate::film::Film, b: &crate::film::Film) -> f32 {
+        a.rgb
+            .iter()
+            .zip(&b.rgb)
+            .map(|(x, y)| ((*x - *y).abs() / (y.abs() + glam::Vec3::splat(1e-3))).max_element())
+            .fold(0.0, f32::max)
+    }
+
+    /// In the window (paced, not headless) a new batch is splatted in
+    /// [`crate::methods::photon_core::SPLAT_PIECES`] steps: the first ones are partial (no
+    /// image is whole between them), the last completes it, and the film is the one batch a
+    /// headless render splats at once. A view set between the pieces re-splats the batch whole.
+    #[test]
+    fn the_window_splats_a_batch_in_pieces_and_a_change_between_them_loses_nothing() {
+        use crate::methods::photon_core::SPLAT_PIECES;
+        let mut whole = small_rs();
+        assert_eq!(whole.step(), Step::Traced);
+        let reference = whole.film();
+
+        let mut m = small_rs();
+        m.pace();
+        let mut partial = 0;
+        loop {
+            match m.step() {
+                Step::Partial => {
+                    partial += 1;
+                    assert!(m.mid_step());
+                }
+                Step::Traced => break,
+                Step::Resplatted => panic!("nothing to re-splat"),
+            }
+        }
+        assert_eq!(partial, SPLAT_PIECES - 1);
+        assert!(!m.mid_step());
+        let d = largest_difference(&m.film(), &reference);
+        assert!(d < 1e-4, "pieces against a whole batch: {d}");
+
+        let mut cut = small_rs();
+        cut.pace();
+        assert_eq!(cut.step(), Step::Partial);
+        let camera = cut.camera().clone();
+        let (w, h, spp) = (
+            cut.settings().width,
+            cut.settings().height,
+            cut.settings().spp,
+        );
+        cut.set_view(camera, w, h, spp).unwrap();
+        assert!(!cut.mid_step() && cut.catching_up());
+        while cut.catching_up() {
+            cut.step();
+        }
+        assert_eq!(cut.passes(), 1);
+        let d = largest_difference(&cut.film(), &reference);
+        assert!(d < 1e-4, "a batch cut short, re-splatted: {d}");
+    }
+
     /// Paced by the clock, an eye pass that costs more than the batches splatted onto it
     /// stays (its NEE is redrawn with every batch instead, when a draw costs less than a
     /// batch); once the batches have taken as long as the pass, the next one is drawn. The

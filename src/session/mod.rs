@@ -161,6 +161,9 @@ pub struct SessionStats {
     /// relMSE of the image against the reference (the reference's own noise included), when
     /// both exist at the same size.
     pub reference_rel_mse: Option<f64>,
+    /// The reference's own variance in relMSE units (from its paths' spread): the part of
+    /// `reference_rel_mse` that is the reference's noise, not the image's error.
+    pub reference_noise: Option<f64>,
     /// The worker paused itself because the estimated relMSE fell below this threshold.
     pub paused_below: Option<f64>,
     /// Fraction of the indirect photon rays whose bandwidth sits at h_min (eq. 8's lower

@@ -126,7 +126,7 @@ impl Worker {
             let busy = self
                 .renderer
                 .as_ref()
-                .is_some_and(|r| r.catching_up() || !self.paused);
+                .is_some_and(|r| r.catching_up() || r.mid_step() || !self.paused);
             let mut commands = Vec::new();
             if !busy {
                 match cmd_rx.recv_timeout(Duration::from_millis(250)) {
@@ -151,7 +151,9 @@ impl Worker {
             }
             self.apply(pending);
             let mut traced = false;
-            if self.reference_on && !self.paused && self.renderer.is_some() {
+            // The reference mode waits for a batch in pieces to be whole.
+            let whole_batch = self.renderer.as_ref().is_some_and(|r| !r.mid_step());
+            if self.reference_on && !self.paused && whole_batch {
                 self.reference_step();
                 traced = true;
             } else if self.reference_turn() {
@@ -160,7 +162,7 @@ impl Worker {
                 self.t_reference += t.elapsed().as_secs_f64();
                 traced = true;
             } else if let Some(r) = self.renderer.as_mut()
-                && (r.catching_up() || !self.paused)
+                && (r.catching_up() || r.mid_step() || !self.paused)
             {
                 let t = Instant::now();
                 match r.step() {
@@ -170,11 +172,15 @@ impl Worker {
                         traced = true;
                         self.t_method += t.elapsed().as_secs_f64();
                     }
+                    // Part of a batch: commands are read again before the next piece.
+                    Step::Partial => self.t_method += t.elapsed().as_secs_f64(),
                 }
                 self.last_splat_ms = t.elapsed().as_secs_f64() * 1e3;
             }
             let due = last_publish.is_none_or(|t| t.elapsed() >= self.config.publish_interval);
-            if unseen || (traced && due) {
+            // Never between the pieces of a batch: its light is not counted yet.
+            let whole = !self.renderer.as_ref().is_some_and(|r| r.mid_step());
+            if whole && (unseen || (traced && due)) {
                 self.publish();
                 last_publish = Some(Instant::now());
                 unseen = false;
@@ -254,7 +260,17 @@ impl Worker {
                 }
             }
             Command::SetErrorEstimate(on) => s.estimate_error = on,
-            Command::SetAutoC(on) => s.auto_c = on,
+            Command::SetAutoC(on) => {
+                // Off, the batches keep the C the render chose last, as the window's slider
+                // shows it (no re-splat to an older C).
+                if !on
+                    && s.auto_c
+                    && let Some(r) = self.renderer.as_ref()
+                {
+                    s.bandwidth.smoothness_c = r.settings().bandwidth.smoothness_c;
+                }
+                s.auto_c = on;
+            }
             Command::SetPauseBelow(threshold) => {
                 self.pause_below = threshold;
                 self.pause_armed = true;
@@ -346,6 +362,8 @@ impl Worker {
         self.applied = applied;
         let view = p.view || changes.any(Effect::View);
         if view {
+            // The reference shows the current view at its size only.
+            self.reference = None;
             let (w, h, spp) = if self.interactive {
                 let d = self.config.interactive_divisor.max(1);
                 (
@@ -380,7 +398,7 @@ impl Worker {
             && self
                 .renderer
                 .as_ref()
-                .is_some_and(|r| !r.catching_up() && r.passes() > 0)
+                .is_some_and(|r| !r.catching_up() && !r.mid_step() && r.passes() > 0)
     }
 
     /// Add one path per pixel to the reference of the current view.
@@ -481,13 +499,15 @@ impl Worker {
         // Pause at the user's threshold, once per crossing (see `pause_armed`).
         if let Some(threshold) = self.pause_below {
             match &film.estimate {
-                Some(e) if e.rel_mse < threshold => {
-                    if self.pause_armed && !self.paused {
+                // Paused by hand, the crossing waits for the resume.
+                Some(e) if e.rel_mse < threshold && !self.paused => {
+                    if self.pause_armed {
                         self.paused = true;
                         self.paused_below = Some(threshold);
                     }
                     self.pause_armed = false;
                 }
+                Some(_) if self.paused => {}
                 _ => self.pause_armed = true,
             }
         }
@@ -512,6 +532,10 @@ impl Worker {
             resplat_pending: r.catching_up(),
             reference_spp: self.reference.as_ref().map_or(0, |p| p.passes() as u32),
             reference_rel_mse,
+            reference_noise: reference
+                .as_ref()
+                .and_then(|f| f.estimate.as_ref())
+                .map(|e| e.rel_mse),
             paused_below: self.paused_below,
             indirect_at_h_min: at_min,
             indirect_at_h_max: at_max,

@@ -10,10 +10,28 @@ use crate::scene::Scene;
 use crate::settings::DirectMode;
 use std::time::Instant;
 
+/// A paced render (the window) splats a new batch in this many pieces, one per step, so that a
+/// command (a camera move, a slider) waits for a piece rather than a whole batch
+/// (docs/benchmarks.md, "The previewer": a camera move while tracing).
+pub const SPLAT_PIECES: usize = 8;
+
+/// A new stored batch being splatted a piece at a time ([`SPLAT_PIECES`]).
+pub(crate) struct PartialSplat {
+    /// The batch (an index into the store, which folds nothing until it is done).
+    batch: usize,
+    /// Its rays splatted so far.
+    next: usize,
+    bw: [Bandwidth; 3],
+    /// What its photons reached, for the emission guide (empty without one).
+    reach: Vec<u32>,
+}
+
 impl PhotonCore {
     /// Trace one light pass of M photons, splat it with the bandwidth for the total M so
-    /// far ([`PhotonCore::step`] calls it when no re-splat is pending).
-    pub(super) fn run_batch(&mut self) {
+    /// far ([`PhotonCore::step`] calls it when no re-splat is pending). A paced render that
+    /// is not headless (the window) splats the batch's first piece only and returns false;
+    /// the next steps splat the rest ([`PhotonCore::splat_piece`]).
+    pub(super) fn run_batch(&mut self) -> bool {
         debug_assert!(
             !self.side.tree.is_released(),
             "a render takes no step after its final film"
@@ -27,12 +45,63 @@ impl PhotonCore {
                 .store
                 .trace(&self.scene, &self.settings, self.splat_direct());
             self.timings.t_light += t.elapsed().as_secs_f64();
-
+            if self.paced && !self.whole_batches {
+                let m = self.store.batches()[b].m;
+                let bw = self.bandwidths(m);
+                self.note_bandwidth(&bw, m);
+                self.splatting = Some(PartialSplat {
+                    batch: b,
+                    next: 0,
+                    bw,
+                    reach: vec![0u32; self.store.guide_cells()],
+                });
+                return self.splat_piece();
+            }
             let t = Instant::now();
             self.splat_stored(b, true);
             self.timings.t_splat += t.elapsed().as_secs_f64();
             self.draw_lobes(b);
         }
+        self.fold_store();
+        true
+    }
+
+    /// Splat the next piece of the batch in [`PhotonCore::splatting`]; true once it is whole
+    /// (then counted, its lobes drawn, the store folded as after any batch).
+    pub(super) fn splat_piece(&mut self) -> bool {
+        let Some(mut p) = self.splatting.take() else {
+            return true;
+        };
+        let t = Instant::now();
+        let rays = &self.store.batches()[p.batch].rays;
+        let end = (p.next + rays.len().div_ceil(SPLAT_PIECES).max(1)).min(rays.len());
+        self.counters += splat_rays(
+            &self.scene,
+            &mut self.side,
+            &rays[p.next..end],
+            &p.bw,
+            self.config.splatted.mask(),
+            self.settings.direct == DirectMode::Photons,
+            self.settings.radiance_map,
+            Some(&mut p.reach[..]).filter(|r| !r.is_empty()),
+        );
+        p.next = end;
+        self.generation += 1;
+        let whole = end >= rays.len();
+        self.timings.t_splat += t.elapsed().as_secs_f64();
+        if !whole {
+            self.splatting = Some(p);
+            return false;
+        }
+        self.store.learn(&p.reach);
+        self.splatted += 1;
+        self.draw_lobes(p.batch);
+        self.fold_store();
+        true
+    }
+
+    /// Fold the oldest batches beyond the ray budget (after a batch is whole).
+    fn fold_store(&mut self) {
         let t = Instant::now();
         self.folded_total += self.store.fold();
         // The dropped batches are the oldest; those of earlier eye passes were not splatted

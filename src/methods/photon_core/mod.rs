@@ -18,6 +18,7 @@
 //! a film from the accumulators; `report` says what the core holds.
 
 mod batches;
+pub use batches::SPLAT_PIECES;
 mod film;
 mod passes;
 mod report;
@@ -155,6 +156,10 @@ pub struct PhotonCore {
     earlier: EarlierPasses,
     /// The bandwidths of the batches the current eye pass holds (`--c auto`).
     pass_history: BandwidthHistory,
+    /// A new batch whose splat is cut into pieces (a paced render), until its last piece.
+    splatting: Option<batches::PartialSplat>,
+    /// A headless render splats each batch whole (its progress reads whole films).
+    whole_batches: bool,
     /// The memory and splat-tree nodes held before [`PhotonCore::release_search`] (the
     /// stats report what the render held, not what its final resolve left).
     held: Option<(MemoryBreakdown, usize)>,
@@ -243,6 +248,8 @@ impl PhotonCore {
             eye_pass: 0,
             earlier: EarlierPasses::default(),
             pass_history: BandwidthHistory::default(),
+            splatting: None,
+            whole_batches: false,
             held: None,
             paced: false,
             clock: PassClock::started(&Timings::default(), &timings),
@@ -348,6 +355,13 @@ impl PhotonCore {
             self.timings.t_splat += t.elapsed().as_secs_f64();
             self.draw_lobes(b);
             Step::Resplatted
+        } else if self.splatting.is_some() {
+            let t = Instant::now();
+            let done = self.splat_piece();
+            let spent = t.elapsed().as_secs_f64();
+            self.clock.pass_spent += spent;
+            self.clock.since_nee += spent;
+            if done { Step::Traced } else { Step::Partial }
         } else {
             let t = Instant::now();
             if self.paced_passes() && self.pass_batches() > 0 && self.clock.nee_due() {
@@ -360,11 +374,16 @@ impl PhotonCore {
             // The next NEE draw weighs the batches since this one, not the draw itself (which
             // would make every draw pay for the next); the pass weighs both.
             let batch = Instant::now();
-            self.run_batch();
+            let done = self.run_batch();
             self.clock.pass_spent += t.elapsed().as_secs_f64();
             self.clock.since_nee += batch.elapsed().as_secs_f64();
-            Step::Traced
+            if done { Step::Traced } else { Step::Partial }
         }
+    }
+
+    /// A new batch is splatted in pieces and not finished yet ([`Step::Partial`]).
+    pub fn mid_batch(&self) -> bool {
+        self.splatting.is_some()
     }
 
     /// The render is paced by the clock (a time budget, the window), not by a count of
@@ -386,6 +405,7 @@ impl PhotonCore {
         self.config.eye_passes == EyePasses::Redrawn
             && self.eye_passes_allowed()
             && self.resplat_queue.is_empty()
+            && self.splatting.is_none()
             && self.pass_batches() as f64 * self.settings.photons as f64
                 >= EYE_PASS_PHOTONS_PER_SAMPLE * self.side.eye.len().max(1) as f64
             && (!self.paced_passes() || self.clock.pass_due())
@@ -502,6 +522,8 @@ impl PhotonCore {
         // the current pass instead.
         self.earlier = EarlierPasses::default();
         self.pass_history = BandwidthHistory::default();
+        // A batch cut short is stored: it is re-splatted whole with the others.
+        self.splatting = None;
         self.generation += 1;
         // Newest first: it has the smallest bandwidth, so the first frame is the sharpest.
         self.resplat_queue = (0..self.store.batches().len()).collect();
@@ -588,6 +610,7 @@ impl PhotonCore {
     /// Nothing will re-splat (a headless render): a film that never reads the stored rays
     /// lets each batch be freed once it is splatted.
     pub(crate) fn headless(&mut self) {
+        self.whole_batches = true;
         if self.config.stored_rays == StoredRays::Unread {
             self.store.max_stored_rays = 0;
             self.store.keep_newest = false;
