@@ -616,3 +616,40 @@ fn auto_c_from_a_command_turns_the_estimate_on_and_moves_c() {
     // It may have moved once more before the command arrived.
     assert!((kept / chosen - 1.0).abs() <= 0.11, "{chosen} -> {kept}");
 }
+
+/// A camera dragged across the window sends a new interactive view every frame: the worker
+/// keeps answering with frames of the views (each view's re-splat goes whole while the camera
+/// moves; in pieces, every new view would cut the last one short and none would be shown).
+#[test]
+fn a_dragged_camera_keeps_getting_frames() {
+    let _w = Watchdog::new(180);
+    // Large enough that a re-splat takes longer than the 16 ms between two views.
+    let mut config = small_config();
+    config.settings.width = 240;
+    config.settings.height = 240;
+    config.settings.photons = 20_000;
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+    let f = wait(&session, 60, |f| {
+        f.stats.method.passes >= 3 && !f.interactive
+    });
+    let mut frames = 0;
+    let start = Instant::now();
+    let mut k = 0;
+    while start.elapsed() < Duration::from_secs(4) {
+        let mut camera = f.camera.clone();
+        camera.position += camera.right() * (0.002 * k as f32);
+        k += 1;
+        session.send(Command::SetCamera {
+            camera,
+            interactive: true,
+        });
+        std::thread::sleep(Duration::from_millis(16));
+        if let Some(g) = session.try_frame()
+            && g.interactive
+            && g.generation > f.generation
+        {
+            frames += 1;
+        }
+    }
+    assert!(frames >= 4, "{frames} frames in 4 s of dragging");
+}

@@ -96,8 +96,8 @@ pub enum Step {
     Resplatted,
     /// Added new light: a photon batch, a path-tracing pass or a gathering pass.
     Traced,
-    /// Splatted part of a new batch (a paced render cuts its splat into pieces, so that a
-    /// command waits for a piece, not a batch): the light is not counted yet, so no image is
+    /// Splatted part of a new or re-splatted batch (the window cuts a splat into pieces, so
+    /// that a command waits for a piece, not a batch): the light is not counted yet, so no image is
     /// taken until the batch is whole ([`Method::mid_step`]).
     Partial,
 }
@@ -257,7 +257,8 @@ pub trait Method: Send {
     /// The camera it renders from.
     fn camera(&self) -> &Camera;
 
-    /// One unit of progressive work (one photon batch, one re-splatted batch, one pass).
+    /// One unit of progressive work (one photon batch, one re-splatted batch, one pass; in
+    /// the window, one piece of a batch's splat: [`Step::Partial`]).
     fn step(&mut self) -> Step;
 
     /// True while stored work is being redone after a change (the next step re-splats).
@@ -270,6 +271,10 @@ pub trait Method: Send {
     fn mid_step(&self) -> bool {
         false
     }
+
+    /// The view is interactive (a camera being dragged, the coarse first image): the window
+    /// wants a frame per step then, so re-splats are not cut into pieces.
+    fn set_interactive(&mut self, _interactive: bool) {}
 
     /// A new camera, resolution or sample count. Methods with view-independent stored work
     /// (photon rays) keep it and re-use it; the others start again.

@@ -121,6 +121,10 @@ impl<R: Resolver> Method for PhotonMethod<R> {
         self.core.mid_batch()
     }
 
+    fn set_interactive(&mut self, interactive: bool) {
+        self.core.set_interactive(interactive);
+    }
+
     fn set_view(
         &mut self,
         camera: Camera,

@@ -142,7 +142,8 @@ mod tests {
     /// In the window (paced, not headless) a new batch is splatted in
     /// [`crate::methods::photon_core::SPLAT_PIECES`] steps: the first ones are partial (no
     /// image is whole between them), the last completes it, and the film is the one batch a
-    /// headless render splats at once. A view set between the pieces re-splats the batch whole.
+    /// headless render splats at once. A view set between the pieces re-splats the stored
+    /// batch, in pieces as well, to the same film.
     #[test]
     fn the_window_splats_a_batch_in_pieces_and_a_change_between_them_loses_nothing() {
         use crate::methods::photon_core::SPLAT_PIECES;
@@ -179,9 +180,16 @@ mod tests {
         );
         cut.set_view(camera, w, h, spp).unwrap();
         assert!(!cut.mid_step() && cut.catching_up());
+        // The re-splat goes in pieces too.
+        let mut pieces = 0;
         while cut.catching_up() {
-            cut.step();
+            match cut.step() {
+                Step::Partial => pieces += 1,
+                Step::Resplatted => assert!(!cut.catching_up()),
+                Step::Traced => panic!("a new batch before the re-splat ended"),
+            }
         }
+        assert_eq!(pieces, SPLAT_PIECES - 1);
         assert_eq!(cut.passes(), 1);
         let d = largest_difference(&cut.film(), &reference);
         assert!(d < 1e-4, "a batch cut short, re-splatted: {d}");

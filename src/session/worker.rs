@@ -68,6 +68,8 @@ pub(super) struct Worker {
     event_tx: Sender<Event>,
     notify: Option<Notify>,
     last_splat_ms: f64,
+    /// The pieces of the batch in flight so far, milliseconds.
+    splat_ms_sum: f64,
 }
 
 impl Worker {
@@ -109,6 +111,7 @@ impl Worker {
             event_tx,
             notify,
             last_splat_ms: 0.0,
+            splat_ms_sum: 0.0,
         };
         w.announce_scene();
         if let Some(e) = lighting_error {
@@ -150,6 +153,11 @@ impl Worker {
                 }
             }
             self.apply(pending);
+            // A view being dragged (or the coarse first image) wants a frame per step.
+            let interactive = self.interactive || self.coarse_start;
+            if let Some(r) = self.renderer.as_mut() {
+                r.set_interactive(interactive);
+            }
             let mut traced = false;
             // The reference mode waits for a batch in pieces to be whole.
             let whole_batch = self.renderer.as_ref().is_some_and(|r| !r.mid_step());
@@ -165,6 +173,9 @@ impl Worker {
                 && (r.catching_up() || r.mid_step() || !self.paused)
             {
                 let t = Instant::now();
+                // Re-splat pieces are not the method's turn in the split view (a whole
+                // re-splat step never was).
+                let resplat = r.catching_up();
                 match r.step() {
                     // Show re-splat progress at once: it follows a user's change.
                     Step::Resplatted => unseen = true,
@@ -173,9 +184,14 @@ impl Worker {
                         self.t_method += t.elapsed().as_secs_f64();
                     }
                     // Part of a batch: commands are read again before the next piece.
-                    Step::Partial => self.t_method += t.elapsed().as_secs_f64(),
+                    Step::Partial if !resplat => self.t_method += t.elapsed().as_secs_f64(),
+                    Step::Partial => {}
                 }
-                self.last_splat_ms = t.elapsed().as_secs_f64() * 1e3;
+                // The stats show a whole batch's splat time, its pieces added up.
+                self.splat_ms_sum += t.elapsed().as_secs_f64() * 1e3;
+                if !r.mid_step() {
+                    self.last_splat_ms = std::mem::take(&mut self.splat_ms_sum);
+                }
             }
             let due = last_publish.is_none_or(|t| t.elapsed() >= self.config.publish_interval);
             // Never between the pieces of a batch: its light is not counted yet.

@@ -2,6 +2,7 @@
 //! batch is kept), a stored batch splatted again, and the traced glossy lobes' share of each.
 
 use super::PhotonCore;
+use crate::methods::Step;
 use crate::methods::eye_side::{EyeSide, LobeDraws};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::photon::{Bandwidth, LightPassSettings, PhotonRay, plan_light_pass};
@@ -15,10 +16,12 @@ use std::time::Instant;
 /// (docs/benchmarks.md, "The previewer": a camera move while tracing).
 pub const SPLAT_PIECES: usize = 8;
 
-/// A new stored batch being splatted a piece at a time ([`SPLAT_PIECES`]).
+/// A stored batch being splatted a piece at a time ([`SPLAT_PIECES`]): new, or re-splatted.
 pub(crate) struct PartialSplat {
     /// The batch (an index into the store, which folds nothing until it is done).
     batch: usize,
+    /// Just traced (else re-splatted after a change).
+    new: bool,
     /// Its rays splatted so far.
     next: usize,
     bw: [Bandwidth; 3],
@@ -26,12 +29,19 @@ pub(crate) struct PartialSplat {
     reach: Vec<u32>,
 }
 
+impl PartialSplat {
+    /// Just traced (else a stored batch re-splatted after a change).
+    pub(super) fn is_new(&self) -> bool {
+        self.new
+    }
+}
+
 impl PhotonCore {
     /// Trace one light pass of M photons, splat it with the bandwidth for the total M so
     /// far ([`PhotonCore::step`] calls it when no re-splat is pending). A paced render that
-    /// is not headless (the window) splats the batch's first piece only and returns false;
-    /// the next steps splat the rest ([`PhotonCore::splat_piece`]).
-    pub(super) fn run_batch(&mut self) -> bool {
+    /// is not headless (the window) splats the batch's first piece only and returns
+    /// [`Step::Partial`]; the next steps splat the rest ([`PhotonCore::splat_piece`]).
+    pub(super) fn run_batch(&mut self) -> Step {
         debug_assert!(
             !self.side.tree.is_released(),
             "a render takes no step after its final film"
@@ -45,17 +55,9 @@ impl PhotonCore {
                 .store
                 .trace(&self.scene, &self.settings, self.splat_direct());
             self.timings.t_light += t.elapsed().as_secs_f64();
-            if self.paced && !self.whole_batches {
-                let m = self.store.batches()[b].m;
-                let bw = self.bandwidths(m);
-                self.note_bandwidth(&bw, m);
-                self.splatting = Some(PartialSplat {
-                    batch: b,
-                    next: 0,
-                    bw,
-                    reach: vec![0u32; self.store.guide_cells()],
-                });
-                return self.splat_piece();
+            if self.cuts_batches() {
+                let p = self.begin_pieces(b, true);
+                return self.splat_piece(p);
             }
             let t = Instant::now();
             self.splat_stored(b, true);
@@ -63,15 +65,34 @@ impl PhotonCore {
             self.draw_lobes(b);
         }
         self.fold_store();
-        true
+        Step::Traced
     }
 
-    /// Splat the next piece of the batch in [`PhotonCore::splatting`]; true once it is whole
-    /// (then counted, its lobes drawn, the store folded as after any batch).
-    pub(super) fn splat_piece(&mut self) -> bool {
-        let Some(mut p) = self.splatting.take() else {
-            return true;
-        };
+    /// Whether batches are splatted in pieces: in a paced render that is not headless (the
+    /// window).
+    pub(super) fn cuts_batches(&self) -> bool {
+        self.paced && !self.whole_batches
+    }
+
+    /// Start splatting stored batch `b` (`new`: just traced) in pieces.
+    pub(super) fn begin_pieces(&mut self, b: usize, new: bool) -> PartialSplat {
+        let m = self.store.batches()[b].m;
+        let bw = self.bandwidths(m);
+        self.note_bandwidth(&bw, m);
+        let cells = if new { self.store.guide_cells() } else { 0 };
+        PartialSplat {
+            batch: b,
+            new,
+            next: 0,
+            bw,
+            reach: vec![0u32; cells],
+        }
+    }
+
+    /// Splat the next piece of `p`: [`Step::Partial`] until it is whole (`p` then waits in
+    /// [`PhotonCore::splatting`]), then counted and its lobes drawn ([`Step::Resplatted`] for
+    /// a stored batch; a new one also teaches the guide and folds the store, [`Step::Traced`]).
+    pub(super) fn splat_piece(&mut self, mut p: PartialSplat) -> Step {
         let t = Instant::now();
         let rays = &self.store.batches()[p.batch].rays;
         let end = (p.next + rays.len().div_ceil(SPLAT_PIECES).max(1)).min(rays.len());
@@ -91,13 +112,16 @@ impl PhotonCore {
         self.timings.t_splat += t.elapsed().as_secs_f64();
         if !whole {
             self.splatting = Some(p);
-            return false;
+            return Step::Partial;
         }
-        self.store.learn(&p.reach);
         self.splatted += 1;
         self.draw_lobes(p.batch);
+        if !p.new {
+            return Step::Resplatted;
+        }
+        self.store.learn(&p.reach);
         self.fold_store();
-        true
+        Step::Traced
     }
 
     /// Fold the oldest batches beyond the ray budget (after a batch is whole).

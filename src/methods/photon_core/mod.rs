@@ -156,10 +156,14 @@ pub struct PhotonCore {
     earlier: EarlierPasses,
     /// The bandwidths of the batches the current eye pass holds (`--c auto`).
     pass_history: BandwidthHistory,
-    /// A new batch whose splat is cut into pieces (a paced render), until its last piece.
+    /// A new or re-splatted batch whose splat is cut into pieces (the window), until its last
+    /// piece.
     splatting: Option<batches::PartialSplat>,
     /// A headless render splats each batch whole (its progress reads whole films).
     whole_batches: bool,
+    /// The window's view is interactive: re-splats go whole, a frame per step
+    /// ([`PhotonCore::set_interactive`]).
+    interactive: bool,
     /// The memory and splat-tree nodes held before [`PhotonCore::release_search`] (the
     /// stats report what the render held, not what its final resolve left).
     held: Option<(MemoryBreakdown, usize)>,
@@ -250,6 +254,7 @@ impl PhotonCore {
             pass_history: BandwidthHistory::default(),
             splatting: None,
             whole_batches: false,
+            interactive: false,
             held: None,
             paced: false,
             clock: PassClock::started(&Timings::default(), &timings),
@@ -331,7 +336,7 @@ impl PhotonCore {
 
     /// True while stored batches wait to be re-splatted after a parameter or view change.
     pub fn resplat_pending(&self) -> bool {
-        !self.resplat_queue.is_empty()
+        !self.resplat_queue.is_empty() || self.splatting.as_ref().is_some_and(|p| !p.is_new())
     }
 
     /// Direct light comes from splatted direct photons.
@@ -349,19 +354,29 @@ impl PhotonCore {
     /// (docs/deviations.md §43). A new eye pass, when one is due, is the caller's to draw
     /// first ([`PhotonCore::wants_new_eye_pass`]), since it keeps the finished pass's film.
     pub(crate) fn step(&mut self) -> Step {
-        if let Some(b) = self.resplat_queue.pop() {
+        if let Some(p) = self.splatting.take() {
+            let t = Instant::now();
+            // A new batch's pieces count towards the pacing clock as a whole batch does.
+            let new = p.is_new();
+            let step = self.splat_piece(p);
+            if new {
+                let spent = t.elapsed().as_secs_f64();
+                self.clock.pass_spent += spent;
+                self.clock.since_nee += spent;
+            }
+            step
+        } else if let Some(b) = self.resplat_queue.pop() {
+            if self.cuts_batches() && !self.interactive {
+                // In pieces too: a re-splat at the window's full size takes as long as a
+                // batch (docs/benchmarks.md, "The previewer").
+                let p = self.begin_pieces(b, false);
+                return self.splat_piece(p);
+            }
             let t = Instant::now();
             self.splat_stored(b, false);
             self.timings.t_splat += t.elapsed().as_secs_f64();
             self.draw_lobes(b);
             Step::Resplatted
-        } else if self.splatting.is_some() {
-            let t = Instant::now();
-            let done = self.splat_piece();
-            let spent = t.elapsed().as_secs_f64();
-            self.clock.pass_spent += spent;
-            self.clock.since_nee += spent;
-            if done { Step::Traced } else { Step::Partial }
         } else {
             let t = Instant::now();
             if self.paced_passes() && self.pass_batches() > 0 && self.clock.nee_due() {
@@ -374,16 +389,23 @@ impl PhotonCore {
             // The next NEE draw weighs the batches since this one, not the draw itself (which
             // would make every draw pay for the next); the pass weighs both.
             let batch = Instant::now();
-            let done = self.run_batch();
+            let step = self.run_batch();
             self.clock.pass_spent += t.elapsed().as_secs_f64();
             self.clock.since_nee += batch.elapsed().as_secs_f64();
-            if done { Step::Traced } else { Step::Partial }
+            step
         }
     }
 
-    /// A new batch is splatted in pieces and not finished yet ([`Step::Partial`]).
+    /// A batch is splatted in pieces and not finished yet ([`Step::Partial`]).
     pub fn mid_batch(&self) -> bool {
         self.splatting.is_some()
+    }
+
+    /// The window's view is interactive (a drag sends a new view every frame, each of which
+    /// re-splats from the start): re-splats then go whole, so that every view gets its frame
+    /// (in pieces, a stream of views would cut each re-splat short and show nothing).
+    pub(crate) fn set_interactive(&mut self, interactive: bool) {
+        self.interactive = interactive;
     }
 
     /// The render is paced by the clock (a time budget, the window), not by a count of
@@ -522,7 +544,8 @@ impl PhotonCore {
         // the current pass instead.
         self.earlier = EarlierPasses::default();
         self.pass_history = BandwidthHistory::default();
-        // A batch cut short is stored: it is re-splatted whole with the others.
+        // A batch cut short is stored: it is re-splatted with the others (a new one's reach
+        // goes untaught and the store folds after the next new batch).
         self.splatting = None;
         self.generation += 1;
         // Newest first: it has the smallest bandwidth, so the first frame is the sharpest.
