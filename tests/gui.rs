@@ -554,20 +554,24 @@ fn the_probe_shows_where_the_glossy_part_came_from() {
     ] {
         let (x, y) = ((pixel % 64) as f32 + 0.5, (pixel / 64) as f32 + 0.5);
         let pos = rect.min + egui::vec2(x / 64.0 * rect.width(), y / 64.0 * rect.height());
-        // Move onto the pixel, then keep still until the tooltip shows (egui waits for the
-        // pointer to rest).
-        h.hover_at(pos);
-        let start = Instant::now();
-        loop {
-            h.step();
-            if h.query_by_label(text).is_some() {
-                break;
-            }
-            assert!(
-                start.elapsed() < Duration::from_secs(30),
-                "no \"{text}\" in the probe at pixel {pixel}"
-            );
+        hover_until(&mut h, pos, text);
+    }
+}
+
+/// Move the pointer to `pos` and keep still until a label containing `text` shows (egui
+/// waits for the pointer to rest before a tooltip).
+fn hover_until(h: &mut Harness<'static, App>, pos: egui::Pos2, text: &str) {
+    h.hover_at(pos);
+    let start = Instant::now();
+    loop {
+        h.step();
+        if h.query_by_label_contains(text).is_some() {
+            return;
         }
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "no \"{text}\" in the probe at {pos:?}"
+        );
     }
 }
 
@@ -669,8 +673,16 @@ fn the_split_view_shows_the_reference_right_of_a_draggable_divider() {
         assert_eq!(got[4 * x0..], rr[4 * x0..], "row {y}: right of the divider");
     }
     h.get_by_label_contains("relMSE against the reference:");
-    // Drag the divider from the middle of the image to a quarter of its width.
+    // The probe reads the reference right of the divider and the image left of it.
     let image = h.get_by_role(Role::Image).rect();
+    let at = |fx: f32| egui::pos2(image.min.x + fx * image.width(), image.center().y);
+    hover_until(&mut h, at(0.75), "of the path-traced reference");
+    hover_until(&mut h, at(0.25), "kernel weight");
+    assert!(
+        h.query_by_label_contains("of the path-traced reference")
+            .is_none()
+    );
+    // Drag the divider from the middle of the image to a quarter of its width.
     let from = egui::pos2(image.center().x, image.center().y);
     let to = egui::pos2(image.min.x + 0.25 * image.width(), image.center().y);
     h.hover_at(from);

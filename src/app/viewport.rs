@@ -118,6 +118,8 @@ impl Viewport {
         let scale = (avail.x / size.x).min(avail.y / size.y).max(0.05);
         let response =
             ui.add(egui::Image::new((tex.id(), size * scale)).sense(egui::Sense::click_and_drag()));
+        // Where the reference begins, for the probe (the divider may move below).
+        let reference_from = split.as_deref().copied();
         match split {
             Some(at) => {
                 self.divider(ui, &response, at);
@@ -131,7 +133,14 @@ impl Viewport {
             }
         }
         if let (Some(pos), Some(f)) = (response.hover_pos(), frame) {
-            probe(response, pos, f);
+            // Right of the split view's divider the pixel is the reference's.
+            let reference = reference_from
+                .filter(|&at| pos.x >= response.rect.min.x + at * response.rect.width())
+                .and(f.reference.as_ref());
+            match reference {
+                Some(r) => probe_reference(response, pos, r),
+                None => probe(response, pos, f),
+            }
         }
         if let Some(legend) = legend {
             ui.horizontal(|ui| {
@@ -266,13 +275,33 @@ impl Viewport {
 }
 
 /// The film's values at the pixel under the pointer, in a tooltip.
-fn probe(response: egui::Response, pos: egui::Pos2, f: &Frame) {
-    let r = response.rect;
-    let px = ((pos.x - r.min.x) / r.width() * f.film.width as f32) as u32;
-    let py = ((pos.y - r.min.y) / r.height() * f.film.height as f32) as u32;
-    if px >= f.film.width || py >= f.film.height {
+/// The pixel under the pointer, or none outside a `width` × `height` image in `rect`.
+fn pixel_at(rect: egui::Rect, pos: egui::Pos2, width: u32, height: u32) -> Option<(u32, u32)> {
+    let px = ((pos.x - rect.min.x) / rect.width() * width as f32) as u32;
+    let py = ((pos.y - rect.min.y) / rect.height() * height as f32) as u32;
+    (px < width && py < height).then_some((px, py))
+}
+
+/// The split view's reference at the pixel under the pointer: its radiance and, once it has
+/// two paths, its own relative error there.
+fn probe_reference(response: egui::Response, pos: egui::Pos2, r: &crate::film::Film) {
+    let Some((px, py)) = pixel_at(response.rect, pos, r.width, r.height) else {
         return;
-    }
+    };
+    let i = (py * r.width + px) as usize;
+    response.on_hover_ui_at_pointer(|ui| {
+        ui.label(format!("pixel ({px}, {py}) of the path-traced reference"));
+        ui.label(format!("radiance {}", fmt3(r.rgb[i])));
+        if let Some(e) = r.estimated_error.get(i) {
+            ui.label(format!("its own relative error ≈ {:.1}%", 100.0 * e));
+        }
+    });
+}
+
+fn probe(response: egui::Response, pos: egui::Pos2, f: &Frame) {
+    let Some((px, py)) = pixel_at(response.rect, pos, f.film.width, f.film.height) else {
+        return;
+    };
     let i = (py * f.film.width + px) as usize;
     let film = &f.film;
     response.on_hover_ui_at_pointer(|ui| {
