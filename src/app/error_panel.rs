@@ -88,7 +88,7 @@ impl ErrorPanel {
             Some(t) => {
                 ui.colored_label(
                     Color32::from_rgb(120, 200, 120),
-                    format!("paused: the estimate fell below {t}; Resume refines on"),
+                    format!("paused: estimate below {t}"),
                 );
             }
             None if settings.pause_below_on => {
@@ -136,6 +136,9 @@ impl ErrorPanel {
                                  is the image's error to compare with the estimate above",
                             );
                         }
+                    }
+                    None if s.paused => {
+                        ui.label("reference: starts when the render runs (paused)");
                     }
                     None => {
                         ui.label("reference: starting after the first batches…");

@@ -59,11 +59,21 @@ impl RenderingPanel {
                 ui.horizontal(|ui| {
                     ui.label("Resolution");
                     let range = limits::RESOLUTION.range();
-                    ui.add(egui::DragValue::new(w).range(range.clone()))
-                        .accessible_name("Width");
+                    // Typed sizes apply on Enter or when the field is left, not at every
+                    // keystroke (a width typed as 2, 20, 200 restarted the view at each).
+                    ui.add(
+                        egui::DragValue::new(w)
+                            .range(range.clone())
+                            .update_while_editing(false),
+                    )
+                    .accessible_name("Width");
                     ui.label("×");
-                    ui.add(egui::DragValue::new(h).range(range))
-                        .accessible_name("Height");
+                    ui.add(
+                        egui::DragValue::new(h)
+                            .range(range)
+                            .update_while_editing(false),
+                    )
+                    .accessible_name("Height");
                 });
             },
             |&(width, height)| Command::SetResolution { width, height },

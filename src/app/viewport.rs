@@ -122,7 +122,7 @@ impl Viewport {
         let reference_from = split.as_deref().copied();
         match split {
             Some(at) => {
-                self.divider(ui, &response, at);
+                self.divider(ui, &response, at, view_mode);
                 if !self.dragging_divider {
                     self.camera_input(ui, &response, out);
                 }
@@ -173,7 +173,13 @@ impl Viewport {
 
     /// The split view's divider: drawn at `at`, with the two sides named; a drag that starts
     /// within [`DIVIDER_GRIP`] of it moves it.
-    fn divider(&mut self, ui: &egui::Ui, response: &egui::Response, at: &mut f32) {
+    fn divider(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        at: &mut f32,
+        view_mode: ViewMode,
+    ) {
         let rect = response.rect;
         let x = rect.min.x + *at * rect.width();
         let near = |p: egui::Pos2| (p.x - x).abs() <= DIVIDER_GRIP;
@@ -208,15 +214,22 @@ impl Viewport {
                 Color32::WHITE,
             );
         };
+        // Beside the estimated error the right side is the image's error against the
+        // reference (window.rs), in the same colours.
+        let (left, right) = if view_mode == ViewMode::EstimatedError {
+            ("estimated error", "error against the reference")
+        } else {
+            ("image", "reference")
+        };
         label(
             egui::pos2(x - 6.0, rect.min.y + 4.0),
             egui::Align2::RIGHT_TOP,
-            "image",
+            left,
         );
         label(
             egui::pos2(x + 6.0, rect.min.y + 4.0),
             egui::Align2::LEFT_TOP,
-            "reference",
+            right,
         );
     }
 
@@ -312,6 +325,9 @@ fn probe(response: egui::Response, pos: egui::Pos2, f: &Frame) {
         let info = &film.info[i];
         ui.label(format!("bandwidth {:.4} m", info.mean_bandwidth));
         ui.label(format!("kernel weight {:.3}", info.kernel_weight));
+        if let Some(e) = film.estimated_error.get(i) {
+            ui.label(format!("estimated relative error ≈ {:.1}%", 100.0 * e));
+        }
         ui.label(format!("splats per batch {:.0}", info.splats));
         ui.label(format!(
             "harmonic mean distance {:.3} m",

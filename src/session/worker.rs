@@ -290,6 +290,10 @@ impl Worker {
             Command::SetPauseBelow(threshold) => {
                 self.pause_below = threshold;
                 self.pause_armed = true;
+                if threshold.is_none() {
+                    // Still paused, but no longer by the threshold the panel would name.
+                    self.paused_below = None;
+                }
             }
             Command::Shutdown => return false,
         }
@@ -515,8 +519,15 @@ impl Worker {
         // Pause at the user's threshold, once per crossing (see `pause_armed`).
         if let Some(threshold) = self.pause_below {
             match &film.estimate {
-                // Paused by hand, the crossing waits for the resume.
-                Some(e) if e.rel_mse < threshold && !self.paused => {
+                // Paused by hand, the crossing waits for the resume. Two or three passes'
+                // spread says little (a blotchy image read 0.0001), and a black image (a camera
+                // outside the scene) has no error to speak of: neither pauses.
+                Some(e)
+                    if e.rel_mse < threshold
+                        && !self.paused
+                        && e.passes >= crate::methods::photon_core::AUTO_C_PASSES
+                        && film.rgb.iter().any(|c| c.max_element() > 0.0) =>
+                {
                     if self.pause_armed {
                         self.paused = true;
                         self.paused_below = Some(threshold);
