@@ -50,8 +50,10 @@ impl ErrorPanel {
                 ))
                 .on_hover_text(
                     "Error that does not change with the bandwidth (glossy reflections of \
-                     splatted light, caustics) is not in it: on the scenes measured the truth \
-                     was 1.1 to 2.2 times the estimate (docs/deviations.md §51).",
+                     splatted light, caustics) is not in it: on the scenes measured headless \
+                     the truth was 1.1 to 2.2 times the estimate (docs/deviations.md §51), \
+                     and more on glossy scenes after few eye passes. The split view's \
+                     reference shows the truth beside it.",
                 );
             }
             None if settings.render.estimate_error => {
