@@ -16,7 +16,8 @@ use std::time::Instant;
 /// (docs/benchmarks.md, "The previewer": a camera move while tracing).
 pub const SPLAT_PIECES: usize = 8;
 
-/// A stored batch being splatted a piece at a time ([`SPLAT_PIECES`]): new, or re-splatted.
+/// A stored batch being splatted, new or re-splatted: whole in one piece, or in the window a
+/// piece at a time ([`SPLAT_PIECES`]).
 pub(crate) struct PartialSplat {
     /// The batch (an index into the store, which folds nothing until it is done).
     batch: usize,
@@ -24,6 +25,8 @@ pub(crate) struct PartialSplat {
     new: bool,
     /// Its rays splatted so far.
     next: usize,
+    /// Rays per piece.
+    piece: usize,
     bw: [Bandwidth; 3],
     /// What its photons reached, for the emission guide (empty without one).
     reach: Vec<u32>,
@@ -41,6 +44,7 @@ impl PhotonCore {
     /// far ([`PhotonCore::step`] calls it when no re-splat is pending). A paced render that
     /// is not headless (the window) splats the batch's first piece only and returns
     /// [`Step::Partial`]; the next steps splat the rest ([`PhotonCore::splat_piece`]).
+    /// Elsewhere the batch goes whole, as one piece.
     pub(super) fn run_batch(&mut self) -> Step {
         debug_assert!(
             !self.side.tree.is_released(),
@@ -55,35 +59,35 @@ impl PhotonCore {
                 .store
                 .trace(&self.scene, &self.settings, self.splat_direct());
             self.timings.t_light += t.elapsed().as_secs_f64();
-            if self.cuts_batches() {
-                let p = self.begin_pieces(b, true);
-                return self.splat_piece(p);
-            }
-            let t = Instant::now();
-            self.splat_stored(b, true);
-            self.timings.t_splat += t.elapsed().as_secs_f64();
-            self.draw_lobes(b);
+            let p = self.begin_pieces(b, true, self.pieces());
+            return self.splat_piece(p);
         }
         self.fold_store();
         Step::Traced
     }
 
-    /// Whether batches are splatted in pieces: in a paced render that is not headless (the
-    /// window).
-    pub(super) fn cuts_batches(&self) -> bool {
-        self.paced && !self.whole_batches
+    /// The pieces a batch's splat is cut into: [`SPLAT_PIECES`] in a paced render that is not
+    /// headless (the window), else one.
+    pub(super) fn pieces(&self) -> usize {
+        if self.paced && !self.whole_batches {
+            SPLAT_PIECES
+        } else {
+            1
+        }
     }
 
-    /// Start splatting stored batch `b` (`new`: just traced) in pieces.
-    pub(super) fn begin_pieces(&mut self, b: usize, new: bool) -> PartialSplat {
+    /// Start splatting stored batch `b` (`new`: just traced) in `pieces` pieces.
+    pub(super) fn begin_pieces(&mut self, b: usize, new: bool, pieces: usize) -> PartialSplat {
         let m = self.store.batches()[b].m;
         let bw = self.bandwidths(m);
         self.note_bandwidth(&bw, m);
         let cells = if new { self.store.guide_cells() } else { 0 };
+        let rays = self.store.batches()[b].rays.len();
         PartialSplat {
             batch: b,
             new,
             next: 0,
+            piece: rays.div_ceil(pieces.max(1)).max(1),
             bw,
             reach: vec![0u32; cells],
         }
@@ -95,7 +99,7 @@ impl PhotonCore {
     pub(super) fn splat_piece(&mut self, mut p: PartialSplat) -> Step {
         let t = Instant::now();
         let rays = &self.store.batches()[p.batch].rays;
-        let end = (p.next + rays.len().div_ceil(SPLAT_PIECES).max(1)).min(rays.len());
+        let end = (p.next + p.piece).min(rays.len());
         self.counters += splat_rays(
             &self.scene,
             &mut self.side,
@@ -196,31 +200,6 @@ impl PhotonCore {
         self.store.put_guide(guide);
         self.store.learn(&reach);
         self.timings.t_splat += t_splat + t.elapsed().as_secs_f64();
-        self.splatted += 1;
-        self.generation += 1;
-    }
-
-    /// Splat stored batch `b` with the bandwidth of its M under the current parameters; a
-    /// `new` batch (just traced, not re-splatted) teaches the emission guide what it reached.
-    pub(super) fn splat_stored(&mut self, b: usize, new: bool) {
-        let m = self.store.batches()[b].m;
-        let bw = self.bandwidths(m);
-        self.note_bandwidth(&bw, m);
-        let batch = &self.store.batches()[b];
-        let mut reach = vec![0u32; if new { self.store.guide_cells() } else { 0 }];
-        self.counters += splat_rays(
-            &self.scene,
-            &mut self.side,
-            &batch.rays,
-            &bw,
-            self.config.splatted.mask(),
-            self.settings.direct == DirectMode::Photons,
-            self.settings.radiance_map,
-            Some(&mut reach[..]).filter(|r| !r.is_empty()),
-        );
-        if new {
-            self.store.learn(&reach);
-        }
         self.splatted += 1;
         self.generation += 1;
     }

@@ -366,17 +366,11 @@ impl PhotonCore {
             }
             step
         } else if let Some(b) = self.resplat_queue.pop() {
-            if self.cuts_batches() && !self.interactive {
-                // In pieces too: a re-splat at the window's full size takes as long as a
-                // batch (docs/benchmarks.md, "The previewer").
-                let p = self.begin_pieces(b, false);
-                return self.splat_piece(p);
-            }
-            let t = Instant::now();
-            self.splat_stored(b, false);
-            self.timings.t_splat += t.elapsed().as_secs_f64();
-            self.draw_lobes(b);
-            Step::Resplatted
+            // In pieces too in the window: a re-splat at its full size takes as long as a
+            // batch (docs/benchmarks.md, "The previewer"); whole while the view is dragged.
+            let pieces = if self.interactive { 1 } else { self.pieces() };
+            let p = self.begin_pieces(b, false, pieces);
+            self.splat_piece(p)
         } else {
             let t = Instant::now();
             if self.paced_passes() && self.pass_batches() > 0 && self.clock.nee_due() {
