@@ -589,7 +589,7 @@ fn the_worker_pauses_itself_below_the_error_threshold() {
     assert!(e.rel_mse < 0.5, "{e:?}");
     // Not on the word of two or three passes.
     assert!(
-        e.passes >= raysplat::methods::photon_core::AUTO_C_PASSES,
+        e.passes >= raysplat::film::estimate::TRUSTED_PASSES,
         "{e:?}"
     );
     assert_eq!(paused.stats.paused_below, Some(0.5));

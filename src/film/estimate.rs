@@ -45,6 +45,17 @@ pub struct ErrorEstimate {
     pub passes: u32,
 }
 
+/// The spread of fewer passes says little (a blotchy two-pass image read 0.0001 in the
+/// window): `--c auto` and the window's pause wait for this many ([`ErrorEstimate::trusted`]).
+pub const TRUSTED_PASSES: u32 = 4;
+
+impl ErrorEstimate {
+    /// Made from enough passes to act on ([`TRUSTED_PASSES`]).
+    pub fn trusted(&self) -> bool {
+        self.passes >= TRUSTED_PASSES
+    }
+}
+
 /// Per pixel: Σw²y, Σw²y², Σw·s, Σw²s, Σw²s², Σw·b, Σw²b, Σw²b², Σw·d, Σw²d, Σw²d² (y: the
 /// film's luminance, s: the splatted light's, b: the pass's bias estimate, d: its
 /// L(h) − L(h/2) unpooled).
@@ -257,8 +268,9 @@ impl PassSpread {
     /// The estimate for the image whose pixel `p` is `blended(p)` (the batch-weighted mean of
     /// every pass, given as a function so that no image-sized copy is made), with the current
     /// pass `current` of `batches` batches counted as one more pass (none: the finished passes
-    /// alone, `blended` then being their mean). None before two passes. `map`, when given,
-    /// receives each pixel's relative RMS error √((b² + v)/y²) (0 where the image is black).
+    /// alone, `blended` then being their mean). None before two passes, and for a black image
+    /// (nothing to be wrong about: a camera outside the scene). `map`, when given, receives
+    /// each pixel's relative RMS error √((b² + v)/y²) (0 where the image is black).
     pub fn estimate(
         &self,
         blended: impl Fn(usize) -> Vec3,
@@ -283,6 +295,7 @@ impl PassSpread {
             m.reserve(self.sums.len());
         }
         let (mut bias2, mut variance, mut splatted, mut photons) = (0.0f64, 0.0, 0.0, 0.0);
+        let mut lit = false;
         for (p, s) in self.sums.iter().enumerate() {
             let mut s = *s;
             if let Some(f) = cur {
@@ -290,6 +303,7 @@ impl PassSpread {
             }
             let c = blended(p);
             let y = luminance(c) as f64;
+            lit |= y > 0.0;
             // Σ w²(x − x̄)² = Σw²x² − 2x̄Σw²x + x̄²Σw².
             let spread = |sx: f64, sxx: f64, mean: f64| {
                 ((sxx - 2.0 * mean * sx + mean * mean * w2) * inv_w2 * correction).max(0.0)
@@ -314,6 +328,12 @@ impl PassSpread {
                 };
                 m.push(rel as f32);
             }
+        }
+        if !lit {
+            if let Some(m) = map {
+                m.clear();
+            }
+            return None;
         }
         let n = self.sums.len().max(1) as f64;
         let bias2 = (bias2 / n).max(0.0);
@@ -367,6 +387,28 @@ mod tests {
         assert_eq!((e.bias2, e.passes), (0.0, 2));
         assert!(map.iter().all(|&m| (m - 0.5).abs() < 1e-6));
         assert!(of_independent_samples(&mean, &sum_sq, 1, &mut map).is_none());
+    }
+
+    /// A black image has no estimate (nothing to be wrong about), however many passes: the
+    /// window's pause and auto C must not act on a zero.
+    #[test]
+    fn a_black_image_has_no_estimate() {
+        let n = 6;
+        let black = vec![Vec3::ZERO; n];
+        let errors = vec![PassError::default(); n];
+        let mut spread = PassSpread::default();
+        for _ in 0..TRUSTED_PASSES {
+            spread.add(
+                PassValues {
+                    rgb: &black,
+                    pass: &errors,
+                },
+                2,
+            );
+        }
+        let mut map = vec![1.0];
+        assert_eq!(spread.estimate(|_| Vec3::ZERO, None, Some(&mut map)), None);
+        assert!(map.is_empty());
     }
 
     /// Two passes of equal weight, grey 1 and grey 3, no bias: the mean is 2 and the variance

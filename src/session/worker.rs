@@ -519,15 +519,9 @@ impl Worker {
         // Pause at the user's threshold, once per crossing (see `pause_armed`).
         if let Some(threshold) = self.pause_below {
             match &film.estimate {
-                // Paused by hand, the crossing waits for the resume. Two or three passes'
-                // spread says little (a blotchy image read 0.0001), and a black image (a camera
-                // outside the scene) has no error to speak of: neither pauses.
-                Some(e)
-                    if e.rel_mse < threshold
-                        && !self.paused
-                        && e.passes >= crate::methods::photon_core::AUTO_C_PASSES
-                        && film.rgb.iter().any(|c| c.max_element() > 0.0) =>
-                {
+                // Paused by hand, the crossing waits for the resume; an estimate of few passes
+                // is not acted on (a black image has none).
+                Some(e) if e.rel_mse < threshold && !self.paused && e.trusted() => {
                     if self.pause_armed {
                         self.paused = true;
                         self.paused_below = Some(threshold);

@@ -117,9 +117,6 @@ pub const EYE_PASS_COST_RATIO: f64 = 1.0;
 /// `--c auto` changes C by at most this factor per eye pass (docs/deviations.md §51).
 pub const AUTO_C_STEP: f32 = 1.1;
 
-/// `--c auto` waits for this many finished eye passes: the spread of fewer says little.
-pub const AUTO_C_PASSES: u32 = 4;
-
 /// One view's eye side, the stored photon rays and the batch bookkeeping of the photon-based
 /// methods. Its state is private: anyone may read it through the accessors below; only the
 /// crate changes it (the methods' one step API is [`crate::methods::photon_method::PhotonMethod`],
@@ -485,7 +482,7 @@ impl PhotonCore {
     /// coefficients (bias ∝ h², variance ∝ 1/h² per batch) and from them the bandwidth h* that
     /// minimises the error of an image of as many batches ([`BandwidthHistory::best_h`]); C
     /// moves towards C·h*/h_last (h_last: the last batch's), by at most [`AUTO_C_STEP`] a pass
-    /// once [`AUTO_C_PASSES`] passes give a spread. The target is absolute, made from every
+    /// once the estimate is [`crate::film::estimate::ErrorEstimate::trusted`]. The target is absolute, made from every
     /// batch's own bandwidth, so a C that moved does not feed back into it as a lagging
     /// image bias would. Later batches are splatted with the new C (stored ones are not
     /// re-splatted). The progressive schedule goes on (deviations §43): h* falls as W^(−1/6)
@@ -495,7 +492,7 @@ impl PhotonCore {
         let Some(e) = self.earlier.estimate() else {
             return;
         };
-        if e.passes < AUTO_C_PASSES {
+        if !e.trusted() {
             return;
         }
         let history = &self.earlier.history;
