@@ -222,8 +222,8 @@ pub struct MethodStats {
     pub tested_pairs: u64,
     /// Eye samples that received energy.
     pub accepted_pairs: u64,
-    /// Splatted pairs tested against their target's visible kernel domain
-    /// (docs/deviations.md §40).
+    /// Splatted pairs near a wall, tested cell by cell against their target's visible kernel
+    /// domain (docs/deviations.md §40); the others lie on an open plane.
     pub domain_tests: u64,
     /// Of those, the pairs outside it: light that would have leaked through a surface.
     pub occluded_pairs: u64,

@@ -295,7 +295,8 @@ pub struct SplatCounters {
     pub tested: u64,
     /// Eye samples that received energy.
     pub accepted: u64,
-    /// Splatted pairs tested against their target's visible domain (docs/deviations.md §40).
+    /// Splatted pairs near a wall, tested cell by cell against their target's visible domain
+    /// (docs/deviations.md §40); the others lie on an open plane.
     pub domain_tests: u64,
     /// Of those, the pairs outside it (which splatted nothing).
     pub occluded: u64,

@@ -258,7 +258,8 @@ struct LaneSplat {
     weights: [f32; LANES],
     /// Feasible lanes.
     accepted: u32,
-    /// Feasible pairs tested against their target's visible domain.
+    /// Feasible pairs near a wall ([`near_walls`]), tested against their target's visible
+    /// domain cell by cell.
     domain_tests: u32,
     /// Of those, the ones outside it (splatting nothing).
     occluded: u32,
@@ -295,6 +296,7 @@ fn splat_lanes(
         // A chunk without a splatted lane has nothing to test.
         Some(dom) if splatted > 0 => {
             let near = near_walls(ray, pts, dom, &w, &radius);
+            let flagged = near.count_ones();
             let outside = if near != 0 {
                 visible_domain(
                     ray,
@@ -307,7 +309,7 @@ fn splat_lanes(
             } else {
                 0
             };
-            (splatted, outside)
+            (flagged, outside)
         }
         _ => (0, 0),
     };
