@@ -37,20 +37,37 @@ pub use super::NO_CELL;
 pub const GUIDE_MIX: f32 = 0.5;
 /// The prior of a cell's rate: this many photons at its light's mean rate.
 pub const PRIOR_PHOTONS: f64 = 4.0;
-/// Area lights each get [`AREA_GRID`] cells while there are at most this many; beyond, one
-/// cell each (the guide then chooses among the triangles only).
+/// Area lights each get a grid of cells while there are at most this many; beyond, one cell
+/// each (the guide then chooses among the triangles only).
 pub const AREA_LIGHTS_WITH_GRID: usize = 4096;
-/// Cells per side of an area light's position and direction squares.
-pub const AREA_GRID: (u32, u32) = (2, 2);
+/// Cells per side of an area light's position square.
+pub const AREA_POSITION_GRID: u32 = 2;
+/// Cells shared by the scene's own lights (area and punctual): each gets an equal part, as
+/// a direction grid as fine as that allows within [`LOCAL_DIRECTION_GRID`]. A lamp that
+/// lights a room through its window sends a few tenths of a percent of its photons through it
+/// (`builtin:room`'s lamp, 14 m out: 0.4% of its cosine-weighted directions); only a grid
+/// of about that cell size can find the window, and a coarse one starves the lamp instead
+/// (docs/deviations.md §44). 2¹⁶ cells hold 768 kB.
+pub const LOCAL_CELL_BUDGET: usize = 1 << 16;
+/// The coarsest and finest direction grid sides of an area light (its cosine-weighted
+/// hemisphere) and of a punctual one (its sphere or cone).
+pub const LOCAL_DIRECTION_GRID: [(u32, u32); 2] = [(2, 16), (8, 32)];
 
-/// The cells of one light: (position grid side, direction grid side).
-pub fn cells_of(light: &Light, area_lights: usize) -> (u32, u32) {
+/// The cells of one light: (position grid side, direction grid side). `local_lights` counts
+/// the scene's area and punctual lights, `area_lights` the area ones.
+pub fn cells_of(light: &Light, local_lights: usize, area_lights: usize) -> (u32, u32) {
+    let share = LOCAL_CELL_BUDGET / local_lights.max(1);
+    let side = |cells: usize, (lo, hi): (u32, u32)| ((cells as f64).sqrt() as u32).clamp(lo, hi);
     match light {
         // The disc of light from afar is where the guide finds a window: 32 × 32.
         Light::Environment { .. } => (32, 4),
         Light::Sun(_) | Light::Directional { .. } => (32, 1),
-        Light::Point { .. } | Light::Spot { .. } => (1, 8),
-        Light::Area { .. } if area_lights <= AREA_LIGHTS_WITH_GRID => AREA_GRID,
+        Light::Point { .. } | Light::Spot { .. } => (1, side(share, LOCAL_DIRECTION_GRID[1])),
+        Light::Area { .. } if area_lights <= AREA_LIGHTS_WITH_GRID => {
+            let position = AREA_POSITION_GRID;
+            let per_direction = share / (position * position) as usize;
+            (position, side(per_direction, LOCAL_DIRECTION_GRID[0]))
+        }
         Light::Area { .. } => (1, 1),
     }
 }
@@ -91,17 +108,20 @@ impl EmissionGuide {
     /// A guide for `lights` that has learned nothing: it emits as the lights do (by power),
     /// the same photons from the same random numbers, and only names their cells.
     pub fn new(lights: &Lights) -> Self {
-        let area = lights
-            .lights
-            .iter()
-            .filter(|l| matches!(l, Light::Area { .. }))
-            .count();
+        let count = |local: fn(&Light) -> bool| lights.lights.iter().filter(|l| local(l)).count();
+        let area = count(|l| matches!(l, Light::Area { .. }));
+        let local = count(|l| {
+            matches!(
+                l,
+                Light::Area { .. } | Light::Point { .. } | Light::Spot { .. }
+            )
+        });
         let mut first = 0u32;
         let cells = lights
             .lights
             .iter()
             .map(|l| {
-                let (pos, dir) = cells_of(l, area);
+                let (pos, dir) = cells_of(l, local, area);
                 let c = LightCells {
                     first,
                     pos: pos as u16,
