@@ -43,6 +43,9 @@ fn settings(c: f32) -> RenderSettings {
         fractions: [1.0, 0.0, 0.0],
         direct: DirectMode::Photons,
         estimate_error: true,
+        // Auto C's model assumes each batch's photons are alike; the guide changes their
+        // density as it learns (docs/deviations.md §51, "With the emission guide").
+        guided_emission: false,
         bandwidth: BandwidthParams {
             smoothness_c: c,
             ..Default::default()

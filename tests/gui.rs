@@ -514,6 +514,9 @@ fn epsilon_slider_reruns_the_cache_live() {
         white > before + f.stats.method.cache_records.unwrap_or(0).min(200) / 2,
         "record centres not drawn: {white} white pixels, {before} before"
     );
+    // The side panel scrolls: a user scrolls the checkbox into view before clicking it.
+    h.get_by_label("Filter the indirect light").scroll_to_me();
+    h.run_steps(3);
     h.get_by_label("Filter the indirect light").click();
     run_until(&mut h, 60, "a filtered frame", |a| {
         a.frame().is_some_and(|f| f.settings.filter.enabled)

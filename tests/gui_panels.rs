@@ -420,6 +420,14 @@ fn rendering_panel_emits_one_command_per_widget() {
             height: limits::RESOLUTION.min,
         },
     );
+    step(
+        &mut h,
+        Role::Slider,
+        "Light samples",
+        8.0,
+        Command::SetNeeSamples(8),
+    );
+    expected.render.nee_samples = 8;
     expected.render.photons = 50_000;
     expected.render.spp = limits::SPP.max;
     expected.render.width = 128;
@@ -446,11 +454,12 @@ fn rendering_panel_emits_one_command_per_widget() {
     );
     h.get_by_label("Photons where the camera looks").click();
     h.run_steps(2);
-    assert_commands(&mut h.state_mut().out, &[Command::SetGuidedEmission(true)]);
+    // On by default: the click turns it off.
+    assert_commands(&mut h.state_mut().out, &[Command::SetGuidedEmission(false)]);
     expected.render.direct = DirectMode::Photons;
     expected.render.radiance_map = DirectionalMode::Histogram;
     expected.render.splat_visibility = false;
-    expected.render.guided_emission = true;
+    expected.render.guided_emission = false;
     assert_eq!(h.state().settings, expected);
 }
 

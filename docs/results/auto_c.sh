@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # `--c auto` against every fixed C of {0.4, 0.6, 0.8, 1.0, 1.4, 2.0} at the same photons
 # (issue 32's targets; docs/results.md "Automatic bandwidth", docs/deviations.md §51). Each
-# scene at one eye sample per pixel, 40 batches of 20,000 photons (the window's settings, a
-# deterministic count), against a path-traced reference rendered once into its folder with a
+# scene at one eye sample per pixel, 40 batches of 20,000 photons (the window's settings when
+# these runs were recorded, a deterministic count; emission by power and one light sample per
+# eye sample, pinned below: the window now guides emission and draws 4, deviations §44, §50),
+# against a path-traced reference rendered once into its folder with a
 # seed of its own (a run whose compare.json exists is kept). Prints one line per scene: each fixed C's relMSE, the best, auto's relMSE,
 # the C it chose and its own estimate. Run from the repository root after
 # `cargo build --release`; about 15 minutes on the 2-core machine of docs/benchmarks.md.
@@ -27,7 +29,7 @@ scene() {
     for c in $CS auto; do
         # A finished run is kept (delete its folder to run it again).
         [ -f "$OUT/$name/c_$c/compare.json" ] ||
-            $R compare "$@" --spp 1 --photons 20000 --batches 40 --methods rs --c $c \
+            $R compare "$@" --spp 1 --photons 20000 --batches 40 --methods rs --c $c --emission-by-power \
                 --reference "$reference" --out-dir "$OUT/$name/c_$c" >/dev/null
         line+=" $c $(jq -r '.methods.rs | "\(.relmse)"' "$OUT/$name/c_$c/compare.json" | xargs printf '%.5f')"
     done

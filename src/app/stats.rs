@@ -63,14 +63,16 @@ impl StatsPanel {
                     .on_hover_text(format!(
                         "eye samples {:.1} MB, splat targets {:.1}, splat tree {:.1}, \
                          accumulators {:.1}, directional records {:.1}, stored photon rays \
-                         {:.1}, per-pixel sums {:.1}, film {:.1}, scene and BVH {:.1}, \
-                         textures {:.1} (steady state; a batch in flight adds its own)",
+                         {:.1}, emission guide {:.1}, per-pixel sums {:.1}, film {:.1}, scene \
+                         and BVH {:.1}, textures {:.1} (steady state; a batch in flight adds \
+                         its own)",
                         mb(mem.eye_samples),
                         mb(mem.splat_targets),
                         mb(mem.splat_tree),
                         mb(mem.accumulators),
                         mb(mem.directional_records),
                         mb(mem.photon_rays),
+                        mb(mem.emission_guide),
                         mb(mem.pixel_sums),
                         mb(mem.film),
                         mb(mem.scene),

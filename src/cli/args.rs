@@ -235,11 +235,11 @@ pub struct MethodArgs {
     /// kernel domains, docs/deviations.md §40).
     #[arg(long)]
     pub no_splat_visibility: bool,
-    /// rs: emit each photon batch where the batches so far found photons that reach the
-    /// camera's eye samples, weighted to stay unbiased, instead of in proportion to power (§3;
-    /// docs/deviations.md §44)
+    /// rs: emit every photon batch in proportion to power, as the paper does (§3), instead of
+    /// where the batches so far found photons that reach the camera's eye samples, weighted to
+    /// stay unbiased (docs/deviations.md §44; the first batch is by power either way)
     #[arg(long)]
-    pub guided_emission: bool,
+    pub emission_by_power: bool,
     /// rs: keep the eye samples of the first eye pass for every batch instead of drawing
     /// them anew as batches go on (the paper's one eye pass per view; docs/deviations.md §41).
     #[arg(long)]
@@ -327,7 +327,7 @@ impl SettingsArgs {
             camera: self.run.camera.clone(),
             merge_targets: !method.no_merge,
             splat_visibility: !method.no_splat_visibility,
-            guided_emission: method.guided_emission,
+            guided_emission: !method.emission_by_power,
             // rs only (`compare` runs other methods beside it): auto C and a stop at an error
             // read the estimate.
             auto_c: kind == MethodKind::Rs && self.photons.c == Smoothness::Auto,

@@ -149,8 +149,11 @@ pub struct MemoryBreakdown {
     pub accumulators: usize,
     /// Directional records at glossy targets (§8.1).
     pub directional_records: usize,
-    /// Stored photon rays and the emission guide (docs/deviations.md §44).
+    /// Stored photon rays.
     pub photon_rays: usize,
+    /// The emission guide's cells and distributions (docs/deviations.md §44).
+    #[serde(default)]
+    pub emission_guide: usize,
     /// Per-pixel sums: emission and NEE light, traced lobes, finished eye passes.
     pub pixel_sums: usize,
     /// One film with its AOVs.
@@ -171,6 +174,7 @@ impl MemoryBreakdown {
             + self.accumulators
             + self.directional_records
             + self.photon_rays
+            + self.emission_guide
             + self.pixel_sums
             + self.film
             + self.scene

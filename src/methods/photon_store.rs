@@ -244,10 +244,15 @@ impl PhotonStore {
         self.m_total
     }
 
-    /// Bytes of the stored rays and of the emission guide.
+    /// Bytes of the stored rays.
     pub fn memory_bytes(&self) -> usize {
         self.rays() * std::mem::size_of::<PhotonRay>()
-            + self.guide.as_ref().map_or(0, |g| g.bytes())
+    }
+
+    /// Bytes of the emission guide (docs/deviations.md §44): kept for the view's life, also
+    /// by a headless render that frees its rays.
+    pub fn guide_bytes(&self) -> usize {
+        self.guide.as_ref().map_or(0, |g| g.bytes())
     }
 
     /// The bandwidth per class that a batch with class sizes `m` (over every batch up to it)

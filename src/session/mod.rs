@@ -46,6 +46,8 @@ pub enum Command {
     },
     /// Switching direct light between NEE and photons restarts tracing.
     SetDirect(DirectMode),
+    /// Light samples per eye sample and NEE draw (the settings table says what it redoes).
+    SetNeeSamples(u32),
     /// Directional storage at glossy samples (§8.1): new accumulators, then a re-splat of
     /// the stored rays (no re-trace).
     SetRadianceMap(DirectionalMode),
@@ -220,9 +222,12 @@ pub struct SessionConfig {
 impl Default for SessionConfig {
     fn default() -> Self {
         Self {
+            // One eye sample per pixel and 4 light samples each: Table 2's 4 NEE samples per
+            // pixel at a quarter of its eye pass (docs/deviations.md §50).
             settings: RenderSettings {
                 spp: 1,
                 photons: 20_000,
+                nee_samples: 4,
                 ..RenderSettings::default()
             },
             max_stored_rays: 4_000_000,

@@ -236,6 +236,7 @@ impl Worker {
             Command::SetFilter(f) => s.filter = f,
             Command::SetRadianceMap(m) => s.radiance_map = m,
             Command::SetDirect(d) => s.direct = d,
+            Command::SetNeeSamples(n) => s.nee_samples = limits::NEE_SAMPLES.clamp(n),
             Command::SetSplatVisibility(on) => s.splat_visibility = on,
             Command::SetGuidedEmission(on) => s.guided_emission = on,
             Command::SetCamera {

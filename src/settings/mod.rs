@@ -143,9 +143,9 @@ pub struct RenderSettings {
     #[serde(default = "yes")]
     pub progressive_bandwidth: bool,
     /// rs: emit photons where the camera looks, learned from the batches so far
-    /// (docs/deviations.md §44); off (the default: on the scenes measured it cost more splat
-    /// time than it saved noise), every batch emits in proportion to power (§3).
-    #[serde(default)]
+    /// (docs/deviations.md §44; on by default); off, every batch emits in proportion to
+    /// power (§3).
+    #[serde(default = "yes")]
     pub guided_emission: bool,
     /// rs: estimate the image's error from its own eye passes (variance from their spread,
     /// kernel bias from a second splat of each batch at half the bandwidth;
@@ -189,7 +189,7 @@ impl Default for RenderSettings {
             cache_on: false,
             progressive_eye: true,
             progressive_bandwidth: true,
-            guided_emission: false,
+            guided_emission: true,
             estimate_error: false,
             auto_c: false,
             filter: FilterParams::default(),

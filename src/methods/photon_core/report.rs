@@ -36,6 +36,7 @@ impl PhotonCore {
                 - directional,
             directional_records: directional,
             photon_rays: self.store.memory_bytes(),
+            emission_guide: self.store.guide_bytes(),
             pixel_sums: (side.emitted.len() + side.nee.len()) * vec3
                 + self.lobes.memory_bytes()
                 + self.earlier.memory_bytes(),
