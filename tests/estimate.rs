@@ -43,9 +43,6 @@ fn settings(c: f32) -> RenderSettings {
         fractions: [1.0, 0.0, 0.0],
         direct: DirectMode::Photons,
         estimate_error: true,
-        // Auto C's model assumes each batch's photons are alike; the guide changes their
-        // density as it learns (docs/deviations.md §51, "With the emission guide").
-        guided_emission: false,
         bandwidth: BandwidthParams {
             smoothness_c: c,
             ..Default::default()
@@ -122,8 +119,12 @@ fn the_estimated_error_tracks_the_true_error() {
 fn auto_c_settles_and_the_image_converges() {
     let scene = scene();
     let truth = truth(&scene);
+    // Auto C's model takes each batch's photons to be alike; the guide changes their density
+    // as it learns (docs/deviations.md §51, "With the emission guide"): emission by power,
+    // here and for the fixed Cs below.
     let s = RenderSettings {
         auto_c: true,
+        guided_emission: false,
         ..settings(1.0)
     };
     let mut m = methods::build(scene.clone(), s).unwrap();
@@ -155,6 +156,7 @@ fn auto_c_settles_and_the_image_converges() {
         .map(|c| {
             let s = RenderSettings {
                 estimate_error: false,
+                guided_emission: false,
                 ..settings(c)
             };
             let r = render_method(&scene, MethodKind::Rs, &s, Budget::Passes(total)).unwrap();

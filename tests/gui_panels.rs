@@ -714,6 +714,24 @@ fn persisted_settings_load_or_fall_back_to_the_defaults() {
         (loaded.exposure, loaded.ray_budget, loaded.snapshot_dir),
         (1.5, 1_000_000, PathBuf::from("/tmp/old"))
     );
+    // Saved under the first defaults (no `defaults` field): the guide and the light samples
+    // take today's defaults, the rest stays as saved.
+    let mut first = UiSettings::default();
+    first.render.guided_emission = false;
+    first.render.nee_samples = 1;
+    first.render.photons = 7_000;
+    first.defaults = 0;
+    first.save(&mut storage);
+    let loaded = UiSettings::from_storage(&storage).expect("loads");
+    let d = UiSettings::default();
+    assert_eq!(
+        (loaded.render.guided_emission, loaded.render.nee_samples),
+        (d.render.guided_emission, d.render.nee_samples)
+    );
+    assert_eq!(
+        (loaded.render.photons, loaded.defaults),
+        (7_000, UiSettings::DEFAULTS)
+    );
     // Values beyond the limits are moved into them.
     storage.set_string_for_test("(exposure: 100.0, ray_budget: 1)");
     let loaded = UiSettings::from_storage(&storage).expect("loads");

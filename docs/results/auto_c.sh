@@ -29,7 +29,7 @@ scene() {
     for c in $CS auto; do
         # A finished run is kept (delete its folder to run it again).
         [ -f "$OUT/$name/c_$c/compare.json" ] ||
-            $R compare "$@" --spp 1 --photons 20000 --batches 40 --methods rs --c $c --emission-by-power \
+            $R compare "$@" --spp 1 --nee-samples 1 --photons 20000 --batches 40 --methods rs --c $c --emission-by-power \
                 --reference "$reference" --out-dir "$OUT/$name/c_$c" >/dev/null
         line+=" $c $(jq -r '.methods.rs | "\(.relmse)"' "$OUT/$name/c_$c/compare.json" | xargs printf '%.5f')"
     done

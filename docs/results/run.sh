@@ -118,7 +118,7 @@ materials() {
     fi
     $R compare "$scene" --camera "$cam" --width 200 --height 200 --methods rs,pt --pt-spp 256 \
         --reference "$OUT/$dir/cycles.exr" --out-dir "$OUT/$dir"
-    $R render "$scene" --camera "$cam" --width 200 --height 200 --time-budget 10 \
+    $R render "$scene" --camera "$cam" --width 200 --height 200 --time-budget 10 --emission-by-power \
         --out "$OUT/$dir/rs_10s.exr" --stats "$OUT/$dir/rs_10s.json" >/dev/null
 }
 python3 -c "import bpy" 2>/dev/null && {

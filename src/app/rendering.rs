@@ -1,5 +1,6 @@
-//! The rendering panel: photons per batch, samples per pixel, resolution, direct light, the
-//! glossy radiance map, visibility in the splat footprint, the ray store's budget, pause, restart and the path-traced reference.
+//! The rendering panel: photons per batch, samples per pixel, resolution, direct light and its
+//! light samples, the glossy radiance map, visibility in the splat footprint, photons where the
+//! camera looks, the ray store's budget, pause, restart and the path-traced reference.
 //! Each widget emits its own worker command when it changes.
 
 use crate::app::UiSettings;
@@ -17,8 +18,8 @@ pub struct RenderingPanel;
 
 impl RenderingPanel {
     /// Draw the widgets. Accessible names: "Photons per batch", "Samples per pixel", "Width",
-    /// "Height", "NEE", "photons", "Glossy radiance map", "Visibility in the splat footprint",
-    /// "Ray store budget",
+    /// "Height", "NEE", "photons", "Light samples", "Glossy radiance map", "Visibility in the
+    /// splat footprint", "Photons where the camera looks", "Ray store budget",
     /// "Pause (Space)" or "Resume (Space)", "Restart", "Path-trace this view". `paused` is
     /// the worker's state as last reported; the pause button flips it.
     pub fn ui(
@@ -90,26 +91,26 @@ impl RenderingPanel {
             },
             |&d| Command::SetDirect(d),
         );
-        ui.add_enabled_ui(r.direct == DirectMode::Nee, |ui| {
-            out.on_change(
-                &mut r.nee_samples,
-                |n| {
-                    ui.add(
-                        egui::Slider::new(n, limits::NEE_SAMPLES.range())
-                            .logarithmic(true)
-                            .text("Light samples"),
-                    )
-                    .on_hover_text(
-                        "Light samples (NEE, with a BSDF sample under MIS) per eye sample and \
-                         draw. The direct light is drawn again with each photon batch while \
-                         that costs less than the batch. 4 by default: a room lit through \
-                         its window sees most of its noise here (docs/deviations.md §50). \
-                         Changing it draws the direct light anew.",
-                    );
-                },
-                |&n| Command::SetNeeSamples(n),
-            );
-        });
+        out.on_change(
+            &mut r.nee_samples,
+            |n| {
+                ui.add(
+                    egui::Slider::new(n, limits::NEE_SAMPLES.range())
+                        .logarithmic(true)
+                        .text("Light samples"),
+                )
+                .on_hover_text(
+                    "Light samples (NEE, with a BSDF sample under MIS) per eye sample and \
+                     draw; with direct light by photons, only the traced glossy lobes draw \
+                     them. The direct light is drawn again with each photon batch while \
+                     that costs less than the batch. 4 by default: a room lit through its \
+                     window sees most of its noise here (docs/deviations.md §50). Changing \
+                     it draws the eye samples' direct light anew and re-splats the stored \
+                     photons (no re-trace).",
+                );
+            },
+            |&n| Command::SetNeeSamples(n),
+        );
         out.on_change(
             &mut r.radiance_map,
             |map| {
@@ -159,10 +160,11 @@ impl RenderingPanel {
                          and directions, the sky's disc and directions, the sun) send photons \
                          that reach the eye samples, and emit there more often, each photon \
                          weighted so that the image stays unbiased (docs/deviations.md §44). \
-                         On by default: in a room lit through its window it halves the \
-                         photons' noise at equal time; elsewhere it costs little. Off, photons \
-                         leave the lights in proportion to power, as the paper's do. Moving \
-                         the camera starts the learning again. Switching restarts tracing.",
+                         On by default: with 4 light samples, a room lit through its window \
+                         had 0.46-0.55x the error at 10 s, other scenes level or better. Off, \
+                         photons leave the lights in proportion to power, as the paper's do. \
+                         Auto C was measured with emission by power. Moving the camera \
+                         starts the learning again. Switching restarts tracing.",
                     );
             },
             |&on| Command::SetGuidedEmission(on),

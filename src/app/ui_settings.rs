@@ -37,6 +37,11 @@ pub struct UiSettings {
     pub split: bool,
     /// Where the divider is, as a fraction of the image's width.
     pub split_at: f32,
+    /// The defaults these settings were saved under ([`UiSettings::DEFAULTS`]; 0 before
+    /// the field existed): a stored value from older defaults takes the newer ones where
+    /// they changed ([`UiSettings::from_storage`]). Missing: 0, not today's version.
+    #[serde(default)]
+    pub defaults: u32,
 }
 
 impl Default for UiSettings {
@@ -54,6 +59,7 @@ impl Default for UiSettings {
             pause_below: 0.002,
             split: false,
             split_at: 0.5,
+            defaults: Self::DEFAULTS,
         }
     }
 }
@@ -62,10 +68,28 @@ impl UiSettings {
     /// The key of the settings in eframe's storage.
     pub const STORAGE_KEY: &'static str = "raysplat-ui";
 
-    /// The persisted settings, moved into [`limits`]; `None` when nothing is stored or the
-    /// stored value does not parse (an older format, a damaged file).
+    /// The defaults' version. 1 (2026-11-26): emission guided by what reached the eye samples
+    /// and 4 light samples per eye sample (docs/deviations.md §44, §50); a window saved
+    /// before had them off and 1, and would have kept them.
+    pub const DEFAULTS: u32 = 1;
+
+    /// The persisted settings, moved into [`limits`] and onto the current defaults where
+    /// those changed since they were saved; `None` when nothing is stored or the stored value
+    /// does not parse (an older format, a damaged file).
     pub fn from_storage(storage: &dyn eframe::Storage) -> Option<Self> {
-        eframe::get_value::<UiSettings>(storage, Self::STORAGE_KEY).map(Self::within_limits)
+        eframe::get_value::<UiSettings>(storage, Self::STORAGE_KEY)
+            .map(|s| s.onto_current_defaults().within_limits())
+    }
+
+    /// Settings saved under older defaults take the newer ones where they changed.
+    fn onto_current_defaults(mut self) -> Self {
+        if self.defaults < 1 {
+            let d = SessionConfig::default().settings;
+            self.render.guided_emission = d.guided_emission;
+            self.render.nee_samples = d.nee_samples;
+        }
+        self.defaults = Self::DEFAULTS;
+        self
     }
 
     /// Store the settings in eframe's storage.

@@ -144,6 +144,39 @@ mod tests {
     /// image is whole between them), the last completes it, and the film is the one batch a
     /// headless render splats at once. A view set between the pieces re-splats the stored
     /// batch, in pieces as well, to the same film.
+    /// A new count of light samples draws the eye side's direct light anew and re-splats
+    /// the stored batches (the settings table's `Resplat`): nothing is traced again, the
+    /// direct light changes, its mean stays (NEE is unbiased at any count) and the indirect
+    /// light comes back from the stored rays.
+    #[test]
+    fn more_light_samples_redraw_the_direct_light_without_a_retrace() {
+        let mut m = small_rs();
+        traced(&mut m);
+        traced(&mut m);
+        let before = m.film();
+        let photons = m.stats().photons_traced;
+        let mut s = m.settings().clone();
+        s.nee_samples = 4;
+        m.update(&s).unwrap();
+        assert_eq!(m.settings().nee_samples, 4);
+        assert_eq!(m.stats().photons_traced, photons, "no photon traced again");
+        // Drain the re-splat of the stored batches.
+        while m.step() != Step::Traced {}
+        let after = m.film();
+        let mean =
+            |v: &[glam::Vec3]| v.iter().map(|c| c.x + c.y + c.z).sum::<f32>() / v.len() as f32;
+        assert_ne!(
+            before.direct, after.direct,
+            "the direct light was drawn anew"
+        );
+        let (a, b) = (mean(&before.direct), mean(&after.direct));
+        assert!((a - b).abs() < 0.1 * a, "direct light's mean {a} -> {b}");
+        assert!(
+            mean(&after.rgb) > mean(&after.direct),
+            "indirect light splatted again"
+        );
+    }
+
     #[test]
     fn the_window_splats_a_batch_in_pieces_and_a_change_between_them_loses_nothing() {
         use crate::methods::photon_core::SPLAT_PIECES;

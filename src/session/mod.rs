@@ -46,7 +46,8 @@ pub enum Command {
     },
     /// Switching direct light between NEE and photons restarts tracing.
     SetDirect(DirectMode),
-    /// Light samples per eye sample and NEE draw (the settings table says what it redoes).
+    /// Light samples per eye sample and NEE draw: a new eye side and a re-splat of the stored
+    /// rays (no re-trace).
     SetNeeSamples(u32),
     /// Directional storage at glossy samples (§8.1): new accumulators, then a re-splat of
     /// the stored rays (no re-trace).

@@ -16,7 +16,8 @@ pub enum Effect {
     /// `Method::update`, nothing re-splatted.
     Resolve,
     /// The stored photon rays are splatted again (bandwidth, the schedule's M₁, the radiance
-    /// map's records): `Method::update`, no re-trace.
+    /// map's records, the error estimate's accumulators, NEE's light samples: the last three
+    /// on a new eye side): `Method::update`, no re-trace.
     Resplat,
     /// A new eye side (eye samples, splat tree) and a re-splat: `Method::set_view`.
     View,
@@ -146,7 +147,7 @@ pub const SETTINGS: &[Setting] = &[
     setting!(
         "nee_samples",
         "NEE samples",
-        Retrace,
+        Resplat,
         nee_samples,
         U32(NEE_SAMPLES)
     ),

@@ -207,7 +207,6 @@ fn the_effects_are_the_documented_ones() {
             "seed",
             "direct",
             "max_specular_depth",
-            "nee_samples",
             "max_emitted_factor",
             "merge_targets",
             "splat_visibility",
@@ -228,6 +227,7 @@ fn the_effects_are_the_documented_ones() {
             "bandwidth.max_bandwidth_r",
             "progressive_bandwidth",
             "radiance_map",
+            "nee_samples",
             "estimate_error"
         ]
     );

@@ -148,6 +148,8 @@ impl Method for FinalGathering {
     fn update(&mut self, settings: &RenderSettings) -> Result<(), MethodError> {
         self.settings.photons = settings.photons;
         self.settings.bandwidth = settings.bandwidth;
+        // Each gathering pass draws its own direct light: the next one with the new count.
+        self.settings.nee_samples = settings.nee_samples;
         Ok(())
     }
 
