@@ -209,11 +209,14 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
                 enabled: rng.next_f32() < 0.6,
                 strength: 3.0 * u,
             }),
-            15 if u < 0.3 => Command::SetSplatVisibility(u < 0.15),
-            _ => match (u * 4.0) as u32 {
-                0 => Command::LoadScene(good.clone()),
-                1 => Command::LoadScene(bad.clone()),
-                2 => Command::LoadScene(PathBuf::from("/nonexistent/scene.glb")),
+            _ => match (rng.next_f32() * 7.0) as u32 {
+                0 => Command::SetSplatVisibility(u < 0.5),
+                1 => Command::SetGuidedEmission(u < 0.5),
+                // Past the limits too (0, 10,000): the worker clamps them.
+                2 => Command::SetNeeSamples([0, 1, 4, 10_000][(u * 3.99) as usize]),
+                3 => Command::LoadScene(good.clone()),
+                4 => Command::LoadScene(bad.clone()),
+                5 => Command::LoadScene(PathBuf::from("/nonexistent/scene.glb")),
                 _ => Command::Restart,
             },
         };
@@ -400,9 +403,14 @@ fn the_worker_clamps_commands_to_the_limits_table() {
         max_bandwidth_r: 0.5,
     }));
     session.send(Command::SetPhotonsPerBatch(1));
+    session.send(Command::SetNeeSamples(10_000));
     let f = wait(&session, 60, |f| {
         f.generation > first.generation && !f.interactive && f.settings.spp != 1
     });
+    assert_eq!(
+        f.settings.nee_samples,
+        raysplat::settings::limits::NEE_SAMPLES.max
+    );
     let l = raysplat::settings::limits::SPP;
     assert_eq!(f.settings.spp, l.max);
     assert_eq!(f.settings.bandwidth.smoothness_c, 5.0);

@@ -8,7 +8,8 @@
 //! sun's disc) and a side ([`crate::scene::Lights::emit`]). Each light's square of `u_pos` and
 //! square of `u_dir` are cut into a grid of cells ([`cells_of`]): the environment's
 //! position disc and directions both, the sun's and a directional light's disc, a
-//! punctual light's directions, an area light's position and direction coarsely.
+//! punctual light's directions, an area light's position coarsely and its directions as
+//! finely as the scene's own lights' shared budget allows ([`LOCAL_CELL_BUDGET`]).
 //!
 //! **Learning.** After each batch the splat pass says, per stored ray, whether it splatted
 //! onto at least one eye sample ([`crate::pipeline::splat::prepare_and_splat`]); a cell's
@@ -43,7 +44,9 @@ pub const AREA_LIGHTS_WITH_GRID: usize = 4096;
 /// Cells per side of an area light's position square.
 pub const AREA_POSITION_GRID: u32 = 2;
 /// Cells shared by the scene's own lights (area and punctual): each gets an equal part, as
-/// a direction grid as fine as that allows within [`LOCAL_DIRECTION_GRID`]. A lamp that
+/// a direction grid as fine as that allows within [`LOCAL_DIRECTION_GRID`] (a soft bound:
+/// the coarsest grids of very many lights exceed it; a light of many triangles has a grid
+/// per triangle, each learning from its own photons). A lamp that
 /// lights a room through its window sends a few tenths of a percent of its photons through it
 /// (`builtin:room`'s lamp, 14 m out: 0.4% of its cosine-weighted directions); only a grid
 /// of about that cell size can find the window, and a coarse one starves the lamp instead
@@ -383,6 +386,42 @@ mod tests {
             in_taught as f64 > 0.3 * n as f64,
             "{in_taught} of {n} photons from the taught cells"
         );
+    }
+
+    /// The scene's own lights share [`LOCAL_CELL_BUDGET`]: the direction grid's side is the
+    /// square root of a light's share within its bounds, and the cell count fits the ray tag.
+    #[test]
+    fn the_scenes_own_lights_share_the_cell_budget() {
+        let point = Light::Point {
+            position: glam::Vec3::ZERO,
+            intensity: glam::Vec3::ONE,
+        };
+        // One light: the finest grid; 64: √1024 = 32; 65: √1008 → 31; 4,096: √16 → the
+        // coarsest, 8.
+        for (local, side) in [
+            (1, 32),
+            (64, 32),
+            (65, 31),
+            (256, 16),
+            (4096, 8),
+            (1 << 20, 8),
+        ] {
+            assert_eq!(cells_of(&point, local, 0), (1, side), "{local} lights");
+        }
+        // CORNELL BOX I's two light triangles: 2 × 2 positions × 16 × 16 directions each.
+        let scene = Scene::builtin(BuiltinScene::CornellBox1);
+        let guide = EmissionGuide::new(&scene.lights);
+        assert_eq!(guide.cells(), 2 * 4 * 256);
+        // The room: its lamp's two triangles likewise, and the sky's 32² × 4².
+        let mut room = Scene::builtin(BuiltinScene::WindowRoom);
+        room.set_environment(&EnvironmentSettings {
+            kind: EnvironmentKind::Uniform,
+            ..Default::default()
+        })
+        .expect("a uniform sky");
+        let guide = EmissionGuide::new(&room.lights);
+        assert_eq!(guide.cells(), 2 * 4 * 256 + 32 * 32 * 16);
+        assert!((guide.cells() as u64) < NO_CELL as u64);
     }
 
     /// Before learning, the guide emits the lights' own photons from the same numbers.
