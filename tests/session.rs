@@ -512,7 +512,8 @@ fn the_reference_mode_from_the_start_renders_at_full_size() {
 #[test]
 fn the_first_coarse_image_traces_half_a_batch_and_the_next_ones_a_whole() {
     let _w = Watchdog::new(120);
-    let config = small_config();
+    let mut config = small_config();
+    config.settings.nee_samples = 4;
     let (w, m) = (config.settings.width, config.settings.photons);
     let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
     let first = wait(&session, 60, |f| f.stats.method.passes >= 1);
@@ -521,10 +522,33 @@ fn the_first_coarse_image_traces_half_a_batch_and_the_next_ones_a_whole() {
         "the first image is coarse"
     );
     assert_eq!(first.settings.photons, m / 2);
+    assert_eq!(
+        first.settings.nee_samples, 1,
+        "the coarse image draws one light sample"
+    );
     let later = wait(&session, 60, |f| {
         f.settings.width == w && f.stats.method.passes >= 3
     });
     assert_eq!(later.settings.photons, m);
+    assert_eq!(later.settings.nee_samples, 4);
+    // A camera being dragged: one light sample per eye sample, the count again at rest.
+    let camera = Scene::default_scene().cameras[0].clone();
+    session.send(Command::SetCamera {
+        camera: camera.clone(),
+        interactive: true,
+    });
+    let dragged = wait(&session, 60, |f| {
+        f.interactive && f.generation > later.generation
+    });
+    assert_eq!(dragged.settings.nee_samples, 1);
+    session.send(Command::SetCamera {
+        camera,
+        interactive: false,
+    });
+    let rest = wait(&session, 60, |f| {
+        !f.interactive && f.generation > dragged.generation
+    });
+    assert_eq!(rest.settings.nee_samples, 4);
 }
 
 /// The split view: the path tracer refines the same view beside the photon batches, both

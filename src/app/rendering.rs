@@ -104,9 +104,9 @@ impl RenderingPanel {
                      draw; with direct light by photons, only the traced glossy lobes draw \
                      them. The direct light is drawn again with each photon batch while \
                      that costs less than the batch. 4 by default: a room lit through its \
-                     window sees most of its noise here (docs/deviations.md §50). Changing \
-                     it draws the eye samples' direct light anew and re-splats the stored \
-                     photons (no re-trace).",
+                     window sees most of its noise here (docs/deviations.md §50). A change \
+                     reaches the direct light drawn from the next batch on (no re-trace, no \
+                     re-splat).",
                 );
             },
             |&n| Command::SetNeeSamples(n),

@@ -144,13 +144,24 @@ mod tests {
     /// image is whole between them), the last completes it, and the film is the one batch a
     /// headless render splats at once. A view set between the pieces re-splats the stored
     /// batch, in pieces as well, to the same film.
-    /// A new count of light samples draws the eye side's direct light anew and re-splats
-    /// the stored batches (the settings table's `Resplat`): nothing is traced again, the
-    /// direct light changes, its mean stays (NEE is unbiased at any count) and the indirect
-    /// light comes back from the stored rays.
+    /// A new count of light samples reaches the NEE drawn from the next batch on (the
+    /// settings table's `Resolve`): nothing is traced again or re-splatted, the next eye
+    /// pass's direct light is drawn with it, and its mean stays (NEE is unbiased at any
+    /// count).
     #[test]
-    fn more_light_samples_redraw_the_direct_light_without_a_retrace() {
-        let mut m = small_rs();
+    fn more_light_samples_reach_the_next_draws_without_a_retrace() {
+        // Larger than `small_rs`: at its 256 pixels the two means differed by 23% (0.277 →
+        // 0.214, the noise of one NEE sample a pixel), here by 6% (0.279 → 0.262).
+        let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
+        let settings = RenderSettings {
+            width: 48,
+            height: 48,
+            spp: 1,
+            photons: 2_000,
+            ..RenderSettings::default()
+        };
+        let mut m: PhotonMethod<RsResolver> =
+            crate::methods::testing::open(scene, settings).unwrap();
         traced(&mut m);
         traced(&mut m);
         let before = m.film();
@@ -160,8 +171,7 @@ mod tests {
         m.update(&s).unwrap();
         assert_eq!(m.settings().nee_samples, 4);
         assert_eq!(m.stats().photons_traced, photons, "no photon traced again");
-        // Drain the re-splat of the stored batches.
-        while m.step() != Step::Traced {}
+        assert_eq!(m.step(), Step::Traced, "no re-splat before the next batch");
         let after = m.film();
         let mean =
             |v: &[glam::Vec3]| v.iter().map(|c| c.x + c.y + c.z).sum::<f32>() / v.len() as f32;
@@ -170,11 +180,8 @@ mod tests {
             "the direct light was drawn anew"
         );
         let (a, b) = (mean(&before.direct), mean(&after.direct));
+        eprintln!("direct light's mean {a} -> {b}");
         assert!((a - b).abs() < 0.1 * a, "direct light's mean {a} -> {b}");
-        assert!(
-            mean(&after.rgb) > mean(&after.direct),
-            "indirect light splatted again"
-        );
     }
 
     #[test]

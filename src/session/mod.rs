@@ -46,8 +46,8 @@ pub enum Command {
     },
     /// Switching direct light between NEE and photons restarts tracing.
     SetDirect(DirectMode),
-    /// Light samples per eye sample and NEE draw: a new eye side and a re-splat of the stored
-    /// rays (no re-trace).
+    /// Light samples per eye sample and NEE draw, from the next draw on (no re-trace, no
+    /// re-splat).
     SetNeeSamples(u32),
     /// Directional storage at glossy samples (§8.1): new accumulators, then a re-splat of
     /// the stored rays (no re-trace).

@@ -395,6 +395,18 @@ impl Worker {
             } else {
                 (s.width, s.height, s.spp)
             };
+            // An interactive view draws one light sample per eye sample, as it draws one eye
+            // sample per pixel; the view at rest the configured count (a `Resolve` setting:
+            // the update only adopts it). 4 cost a camera move 25-35 ms.
+            let nee = if self.interactive { 1 } else { s.nee_samples };
+            if r.settings().nee_samples != nee {
+                let mut t = r.settings().clone();
+                t.nee_samples = nee;
+                if let Err(e) = r.update(&t) {
+                    self.emit(Event::Error(e.to_string()));
+                    return;
+                }
+            }
             if let Err(e) = r.set_view(self.camera.clone(), w, h, spp) {
                 self.emit(Event::Error(e.to_string()));
                 return;
@@ -469,6 +481,10 @@ impl Worker {
             // embedded scene (docs/benchmarks.md, "The previewer"). The batches after it
             // have the configured size again (`apply`).
             settings.photons = limits::PHOTONS.clamp(settings.photons / 2);
+            // And one light sample per eye sample: the configured count (4 by default) cost
+            // the first image 60-70 ms; it comes with the update that ends the half batch,
+            // before the full-size view's eye pass (docs/benchmarks.md, "The previewer").
+            settings.nee_samples = 1;
         }
         match methods::build_for(self.scene.clone(), settings, self.camera.clone()) {
             Ok(mut r) => {

@@ -12,12 +12,12 @@ use super::{Limit, RenderSettings, SettingsError, normalised_fractions};
 /// is display-only: exposure and tone curve live in the window's own settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Effect {
-    /// The next film is resolved with it (cache, filter, eye passes from the next batch):
-    /// `Method::update`, nothing re-splatted.
+    /// The next film is resolved with it (cache, filter, eye passes and NEE's light samples
+    /// from the next batch): `Method::update`, nothing re-splatted.
     Resolve,
     /// The stored photon rays are splatted again (bandwidth, the schedule's M₁, the radiance
-    /// map's records, the error estimate's accumulators, NEE's light samples: the last three
-    /// on a new eye side): `Method::update`, no re-trace.
+    /// map's records, the error estimate's accumulators: the last two on a new eye side):
+    /// `Method::update`, no re-trace.
     Resplat,
     /// A new eye side (eye samples, splat tree) and a re-splat: `Method::set_view`.
     View,
@@ -147,7 +147,7 @@ pub const SETTINGS: &[Setting] = &[
     setting!(
         "nee_samples",
         "NEE samples",
-        Resplat,
+        Resolve,
         nee_samples,
         U32(NEE_SAMPLES)
     ),

@@ -227,7 +227,6 @@ fn the_effects_are_the_documented_ones() {
             "bandwidth.max_bandwidth_r",
             "progressive_bandwidth",
             "radiance_map",
-            "nee_samples",
             "estimate_error"
         ]
     );

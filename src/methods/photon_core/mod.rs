@@ -581,9 +581,6 @@ impl PhotonCore {
         // Both need a new eye side (its accumulators), then a re-splat.
         let new_map = s.radiance_map != self.settings.radiance_map;
         let new_estimate = s.estimate_error != self.settings.estimate_error;
-        // The eye side's direct light is drawn with the new count; the photons stay.
-        let old_nee = self.settings.nee_samples;
-        let new_nee = s.nee_samples != old_nee;
         // Under `--c auto` the C is the render's own: the caller's is only where it started.
         let auto_c = s.auto_c.then_some(self.settings.bandwidth.smoothness_c);
         let mut s = s.clone();
@@ -601,16 +598,15 @@ impl PhotonCore {
         // Earlier passes' films were made without the cache and filter now asked for: their
         // batches go onto the current pass (a re-splat), so that the change reaches all of it.
         resplat |= !self.eye_passes_allowed() && self.earlier.batches > 0;
-        if new_map || new_estimate || new_nee {
+        if new_map || new_estimate {
             // New accumulators (with the new directional records, or with or without the
-            // half-bandwidth ones of the error estimate) or NEE drawn anew, then a re-splat;
-            // refused, the eye side keeps what it was built with.
+            // half-bandwidth ones of the error estimate), then a re-splat; refused, the
+            // accumulators keep the mode they were built for.
             let (w, h, spp) = (self.settings.width, self.settings.height, self.settings.spp);
             let result = self.set_view(self.camera.clone(), w, h, spp);
             if result.is_err() {
                 self.settings.radiance_map = self.side.acc_indirect.mode;
                 self.settings.estimate_error = !self.side.acc_half.is_empty();
-                self.settings.nee_samples = old_nee;
             }
             return result;
         }
