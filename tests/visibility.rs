@@ -397,13 +397,19 @@ fn guided_emission_finds_the_window() {
     let scene = Arc::new(under_the_uniform_sky(Scene::builtin(
         raysplat::scene::BuiltinScene::WindowRoom,
     )));
+    guided_reaches_more(&scene, 0.03, 3.0);
+}
+
+/// By power fewer than `by_power_below` of `scene`'s splatted rays reach an eye sample
+/// ([`reaching_fraction`]), guided more than `factor` times as many.
+fn guided_reaches_more(scene: &Arc<Scene>, by_power_below: f64, factor: f64) {
     let (by_power, guided) = (
-        reaching_fraction(&scene, false),
-        reaching_fraction(&scene, true),
+        reaching_fraction(scene, false),
+        reaching_fraction(scene, true),
     );
     eprintln!("rays reaching an eye sample: {by_power:.4} by power, {guided:.4} guided");
-    assert!(by_power < 0.03, "{by_power}");
-    assert!(guided > 3.0 * by_power, "{guided} vs {by_power}");
+    assert!(by_power < by_power_below, "{by_power}");
+    assert!(guided > factor * by_power, "{guided} vs {by_power}");
 }
 
 /// The room's lamp, 14 m out, sends 0.4% of its photons through the window: the guide's
@@ -412,11 +418,5 @@ fn guided_emission_finds_the_window() {
 #[test]
 fn guided_emission_finds_the_window_from_a_lamp_outside() {
     let scene = Arc::new(Scene::builtin(raysplat::scene::BuiltinScene::WindowRoom));
-    let (by_power, guided) = (
-        reaching_fraction(&scene, false),
-        reaching_fraction(&scene, true),
-    );
-    eprintln!("lamp's rays reaching an eye sample: {by_power:.4} by power, {guided:.4} guided");
-    assert!(by_power < 0.05, "{by_power}");
-    assert!(guided > 2.5 * by_power, "{guided} vs {by_power}");
+    guided_reaches_more(&scene, 0.05, 2.5);
 }

@@ -115,10 +115,15 @@ mod tests {
     use std::sync::Arc;
 
     fn small_rs() -> PhotonMethod<RsResolver> {
+        rs_of_size(16)
+    }
+
+    /// rs on the classic box at `side`² pixels, one eye sample each, batches of 2,000.
+    fn rs_of_size(side: u32) -> PhotonMethod<RsResolver> {
         let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
         let settings = RenderSettings {
-            width: 16,
-            height: 16,
+            width: side,
+            height: side,
             spp: 1,
             photons: 2_000,
             ..RenderSettings::default()
@@ -152,16 +157,7 @@ mod tests {
     fn more_light_samples_reach_the_next_draws_without_a_retrace() {
         // Larger than `small_rs`: at its 256 pixels the two means differed by 23% (0.277 →
         // 0.214, the noise of one NEE sample a pixel), here by 6% (0.279 → 0.262).
-        let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
-        let settings = RenderSettings {
-            width: 48,
-            height: 48,
-            spp: 1,
-            photons: 2_000,
-            ..RenderSettings::default()
-        };
-        let mut m: PhotonMethod<RsResolver> =
-            crate::methods::testing::open(scene, settings).unwrap();
+        let mut m = rs_of_size(48);
         traced(&mut m);
         traced(&mut m);
         let before = m.film();
