@@ -465,3 +465,18 @@ fn until_error_stops_when_the_estimate_is_below_it() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("need --method rs"), "{err}");
 }
+
+/// Every built-in scene is named in the help of the commands that open one (the window's
+/// help listed five of the eight).
+#[test]
+fn help_names_every_builtin_scene() {
+    for args in [&["--help"][..], &["view", "--help"], &["render", "--help"]] {
+        let out = bin().args(args).output().unwrap();
+        succeeded(&out);
+        let text = String::from_utf8_lossy(&out.stdout);
+        for scene in raysplat::scene::BuiltinScene::ALL {
+            let name = format!("builtin:{}", scene.key());
+            assert!(text.contains(&name), "{args:?} lacks {name}");
+        }
+    }
+}

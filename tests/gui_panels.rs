@@ -427,7 +427,15 @@ fn rendering_panel_emits_one_command_per_widget() {
         8.0,
         Command::SetNeeSamples(8),
     );
-    expected.render.nee_samples = 8;
+    // The window's slider stops at its own end (an eye pass at 256 takes seconds).
+    step(
+        &mut h,
+        Role::Slider,
+        "Light samples",
+        1000.0,
+        Command::SetNeeSamples(raysplat::app::rendering::WINDOW_LIGHT_SAMPLES_MAX),
+    );
+    expected.render.nee_samples = raysplat::app::rendering::WINDOW_LIGHT_SAMPLES_MAX;
     expected.render.photons = 50_000;
     expected.render.spp = limits::SPP.max;
     expected.render.width = 128;

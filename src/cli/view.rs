@@ -10,7 +10,8 @@ use std::sync::Arc;
 #[derive(Args, Default)]
 pub struct ViewArgs {
     /// A .gltf/.glb file, or builtin:cornell1 | builtin:cornell2 | builtin:classic |
-    /// builtin:glossy | builtin:outdoor; without it, the embedded CORNELL BOX I.
+    /// builtin:glossy | builtin:glossy-sharp | builtin:outdoor | builtin:room | builtin:features.
+    /// Without it, the embedded CORNELL BOX I.
     pub scene: Option<String>,
     #[command(flatten)]
     pub environment: super::args::EnvArgs,
