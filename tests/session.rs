@@ -690,3 +690,26 @@ fn a_dragged_camera_keeps_getting_frames() {
     }
     assert!(frames >= 4, "{frames} frames in 4 s of dragging");
 }
+
+/// "elapsed" (and photons per second) count the time spent rendering, not a pause: a frame
+/// after a pause of 1.5 s reads at least a second less than the wall clock since the start.
+#[test]
+fn a_pause_does_not_count_as_elapsed_time() {
+    let _w = Watchdog::new(120);
+    let start = Instant::now();
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, small_config(), None);
+    let first = wait(&session, 60, |f| f.stats.method.passes >= 1);
+    session.send(Command::Pause);
+    std::thread::sleep(Duration::from_millis(1500));
+    session.send(Command::Resume);
+    let later = wait(&session, 60, |f| {
+        !f.stats.paused && f.stats.method.passes > first.stats.method.passes
+    });
+    let wall = start.elapsed().as_secs_f64();
+    assert!(
+        later.stats.elapsed_s < wall - 1.0,
+        "elapsed {} s against {wall} s of wall time with 1.5 s paused",
+        later.stats.elapsed_s
+    );
+    assert!(later.stats.elapsed_s > first.stats.elapsed_s);
+}

@@ -153,7 +153,7 @@ pub struct SessionStats {
     pub photons_per_second: f64,
     /// Splat time of the last step, milliseconds.
     pub last_splat_ms: f64,
-    /// Seconds since the current scene was loaded or tracing restarted.
+    /// Seconds spent unpaused since the current scene was loaded or tracing restarted.
     pub elapsed_s: f64,
     /// The worker is paused.
     pub paused: bool,

@@ -62,7 +62,8 @@ pub(super) struct Worker {
     paused_below: Option<f64>,
     generation: u64,
     seq: u64,
-    started: Instant,
+    /// Time spent unpaused since the restart.
+    run_clock: RunClock,
     frame_tx: Sender<Frame>,
     stale: Receiver<Frame>,
     event_tx: Sender<Event>,
@@ -105,7 +106,7 @@ impl Worker {
             paused_below: None,
             generation: 0,
             seq: 0,
-            started: Instant::now(),
+            run_clock: RunClock::new(),
             frame_tx,
             stale,
             event_tx,
@@ -253,8 +254,12 @@ impl Worker {
                     r.set_ray_budget(self.config.max_stored_rays);
                 }
             }
-            Command::Pause => self.paused = true,
+            Command::Pause => {
+                self.run_clock.tick(self.paused);
+                self.paused = true;
+            }
             Command::Resume => {
+                self.run_clock.tick(self.paused);
                 self.paused = false;
                 self.paused_below = None;
             }
@@ -464,7 +469,7 @@ impl Worker {
     }
 
     fn restart(&mut self) {
-        self.started = Instant::now();
+        self.run_clock = RunClock::new();
         // The reference shows the scene and settings of the method it is beside.
         self.reference = None;
         let mut settings = self.config.settings.clone();
@@ -540,6 +545,7 @@ impl Worker {
                 // is not acted on (a black image has none).
                 Some(e) if e.rel_mse < threshold && !self.paused && e.trusted() => {
                     if self.pause_armed {
+                        self.run_clock.tick(self.paused);
                         self.paused = true;
                         self.paused_below = Some(threshold);
                     }
@@ -549,7 +555,10 @@ impl Worker {
                 _ => self.pause_armed = true,
             }
         }
-        let elapsed = self.started.elapsed().as_secs_f64();
+        // The time spent rendering: paused spans do not count (a new user read photons/s
+        // falling after a pause).
+        self.run_clock.tick(self.paused);
+        let elapsed = self.run_clock.running.as_secs_f64();
         // The indirect class's rays at the bandwidth bounds (all classes when it is empty).
         let (at_min, at_max) = m.bandwidth_clamps.map_or((0.0, 0.0), |clamps| {
             let pick = if clamps[1].rays > 0 {
@@ -629,5 +638,31 @@ fn lit(scene: Arc<Scene>, env: &EnvironmentSettings) -> (Arc<Scene>, Option<Stri
                 env.kind.name()
             )),
         ),
+    }
+}
+
+/// The time a session spent rendering: paused spans do not count.
+struct RunClock {
+    /// Unpaused time up to `last`.
+    running: Duration,
+    last: Instant,
+}
+
+impl RunClock {
+    fn new() -> Self {
+        Self {
+            running: Duration::ZERO,
+            last: Instant::now(),
+        }
+    }
+
+    /// Bring the unpaused time up to now; `paused` is the state since the last tick (call
+    /// before the pause state changes, and before reading).
+    fn tick(&mut self, paused: bool) {
+        let now = Instant::now();
+        if !paused {
+            self.running += now - self.last;
+        }
+        self.last = now;
     }
 }
