@@ -34,7 +34,13 @@ impl StatsPanel {
             ui.separator();
             ui.label(format!("{:.0} photons/s", s.photons_per_second));
             ui.separator();
-            ui.label(format!("splat {:.0} ms/batch", s.last_splat_ms));
+            // A batch's whole step: its NEE redraws, tracing and splatting (a new user read
+            // "splat" and found seconds of light samples in it).
+            ui.label(format!("{:.0} ms/batch", s.last_splat_ms))
+                .on_hover_text(
+                    "The last batch's step: the direct light's redraw, the photons' tracing \
+                     and their splat",
+                );
             ui.separator();
             ui.label(format!(
                 "at h_min {:.1}% / h_max {:.1}%",

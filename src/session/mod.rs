@@ -151,7 +151,8 @@ pub struct SessionStats {
     pub method: MethodStats,
     /// `photons_traced` / `elapsed_s`.
     pub photons_per_second: f64,
-    /// Splat time of the last step, milliseconds.
+    /// The last batch's step (NEE redraws, tracing, splatting), milliseconds; 0 after a
+    /// restart until a batch is done.
     pub last_splat_ms: f64,
     /// Seconds spent unpaused since the current scene was loaded or tracing restarted.
     pub elapsed_s: f64,

@@ -470,6 +470,8 @@ impl Worker {
 
     fn restart(&mut self) {
         self.run_clock = RunClock::new();
+        // The last batch's time belongs to the render before the restart.
+        (self.last_splat_ms, self.splat_ms_sum) = (0.0, 0.0);
         // The reference shows the scene and settings of the method it is beside.
         self.reference = None;
         let mut settings = self.config.settings.clone();
