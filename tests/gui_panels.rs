@@ -433,9 +433,9 @@ fn rendering_panel_emits_one_command_per_widget() {
         Role::Slider,
         "Light samples",
         1000.0,
-        Command::SetNeeSamples(raysplat::app::rendering::WINDOW_LIGHT_SAMPLES_MAX),
+        Command::SetNeeSamples(limits::WINDOW_NEE_SAMPLES.max),
     );
-    expected.render.nee_samples = raysplat::app::rendering::WINDOW_LIGHT_SAMPLES_MAX;
+    expected.render.nee_samples = limits::WINDOW_NEE_SAMPLES.max;
     expected.render.photons = 50_000;
     expected.render.spp = limits::SPP.max;
     expected.render.width = 128;

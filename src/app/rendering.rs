@@ -12,11 +12,6 @@ use crate::pipeline::directional::DirectionalMode;
 use crate::session::Command;
 use crate::settings::{DirectMode, limits};
 
-/// The Light samples slider's end (the settings table allows 256, for headless renders): at
-/// 256 an eye pass at 500×500 took 10–12 s in a new user's trial, and a camera move or Restart
-/// waits for the pass under way.
-pub const WINDOW_LIGHT_SAMPLES_MAX: u32 = 32;
-
 /// What the worker renders and how it runs.
 #[derive(Clone, Debug, Default)]
 pub struct RenderingPanel;
@@ -100,7 +95,7 @@ impl RenderingPanel {
             &mut r.nee_samples,
             |n| {
                 ui.add(
-                    egui::Slider::new(n, 1..=WINDOW_LIGHT_SAMPLES_MAX)
+                    egui::Slider::new(n, limits::WINDOW_NEE_SAMPLES.range())
                         .logarithmic(true)
                         .text("Light samples"),
                 )

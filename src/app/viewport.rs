@@ -287,7 +287,6 @@ impl Viewport {
     }
 }
 
-/// The film's values at the pixel under the pointer, in a tooltip.
 /// The pixel under the pointer, or none outside a `width` × `height` image in `rect`.
 fn pixel_at(rect: egui::Rect, pos: egui::Pos2, width: u32, height: u32) -> Option<(u32, u32)> {
     let px = ((pos.x - rect.min.x) / rect.width() * width as f32) as u32;
@@ -311,6 +310,7 @@ fn probe_reference(response: egui::Response, pos: egui::Pos2, r: &crate::film::F
     });
 }
 
+/// The film's values at the pixel under the pointer, in a tooltip.
 fn probe(response: egui::Response, pos: egui::Pos2, f: &Frame) {
     let Some((px, py)) = pixel_at(response.rect, pos, f.film.width, f.film.height) else {
         return;

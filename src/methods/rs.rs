@@ -144,11 +144,6 @@ mod tests {
             .fold(0.0, f32::max)
     }
 
-    /// In the window (paced, not headless) a new batch is splatted in
-    /// [`crate::methods::photon_core::SPLAT_PIECES`] steps: the first ones are partial (no
-    /// image is whole between them), the last completes it, and the film is the one batch a
-    /// headless render splats at once. A view set between the pieces re-splats the stored
-    /// batch, in pieces as well, to the same film.
     /// A new count of light samples reaches the NEE drawn from the next batch on (the
     /// settings table's `Resolve`): nothing is traced again or re-splatted, the next eye
     /// pass's direct light is drawn with it, and its mean stays (NEE is unbiased at any
@@ -158,8 +153,13 @@ mod tests {
         // Larger than `small_rs`: at its 256 pixels the two means differed by 23% (0.277 →
         // 0.214, the noise of one NEE sample a pixel), here by 6% (0.279 → 0.262).
         let mut m = rs_of_size(48);
-        traced(&mut m);
-        traced(&mut m);
+        // Its twin keeps one light sample: the same seeds, so its direct light differs from
+        // `m`'s only if the new count was used.
+        let mut twin = rs_of_size(48);
+        for r in [&mut m, &mut twin] {
+            traced(r);
+            traced(r);
+        }
         let before = m.film();
         let photons = m.stats().photons_traced;
         let mut s = m.settings().clone();
@@ -175,11 +175,22 @@ mod tests {
             before.direct, after.direct,
             "the direct light was drawn anew"
         );
+        assert_eq!(twin.step(), Step::Traced);
+        assert_ne!(
+            twin.film().direct,
+            after.direct,
+            "the next eye pass drew its direct light with 4 light samples, not 1"
+        );
         let (a, b) = (mean(&before.direct), mean(&after.direct));
         eprintln!("direct light's mean {a} -> {b}");
         assert!((a - b).abs() < 0.1 * a, "direct light's mean {a} -> {b}");
     }
 
+    /// In the window (paced, not headless) a new batch is splatted in
+    /// [`crate::methods::photon_core::SPLAT_PIECES`] steps: the first ones are partial (no
+    /// image is whole between them), the last completes it, and the film is the one batch a
+    /// headless render splats at once. A view set between the pieces re-splats the stored
+    /// batch, in pieces as well, to the same film.
     #[test]
     fn the_window_splats_a_batch_in_pieces_and_a_change_between_them_loses_nothing() {
         use crate::methods::photon_core::SPLAT_PIECES;

@@ -390,29 +390,21 @@ impl Worker {
         if view {
             // The reference shows the current view at its size only.
             self.reference = None;
-            let (w, h, spp) = if self.interactive {
-                let d = self.config.interactive_divisor.max(1);
-                (
-                    limits::RESOLUTION.clamp(s.width / d),
-                    limits::RESOLUTION.clamp(s.height / d),
-                    1,
-                )
+            let v = if self.interactive {
+                interactive_view(s, self.config.interactive_divisor)
             } else {
-                (s.width, s.height, s.spp)
+                s.clone()
             };
-            // An interactive view draws one light sample per eye sample, as it draws one eye
-            // sample per pixel; the view at rest the configured count (a `Resolve` setting:
-            // the update only adopts it). 4 cost a camera move 25-35 ms.
-            let nee = if self.interactive { 1 } else { s.nee_samples };
-            if r.settings().nee_samples != nee {
+            // The light samples are a `Resolve` setting: the update only adopts them.
+            if r.settings().nee_samples != v.nee_samples {
                 let mut t = r.settings().clone();
-                t.nee_samples = nee;
+                t.nee_samples = v.nee_samples;
                 if let Err(e) = r.update(&t) {
                     self.emit(Event::Error(e.to_string()));
                     return;
                 }
             }
-            if let Err(e) = r.set_view(self.camera.clone(), w, h, spp) {
+            if let Err(e) = r.set_view(self.camera.clone(), v.width, v.height, v.spp) {
                 self.emit(Event::Error(e.to_string()));
                 return;
             }
@@ -474,24 +466,18 @@ impl Worker {
         (self.last_splat_ms, self.splat_ms_sum) = (0.0, 0.0);
         // The reference shows the scene and settings of the method it is beside.
         self.reference = None;
-        let mut settings = self.config.settings.clone();
         self.coarse_start = self.config.interactive_divisor > 1;
-        if self.interactive || self.coarse_start {
-            let d = self.config.interactive_divisor.max(1);
-            settings.width = limits::RESOLUTION.clamp(settings.width / d);
-            settings.height = limits::RESOLUTION.clamp(settings.height / d);
-            settings.spp = 1;
-        }
+        let mut settings = if self.interactive || self.coarse_start {
+            interactive_view(&self.config.settings, self.config.interactive_divisor)
+        } else {
+            self.config.settings.clone()
+        };
         if self.coarse_start {
             // The coarse first image traces half a batch: its splat time falls as M^(2/3)
             // (the bandwidth grows as M^(−1/6)), first image 258–267 → 182–191 ms on the
             // embedded scene (docs/benchmarks.md, "The previewer"). The batches after it
             // have the configured size again (`apply`).
             settings.photons = limits::PHOTONS.clamp(settings.photons / 2);
-            // And one light sample per eye sample: the configured count (4 by default) cost
-            // the first image 60-70 ms; it comes with the update that ends the half batch,
-            // before the full-size view's eye pass (docs/benchmarks.md, "The previewer").
-            settings.nee_samples = 1;
         }
         match methods::build_for(self.scene.clone(), settings, self.camera.clone()) {
             Ok(mut r) => {
@@ -640,6 +626,23 @@ fn lit(scene: Arc<Scene>, env: &EnvironmentSettings) -> (Arc<Scene>, Option<Stri
                 env.kind.name()
             )),
         ),
+    }
+}
+
+/// The settings of an interactive view (a camera being dragged, the coarse first image): the
+/// configured size divided by `divisor`, one eye sample per pixel and one light sample each
+/// (the configured 4 cost the first image 60–70 ms and a camera move 25–60 ms,
+/// docs/benchmarks.md "The previewer"). The view at rest gets the configured ones back: the
+/// size and samples by `set_view`, the light samples by the update that ends the coarse
+/// image's half batch or by the view branch of `apply`.
+fn interactive_view(s: &RenderSettings, divisor: u32) -> RenderSettings {
+    let d = divisor.max(1);
+    RenderSettings {
+        width: limits::RESOLUTION.clamp(s.width / d),
+        height: limits::RESOLUTION.clamp(s.height / d),
+        spp: 1,
+        nee_samples: 1,
+        ..s.clone()
     }
 }
 

@@ -48,6 +48,10 @@ pub const MAX_BANDWIDTH_R: Limit<f32> = Limit {
 pub const SPECULAR_DEPTH: Limit<u32> = Limit { min: 0, max: 64 };
 /// Light samples per eye sample (NEE).
 pub const NEE_SAMPLES: Limit<u32> = Limit { min: 1, max: 256 };
+/// The window's Light samples slider, within [`NEE_SAMPLES`]: at 256 an eye pass at 500×500
+/// took 10–12 s in a new user's trial, and a camera move or Restart waits for the pass under
+/// way.
+pub const WINDOW_NEE_SAMPLES: Limit<u32> = Limit { min: 1, max: 32 };
 /// K of the photon maps.
 pub const PM_K: Limit<usize> = Limit {
     min: 1,

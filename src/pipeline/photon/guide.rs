@@ -43,18 +43,20 @@ pub const PRIOR_PHOTONS: f64 = 4.0;
 pub const AREA_LIGHTS_WITH_GRID: usize = 4096;
 /// Cells per side of an area light's position square.
 pub const AREA_POSITION_GRID: u32 = 2;
-/// Cells shared by the scene's own lights (area and punctual): each gets an equal part, as
-/// a direction grid as fine as that allows within [`LOCAL_DIRECTION_GRID`] (a soft bound:
-/// the coarsest grids of very many lights exceed it; a light of many triangles has a grid
-/// per triangle, each learning from its own photons). A lamp that
-/// lights a room through its window sends a few tenths of a percent of its photons through it
-/// (`builtin:room`'s lamp, 14 m out: 0.4% of its cosine-weighted directions); only a grid
-/// of about that cell size can find the window, and a coarse one starves the lamp instead
-/// (docs/deviations.md §44). 2¹⁶ cells hold 768 kB.
+/// Cells shared by the scene's own lights (area and punctual): each gets an equal part, as a
+/// direction grid as fine as that allows within [`AREA_DIRECTION_GRID`] or
+/// [`PUNCTUAL_DIRECTION_GRID`] (a soft bound: the coarsest grids of very many lights exceed
+/// it; a light of many triangles has a grid per triangle, each learning from its own
+/// photons). A lamp that lights a room through its window sends a few tenths of a percent of
+/// its photons through it (`builtin:room`'s lamp, 14 m out: 0.4% of its cosine-weighted
+/// directions); only a grid of about that cell size can find the window, and a coarse one
+/// starves the lamp instead (docs/deviations.md §44). 2¹⁶ cells hold 768 kB.
 pub const LOCAL_CELL_BUDGET: usize = 1 << 16;
 /// The coarsest and finest direction grid sides of an area light (its cosine-weighted
-/// hemisphere) and of a punctual one (its sphere or cone).
-pub const LOCAL_DIRECTION_GRID: [(u32, u32); 2] = [(2, 16), (8, 32)];
+/// hemisphere).
+pub const AREA_DIRECTION_GRID: (u32, u32) = (2, 16);
+/// The coarsest and finest direction grid sides of a point or spot light (its sphere or cone).
+pub const PUNCTUAL_DIRECTION_GRID: (u32, u32) = (8, 32);
 
 /// The cells of one light: (position grid side, direction grid side). `local_lights` counts
 /// the scene's area and punctual lights, `area_lights` the area ones.
@@ -65,11 +67,11 @@ pub fn cells_of(light: &Light, local_lights: usize, area_lights: usize) -> (u32,
         // The disc of light from afar is where the guide finds a window: 32 × 32.
         Light::Environment { .. } => (32, 4),
         Light::Sun(_) | Light::Directional { .. } => (32, 1),
-        Light::Point { .. } | Light::Spot { .. } => (1, side(share, LOCAL_DIRECTION_GRID[1])),
+        Light::Point { .. } | Light::Spot { .. } => (1, side(share, PUNCTUAL_DIRECTION_GRID)),
         Light::Area { .. } if area_lights <= AREA_LIGHTS_WITH_GRID => {
             let position = AREA_POSITION_GRID;
             let per_direction = share / (position * position) as usize;
-            (position, side(per_direction, LOCAL_DIRECTION_GRID[0]))
+            (position, side(per_direction, AREA_DIRECTION_GRID))
         }
         Light::Area { .. } => (1, 1),
     }
