@@ -316,8 +316,8 @@ fn every_numeric_flag_has_a_range() {
     }
 }
 
-/// `--batches N` renders exactly N batches (or path-tracing passes), and cannot be given with
-/// a time budget.
+/// `--batches N` renders exactly N batches (or path-tracing passes, within a --spp given
+/// to the path tracer, here 4), and cannot be given with a time budget.
 #[test]
 fn batches_renders_exactly_that_many() {
     for (method, passes) in [("rs", 3), ("pt", 2)] {
@@ -333,7 +333,7 @@ fn batches_renders_exactly_that_many() {
             "--height",
             "16",
             "--spp",
-            "1",
+            if method == "pt" { "4" } else { "1" },
             "--photons",
             "2000",
             "--batches",
@@ -365,6 +365,69 @@ fn batches_renders_exactly_that_many() {
         !o.status.success(),
         "--batches with --time-budget must be refused"
     );
+}
+
+/// The path tracer under a time budget or a count of passes stops at a --spp given with it,
+/// whichever comes first (it used to ignore --spp there), and its error estimate names no C
+/// or eye passes, which it does not have.
+#[test]
+fn a_path_tracer_stops_at_the_given_spp_within_its_budget() {
+    for budget in [["--time-budget", "120"], ["--batches", "9"]] {
+        let d = dir(&format!("pt_cap{}", budget[0]));
+        let mut args = vec![
+            "render",
+            "builtin:classic",
+            "--method",
+            "pt",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "3",
+            "--out",
+            "o.exr",
+            "--stats",
+            "s.json",
+        ];
+        args.extend(budget);
+        let o = run(&args, &d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let j: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+        assert_eq!(j["passes"], 3, "{budget:?}: {j}");
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(out.contains("estimated error"), "{out}");
+        assert!(
+            !out.contains("C 1.000") && !out.contains("eye passes"),
+            "{out}"
+        );
+    }
+    // Without --spp the budget alone decides: more than 3 passes in 9 batches.
+    let d = dir("pt_uncapped");
+    let o = run(
+        &[
+            "render",
+            "builtin:classic",
+            "--method",
+            "pt",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--batches",
+            "9",
+            "--out",
+            "o.exr",
+            "--stats",
+            "s.json",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    assert_eq!(j["passes"], 9, "{j}");
 }
 
 /// The help documents each numeric flag's range, the same range the parser holds it to.

@@ -44,8 +44,10 @@ impl ErrorPanel {
         let estimate = frame.and_then(|f| f.film.estimate.as_ref());
         match estimate {
             Some(e) => {
+                // The path tracer's passes are not eye passes.
+                let passes = if rs { "eye passes" } else { "passes" };
                 ui.label(format!(
-                    "estimated relMSE {:.5} (bias² {:.5}, variance {:.5}) from {} eye passes",
+                    "estimated relMSE {:.5} (bias² {:.5}, variance {:.5}) from {} {passes}",
                     e.rel_mse, e.bias2, e.variance, e.passes
                 ))
                 .on_hover_text(

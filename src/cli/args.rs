@@ -104,9 +104,17 @@ pub struct ImageArgs {
     /// Image height, pixels.
     #[arg(long, default_value_t = RenderSettings::default().height)]
     pub height: u32,
-    /// Eye samples per pixel (paths per pixel for --method pt).
-    #[arg(long, default_value_t = RenderSettings::default().spp)]
-    pub spp: u32,
+    /// Eye samples per pixel, 4 unless given. For --method pt: paths per pixel; with
+    /// --time-budget or --batches, the most it traces (it stops at whichever comes first).
+    #[arg(long)]
+    pub spp: Option<u32>,
+}
+
+impl ImageArgs {
+    /// Eye samples (or paths) per pixel: as given, or the default.
+    pub fn spp(&self) -> u32 {
+        self.spp.unwrap_or(RenderSettings::default().spp)
+    }
 }
 
 /// The photons of a batch and their bandwidths (eq. 8).
@@ -301,12 +309,13 @@ impl SettingsArgs {
         let bandwidth = self.photons.bandwidth()?;
         let fractions = self.photons.fractions()?;
         let (image, method) = (&self.image, &self.method);
-        if kind != MethodKind::Pt && !limits::SPP.contains(image.spp) {
+        let spp = image.spp();
+        if kind != MethodKind::Pt && !limits::SPP.contains(spp) {
             return Err(format!(
                 "--spp must be in {}..={} (eye samples per pixel; only --method pt takes more), got {}",
                 limits::SPP.min,
                 limits::SPP.max,
-                image.spp
+                spp
             ));
         }
         if let Some(e) = self.run.until_error
@@ -317,7 +326,7 @@ impl SettingsArgs {
         Ok(RenderSettings {
             width: image.width,
             height: image.height,
-            spp: image.spp,
+            spp,
             photons: self.photons.photons,
             fractions,
             bandwidth,
@@ -343,17 +352,28 @@ impl SettingsArgs {
             fg_rays: method.fg_rays,
             radiance_map: method.radiance_map,
             // With a time budget the path tracer adds one path per pixel per step, so the
-            // budget bounds it; otherwise --spp paths in one step.
+            // budget bounds it (and a given --spp: `SettingsArgs::pt_path_cap`); otherwise
+            // --spp paths in one step.
             pt_spp: if self.run.time_budget.is_some() || self.run.batches.is_some() {
                 1
             } else {
-                image.spp
+                spp
             },
             cache: self.cache_filter.cache(),
             cache_on: self.cache_filter.cache,
             filter: self.cache_filter.filter(),
             ..RenderSettings::default()
         })
+    }
+}
+
+impl SettingsArgs {
+    /// The most paths per pixel a path tracer under a time budget or a count of passes may
+    /// trace: a --spp given with either (the render stops at whichever comes first). `None`
+    /// without one, or when --spp was not given.
+    pub fn pt_path_cap(&self) -> Option<u64> {
+        let budgeted = self.run.time_budget.is_some() || self.run.batches.is_some();
+        self.image.spp.filter(|_| budgeted).map(u64::from)
     }
 }
 

@@ -177,9 +177,15 @@ pub fn run(args: CompareArgs) -> Result<(), CliError> {
             row.dots
         );
         if let Some(e) = row.estimated_relmse {
+            // The method's name: the line follows its row, and pt has no C.
+            let c = if m == MethodKind::Pt {
+                String::new()
+            } else {
+                format!(", C {:.3}", row.smoothness_c)
+            };
             println!(
-                "{:<6} estimated relMSE {e:.5} from its own passes, C {:.3}",
-                "", row.smoothness_c
+                "{:<6} estimated relMSE {e:.5} from its own passes{c}",
+                m.name()
             );
         }
         r.film

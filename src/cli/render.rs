@@ -69,6 +69,10 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
     let mut m = methods::build(scene.clone(), settings)?;
     progress.set_message("rendering");
     let until = args.settings.run.until_error;
+    // The path tracer stops at a --spp given with its budget, if that comes first.
+    let path_cap = (m.kind() == MethodKind::Pt)
+        .then(|| args.settings.pt_path_cap())
+        .flatten();
     let mut checked = Instant::now();
     let mut reached = false;
     methods::run(m.as_mut(), args.settings.run.budget(), |m| {
@@ -77,6 +81,9 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
             progress.set_position((spent * 1000.0).min(b * 1000.0) as u64);
         }
         progress.set_message(format!("pass {}", m.passes()));
+        if path_cap.is_some_and(|cap| m.passes() >= cap) {
+            return false;
+        }
         // --until-error: the estimate is read from a film, made at most every
         // UNTIL_ERROR_CHECK (a resolve costs a fraction of a batch).
         if let Some(target) = until
@@ -110,13 +117,21 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
     let stats = m.stats();
     print_table(&scene.name, m.kind(), m.timings(), &stats);
     if let Some(e) = &film.estimate {
+        // The path tracer's estimate is its passes' spread; it has no eye passes or C.
+        let from = if m.kind() == MethodKind::Pt {
+            format!("{} passes", e.passes)
+        } else {
+            format!(
+                "{} eye passes, C {:.3}",
+                e.passes,
+                m.settings().bandwidth.smoothness_c
+            )
+        };
         println!(
-            "estimated error: relMSE {:.5} (bias² {:.5}, variance {:.5}) from {} eye passes, C {:.3}{}",
+            "estimated error: relMSE {:.5} (bias² {:.5}, variance {:.5}) from {from}{}",
             e.rel_mse,
             e.bias2,
             e.variance,
-            e.passes,
-            m.settings().bandwidth.smoothness_c,
             match until {
                 Some(t) if reached => format!("; below --until-error {t}"),
                 Some(t) => format!("; --until-error {t} not reached"),
