@@ -600,6 +600,50 @@ fn visibility_checkbox_restarts_without_domain_tests() {
     assert!(h.query_by_label_contains("pairs tested").is_none());
 }
 
+/// The status bar keeps its height while its counters change: a line that wraps less (here
+/// the visibility counters leave it, in a window narrowed so that they take a line of their
+/// own) does not move the image, and the bar does not creep taller frame by frame.
+#[test]
+fn the_status_bar_does_not_move_the_image() {
+    let mut h = harness(tmp("status_height"));
+    h.set_size(egui::vec2(700.0, 800.0));
+    run_until(&mut h, 60, "the first image", |a| {
+        a.frame().is_some_and(|f| f.stats.method.passes >= 1)
+    });
+    h.run_steps(3);
+    let top = |h: &Harness<'static, App>| h.get_by_label_contains("photons traced").rect().top();
+    let before = top(&h);
+    h.get_by_label("Visibility in the splat footprint")
+        .scroll_to_me();
+    settle(&mut h, |h| {
+        h.get_by_label("Visibility in the splat footprint").rect()
+    });
+    h.get_by_label("Visibility in the splat footprint").click();
+    run_until(&mut h, 60, "a frame without domain tests", |a| {
+        a.frame().is_some_and(|f| {
+            !f.settings.splat_visibility
+                && f.stats.method.passes >= 1
+                && f.stats.method.domain_tests == 0
+        })
+    });
+    let mut tops = Vec::new();
+    for _ in 0..60 {
+        h.step();
+        tops.push(top(&h));
+    }
+    assert!(h.query_by_label_contains("pairs tested").is_none());
+    // Screen y grows downwards: the bar's first line never lies lower than it did.
+    for t in &tops {
+        assert!(*t <= before + 0.5, "the status bar shrank: {before} -> {t}");
+    }
+    // Nor does it creep: the last frames all agree.
+    let last = tops[tops.len() - 20..].to_vec();
+    assert!(
+        last.iter().all(|t| (t - last[0]).abs() < 0.5),
+        "the status bar moves: {last:?}"
+    );
+}
+
 /// docs/deviations.md §41 in the window: the worker draws new eye passes as batches go on, and the
 /// stats line says which pass the image has reached and how much memory the render holds.
 #[test]

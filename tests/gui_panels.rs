@@ -605,7 +605,7 @@ fn snapshot_panel_edits_the_folder_and_asks_to_save() {
 #[test]
 fn stats_panel_shows_the_frame() {
     let mut h = harness(
-        (StatsPanel, None::<Frame>),
+        (StatsPanel::default(), None::<Frame>),
         settings(),
         |ui, s: &mut State<(StatsPanel, Option<Frame>)>| {
             let (panel, frame) = &mut s.panel;

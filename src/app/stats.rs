@@ -6,10 +6,34 @@ use egui::{Color32, RichText};
 use std::time::Instant;
 
 /// The newest frame's counters: photons, stored rays, batches, speed, memory, resolution.
+/// The bar keeps the tallest height it has had at the window's width ([`StatsPanel::min_height`]):
+/// counters that grow a digit wrap the line, and a bar that followed them would move the
+/// image up and down as they do.
 #[derive(Clone, Debug, Default)]
-pub struct StatsPanel;
+pub struct StatsPanel {
+    /// The tallest the status bar has been at `width`.
+    tallest: f32,
+    /// The window width `tallest` was measured at.
+    width: f32,
+}
 
 impl StatsPanel {
+    /// The least height of the status bar at a window `width` points wide: the tallest it
+    /// has been at that width (a new width starts afresh).
+    pub fn min_height(&mut self, width: f32) -> f32 {
+        if (width - self.width).abs() > 0.5 {
+            (self.width, self.tallest) = (width, 0.0);
+        }
+        self.tallest
+    }
+
+    /// Note the status bar's height this frame.
+    pub fn note_height(&mut self, height: f32) {
+        if height.is_finite() {
+            self.tallest = self.tallest.max(height);
+        }
+    }
+
     /// Draw the counters of `frame`, or a waiting note before the first one.
     pub fn ui(&mut self, ui: &mut egui::Ui, frame: Option<&Frame>) {
         let Some(f) = frame else {

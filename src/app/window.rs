@@ -161,7 +161,7 @@ impl App {
             camera: CameraPanel::default(),
             display: DisplayPanel,
             snapshots: SnapshotPanel,
-            stats: StatsPanel,
+            stats: StatsPanel::default(),
             messages,
             snapshot_rx: None,
             pick_rx: None,
@@ -481,10 +481,14 @@ impl eframe::App for App {
         let look = |s: &UiSettings| (s.view_mode, s.exposure, s.tone_map, s.split, s.split_at);
         let before = look(&self.settings);
         egui::Panel::top("menu").show(ui, |ui| self.menu(ui, &mut out));
-        egui::Panel::bottom("status").show(ui, |ui| {
-            self.stats.ui(ui, self.frame.as_ref());
-            self.messages.ui(ui);
-        });
+        let min_height = self.stats.min_height(ctx.content_rect().width());
+        let status = egui::Panel::bottom("status")
+            .min_size(min_height)
+            .show(ui, |ui| {
+                self.stats.ui(ui, self.frame.as_ref());
+                self.messages.ui(ui);
+            });
+        self.stats.note_height(status.response.rect.height());
         egui::Panel::left("controls")
             .resizable(true)
             .default_size(300.0)
