@@ -38,15 +38,21 @@ pub enum Bsdf {
     /// 1 − F(v·h), which reflects up to 1.37 of the light at grazing angles
     /// (docs/deviations.md §49): the albedo is then ≤ 1 everywhere, as Cycles scales its base
     /// layer. Not reciprocal in the diffuse layer: photons weigh by [`Bsdf::eval`] with the
-    /// directions swapped (`adjoint`).
+    /// directions swapped (`adjoint`). KHR_materials_specular's factor s and colour c scale
+    /// the dielectric's Fresnel: F_d = s·Schlick(min(f0_ior·c, 1), 1), so the layer's Schlick
+    /// runs from f0 to f90 = (1 − m)·s + m ([`SpecularLayer`]).
     Glossy {
         /// Diffuse colour (1 − metallic)·base.
         kd: Vec3,
         /// Specular reflectance at normal incidence.
         f0: Vec3,
-        /// The dielectric's reflectance at normal incidence, ((ior − 1)/(ior + 1))², which
-        /// weights the diffuse layer.
+        /// Specular reflectance at grazing incidence (1 without KHR_materials_specular).
+        f90: f32,
+        /// The dielectric layer's reflectance at normal incidence, s·max(min(f0_ior·c, 1))
+        /// with f0_ior = ((ior − 1)/(ior + 1))², which weights the diffuse layer.
         f0_d: f32,
+        /// The dielectric layer's reflectance at grazing incidence, s.
+        f90_d: f32,
         /// GGX α = roughness² (never below [`ALPHA_MIN`]).
         alpha: f32,
     },
@@ -84,7 +90,9 @@ impl Bsdf {
             Bsdf::Glossy {
                 kd,
                 f0,
+                f90,
                 f0_d,
+                f90_d,
                 alpha,
             } => {
                 let (cos_o, cos_i) = (wo.dot(n), wi.dot(n));
@@ -95,9 +103,10 @@ impl Bsdf {
                 let side = if cos_o > 0.0 { 1.0 } else { -1.0 };
                 let (cos_o, cos_i, cos_h) = (cos_o.abs(), cos_i.abs(), side * h.dot(n));
                 let vh = wo.dot(h).max(0.0);
-                let spec = schlick(f0, vh) * ggx_d(cos_h, alpha) * ggx_g2(cos_o, cos_i, alpha)
-                    / (4.0 * cos_o * cos_i);
-                kd * (diffuse_share(cos_o, alpha, f0_d) * FRAC_1_PI) + spec
+                let spec =
+                    schlick_to(f0, f90, vh) * ggx_d(cos_h, alpha) * ggx_g2(cos_o, cos_i, alpha)
+                        / (4.0 * cos_o * cos_i);
+                kd * (diffuse_share(cos_o, alpha, f0_d, f90_d) * FRAC_1_PI) + spec
             }
             Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => Vec3::ZERO,
         }
@@ -235,11 +244,19 @@ pub fn schlick(f0: Vec3, cos: f32) -> Vec3 {
     f0 + (Vec3::ONE - f0) * x
 }
 
-/// [`schlick`] for one channel.
+/// Schlick's Fresnel from f0 to a grazing reflectance f90: f0 + (f90 − f0)(1 − cos)⁵
+/// (KHR_materials_specular's dielectric, scaled by its factor), per channel.
 #[inline]
-pub fn schlick1(f0: f32, cos: f32) -> f32 {
+pub fn schlick_to(f0: Vec3, f90: f32, cos: f32) -> Vec3 {
     let x = (1.0 - cos.clamp(0.0, 1.0)).powi(5);
-    f0 + (1.0 - f0) * x
+    f0 + (Vec3::splat(f90) - f0) * x
+}
+
+/// [`schlick_to`] for one channel.
+#[inline]
+pub fn schlick1_to(f0: f32, f90: f32, cos: f32) -> f32 {
+    let x = (1.0 - cos.clamp(0.0, 1.0)).powi(5);
+    f0 + (f90 - f0) * x
 }
 
 /// The Trowbridge–Reitz (GGX) distribution of normals D(h) for cos θ_h = n·h (B.3.2).
@@ -314,17 +331,64 @@ pub fn dielectric_f0(ior: f32) -> f32 {
     r * r
 }
 
+/// KHR_materials_specular's scalars: the strength s of the dielectric's specular layer
+/// (`specularFactor`) and the colour c its f0 is multiplied by (`specularColorFactor`,
+/// linear RGB). Without the extension s = 1, c = (1, 1, 1): glTF's core model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpecularLayer {
+    /// specularFactor.
+    pub factor: f32,
+    /// specularColorFactor.
+    pub color: Vec3,
+}
+
+impl Default for SpecularLayer {
+    fn default() -> Self {
+        Self {
+            factor: 1.0,
+            color: Vec3::ONE,
+        }
+    }
+}
+
+impl SpecularLayer {
+    /// The dielectric's Fresnel ends for an IOR, KHR_materials_specular's "Implementation"
+    /// (ratified version): f0 = s·min(f0_ior·c, 1) per channel and f90 = s.
+    pub fn dielectric(&self, ior: f32) -> (Vec3, f32) {
+        let s = self.factor.clamp(0.0, 1.0);
+        let c = self.color.max(Vec3::ZERO);
+        ((dielectric_f0(ior) * c).min(Vec3::ONE) * s, s)
+    }
+
+    /// What weights the diffuse layer (module docs of [`Bsdf::Glossy`]): the dielectric's
+    /// f0 at its largest channel (the specification's `max_value(fr)`) and its f90.
+    pub fn diffuse_weights(&self, ior: f32) -> (f32, f32) {
+        let (f0, f90) = self.dielectric(ior);
+        (f0.max_element(), f90)
+    }
+}
+
 /// glTF metallic-roughness → [`Bsdf::Glossy`] (appendix B.3.5): kd = (1 − m)·base,
-/// f0 = (1 − m)·f0_d + m·base with f0_d from the IOR, α = roughness² (at least
-/// [`ALPHA_MIN`]).
-pub fn glossy_from_pbr(base: Vec3, roughness: f32, metallic: f32, ior: f32) -> Bsdf {
+/// f0 = (1 − m)·f0_d + m·base and f90 = (1 − m)·f90_d + m with the dielectric's f0_d, f90_d
+/// from the IOR and KHR_materials_specular ([`SpecularLayer::dielectric`]), α = roughness²
+/// (at least [`ALPHA_MIN`]).
+pub fn glossy_from_pbr(
+    base: Vec3,
+    roughness: f32,
+    metallic: f32,
+    ior: f32,
+    specular: SpecularLayer,
+) -> Bsdf {
     let m = metallic.clamp(0.0, 1.0);
     let base = base.clamp(Vec3::ZERO, Vec3::ONE);
-    let f0_d = dielectric_f0(ior);
+    let (f0_c, f90_d) = specular.dielectric(ior);
+    let (f0_d, _) = specular.diffuse_weights(ior);
     Bsdf::Glossy {
         kd: (1.0 - m) * base,
-        f0: Vec3::splat((1.0 - m) * f0_d) + m * base,
+        f0: (1.0 - m) * f0_c + m * base,
+        f90: (1.0 - m) * f90_d + m,
         f0_d,
+        f90_d,
         alpha: (roughness * roughness).clamp(ALPHA_MIN, 1.0),
     }
 }
@@ -472,18 +536,19 @@ pub fn ggx_zonal(wo: Vec3, n: Vec3, alpha: f32) -> (Vec3, [f32; 4]) {
 }
 
 /// The share of the light a glossy model's diffuse layer keeps at cos θo = `cos_o`:
-/// 1 − E_d, E_d the albedo of the dielectric's specular layer (f0_d, white) towards ωo. The
-/// diffuse layer's albedo is kd times this (the radiance map's diffuse term, exact).
+/// 1 − E_d, E_d the albedo of the dielectric's specular layer (Schlick from f0_d to f90_d)
+/// towards ωo. The diffuse layer's albedo is kd times this (the radiance map's diffuse term,
+/// exact).
 #[inline]
-pub fn diffuse_share(cos_o: f32, alpha: f32, f0_d: f32) -> f32 {
-    (1.0 - specular_albedo(cos_o, alpha, Vec3::splat(f0_d)).x).max(0.0)
+pub fn diffuse_share(cos_o: f32, alpha: f32, f0_d: f32, f90_d: f32) -> f32 {
+    (1.0 - specular_albedo(cos_o, alpha, Vec3::splat(f0_d), f90_d).x).max(0.0)
 }
 
 /// The directional albedo of a glossy model's specular layer at cos θo = `cos_o`:
-/// ∫ F·D·G₂/(4 cos θo) dωi = f0·A + B (single scattering).
-pub fn specular_albedo(cos_o: f32, alpha: f32, f0: Vec3) -> Vec3 {
+/// ∫ F·D·G₂/(4 cos θo) dωi = f0·A + f90·B (single scattering; F Schlick's from f0 to f90).
+pub fn specular_albedo(cos_o: f32, alpha: f32, f0: Vec3, f90: f32) -> Vec3 {
     let (at, table) = (TableAt::new(cos_o, alpha), &*ALBEDO);
-    f0 * at.read(|i, k| table.a[i][k]) + Vec3::splat(at.read(|i, k| table.b[i][k]))
+    f0 * at.read(|i, k| table.a[i][k]) + Vec3::splat(f90 * at.read(|i, k| table.b[i][k]))
 }
 
 impl Bsdf {
@@ -492,11 +557,18 @@ impl Bsdf {
     pub fn specular_layer(self) -> Bsdf {
         match self {
             Bsdf::Glossy {
-                f0, f0_d, alpha, ..
+                f0,
+                f90,
+                f0_d,
+                f90_d,
+                alpha,
+                ..
             } => Bsdf::Glossy {
                 kd: Vec3::ZERO,
                 f0,
+                f90,
                 f0_d,
+                f90_d,
                 alpha,
             },
             other => other,
@@ -511,11 +583,19 @@ impl Bsdf {
     /// own. 0 for other models.
     #[inline]
     pub fn specular_probability(&self, cos_o: f32) -> f32 {
-        let Bsdf::Glossy { kd, f0, f0_d, .. } = *self else {
+        let Bsdf::Glossy {
+            kd,
+            f0,
+            f90,
+            f0_d,
+            f90_d,
+            ..
+        } = *self
+        else {
             return 0.0;
         };
-        let s = luminance(schlick(f0, cos_o)).max(0.0);
-        let d = luminance(kd).max(0.0) * (1.0 - schlick1(f0_d, cos_o));
+        let s = luminance(schlick_to(f0, f90, cos_o)).max(0.0);
+        let d = luminance(kd).max(0.0) * (1.0 - schlick1_to(f0_d, f90_d, cos_o));
         if d <= 0.0 {
             1.0
         } else if s <= 0.0 {
@@ -618,7 +698,7 @@ mod tests {
         ] {
             let alpha = rough * rough;
             let want = quadrature(cos_o, alpha);
-            let got = specular_albedo(cos_o, alpha, Vec3::ONE).x as f64;
+            let got = specular_albedo(cos_o, alpha, Vec3::ONE, 1.0).x as f64;
             assert!(
                 (got / want - 1.0).abs() < 0.01,
                 "cos {cos_o} α {alpha}: table {got}, quadrature {want}"

@@ -384,6 +384,40 @@ fn the_damaged_helmet_loads_its_textures_and_does_not_glow() {
     assert!(notice.contains("emissive textures"), "{notice}");
 }
 
+/// KHR_materials_specular's factor and colour reach the material (and so every ray's BSDF),
+/// named nowhere as ignored; its textures are named.
+#[test]
+fn the_specular_extension_s_factor_and_colour_are_read() {
+    let mut g = GlbBuilder::default();
+    let tinted = g.material(json!({"name": "tinted",
+        "pbrMetallicRoughness": {"roughnessFactor": 0.3, "metallicFactor": 0.0},
+        "extensions": {"KHR_materials_specular":
+            {"specularFactor": 0.5, "specularColorFactor": [1.0, 0.5, 0.25]}}}));
+    quad(&mut g, 0.0, 0.5, false, tinted, &[]);
+    g.point_light("lamp", Vec3::new(0.0, 9.0, 0.0), Vec3::ONE, 10.0);
+    let scene = Scene::from_glb_bytes(&g.to_glb(), "specular").expect("loads");
+    let m = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "tinted")
+        .expect("the material");
+    assert_eq!(
+        m.specular,
+        raysplat::bsdf::SpecularLayer {
+            factor: 0.5,
+            color: Vec3::new(1.0, 0.5, 0.25)
+        }
+    );
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .all(|w| !w.contains("KHR_materials_specular")),
+        "{:?}",
+        scene.warnings
+    );
+}
+
 #[test]
 fn what_a_material_uses_and_is_not_rendered_is_named_once() {
     let mut g = GlbBuilder::default();
@@ -396,9 +430,11 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
     let sheen = g.material(json!({"extensions": {"KHR_materials_sheen": {},
         "KHR_materials_transmission": {"transmissionFactor": 0.3},
         "KHR_materials_specular": {"specularFactor": 0.5}}}));
+    // KHR_materials_specular's factor is read on an opaque material, not on glass.
     let plain_glass = g.material(json!({"pbrMetallicRoughness": {"roughnessFactor": 0.0},
         "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
-            "KHR_materials_ior": {"ior": 1.4}}}));
+            "KHR_materials_ior": {"ior": 1.4},
+            "KHR_materials_specular": {"specularColorFactor": [1.0, 0.5, 0.5]}}}));
     for (k, m) in materials
         .into_iter()
         .chain([sheen, plain_glass])
@@ -426,7 +462,9 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
         lines("KHR_materials_transmission's partial factors").len(),
         1
     );
-    assert_eq!(lines("KHR_materials_specular").len(), 1);
+    let specular = lines("KHR_materials_specular");
+    assert_eq!(specular.len(), 1, "{:?}", scene.warnings);
+    assert!(specular[0].contains("transmissive"), "{specular:?}");
     // What is rendered is not named: the strength, the IOR, smooth full transmission.
     assert!(lines("emissive_strength").is_empty() && lines("KHR_materials_ior").is_empty());
     assert_eq!(

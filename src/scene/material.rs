@@ -138,8 +138,8 @@ pub struct Material {
     pub metallic: f32,
     /// roughnessFactor.
     pub roughness: f32,
-    /// KHR_materials_specular with a zero factor: no specular layer.
-    pub specular_off: bool,
+    /// KHR_materials_specular's factor and colour (the core model's 1 and white without it).
+    pub specular: crate::bsdf::SpecularLayer,
     /// Index of refraction (KHR_materials_ior; 1.5 by default): the dielectric's f0.
     pub ior: f32,
     /// metallicRoughnessTexture (linear; B metal, G rough), multiplied with the factors.
@@ -167,7 +167,7 @@ impl Material {
             kind: MaterialKind::Diffuse,
             metallic: 0.0,
             roughness: 1.0,
-            specular_off: false,
+            specular: crate::bsdf::SpecularLayer::default(),
             ior: 1.5,
             metal_rough_texture: None,
             normal_texture: None,
@@ -178,10 +178,16 @@ impl Material {
         }
     }
 
-    /// The IOR its dielectric Fresnel reads: 1 (no reflection) where KHR_materials_specular
-    /// turns the dielectric's specular layer off, which leaves a metal share's as it is.
-    pub fn f0_ior(&self) -> f32 {
-        if self.specular_off { 1.0 } else { self.ior }
+    /// KHR_materials_specular turns the dielectric's specular layer off (factor 0), which
+    /// leaves a metal share's as it is.
+    pub fn specular_off(&self) -> bool {
+        self.specular.factor <= 0.0
+    }
+
+    /// What weights its glossy model's diffuse layer: the dielectric's f0 (largest channel)
+    /// and f90 ([`crate::bsdf::SpecularLayer::diffuse_weights`]).
+    pub fn diffuse_weights(&self) -> (f32, f32) {
+        self.specular.diffuse_weights(self.ior)
     }
 
     /// The material emits somewhere (a positive factor; a texture may still be black).
@@ -380,7 +386,7 @@ impl Scene {
             MaterialKind::Dielectric { .. } => m.kind,
             _ if m.metal_rough_texture.is_some() => {
                 let (metallic, roughness) = self.metal_rough(hit);
-                MaterialKind::classify(metallic, roughness, m.specular_off)
+                MaterialKind::classify(metallic, roughness, m.specular_off())
             }
             k => k,
         };
@@ -391,7 +397,13 @@ impl Scene {
             MaterialKind::Glossy {
                 roughness,
                 metallic,
-            } => crate::bsdf::glossy_from_pbr(self.albedo(hit), roughness, metallic, m.f0_ior()),
+            } => crate::bsdf::glossy_from_pbr(
+                self.albedo(hit),
+                roughness,
+                metallic,
+                m.ior,
+                m.specular,
+            ),
             MaterialKind::Mirror => Bsdf::Mirror {
                 color: self.albedo(hit),
             },

@@ -236,6 +236,7 @@ fn eye_range(eye: &EyeSamples, lo: u32, hi: u32) -> EyeSamples {
         albedo: eye.albedo[r.clone()].to_vec(),
         specular: eye.specular[r.clone()].to_vec(),
         alpha: eye.alpha[r.clone()].to_vec(),
+        f90: eye.f90[r.clone()].to_vec(),
         flags: eye.flags[r.clone()].to_vec(),
         target: (0..r.len() as u32).collect(),
     }
@@ -337,17 +338,20 @@ fn gather_from(
                 crate::bsdf::Bsdf::Glossy {
                     kd,
                     f0,
+                    f90,
                     f0_d,
+                    f90_d,
                     alpha,
                 } => {
                     let c = dir.dot(hit.normal).abs();
-                    kd * crate::bsdf::diffuse_share(c, alpha, f0_d)
-                        + crate::bsdf::specular_albedo(c, alpha, f0)
+                    kd * crate::bsdf::diffuse_share(c, alpha, f0_d, f90_d)
+                        + crate::bsdf::specular_albedo(c, alpha, f0, f90)
                 }
                 _ => scene.albedo(&hit),
             },
             specular: Vec3::ZERO,
             alpha: 1.0,
+            f90: 1.0,
             primary: false,
             lobe_traced: false,
         });

@@ -38,6 +38,7 @@ fn plane_seen_through(w: u32, h: u32, minify: f32, primary: bool) -> (EyeSamples
                 albedo: Vec3::splat(0.5),
                 specular: Vec3::ZERO,
                 alpha: 1.0,
+                f90: 1.0,
                 primary,
                 lobe_traced: false,
             };
@@ -252,6 +253,7 @@ fn merged_samples_share_their_leads_value() {
             albedo: Vec3::splat(0.5),
             specular: Vec3::splat(0.3),
             alpha: 0.3,
+            f90: 1.0,
             primary: true,
             lobe_traced: false,
         };

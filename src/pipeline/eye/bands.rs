@@ -43,6 +43,7 @@ pub(super) fn collect_bands(
     }
     samples.material.reserve_exact(expect);
     samples.alpha.reserve_exact(expect);
+    samples.f90.reserve_exact(expect);
     samples.offset.reserve_exact(expect);
     samples.flags.reserve_exact(expect);
     samples.pixel.reserve_exact(expect);
@@ -89,6 +90,7 @@ pub(super) fn collect_bands(
             albedo,
             specular,
             alpha,
+            f90,
             flags,
             target,
         } = &mut pass.samples;
@@ -117,6 +119,7 @@ pub(super) fn collect_bands(
                         albedo.push(s.albedo);
                         specular.push(s.specular);
                         alpha.push(s.alpha);
+                        f90.push(s.f90);
                         flags.push(s.flags);
                     }
                     targets.geo_normal.extend_from_slice(&r.2.geo_normal);

@@ -5,7 +5,7 @@
 use super::{EyeSample, EyeSettings};
 use crate::bsdf::{
     Bsdf, diffuse_share, fresnel_dielectric, ggx_g1, ggx_g2, phong_equivalent, reflect, refract,
-    sample_ggx_visible, schlick,
+    sample_ggx_visible, schlick, schlick_to,
 };
 use crate::sampling::Rng;
 use crate::scene::Scene;
@@ -98,20 +98,23 @@ pub(super) fn trace_chain(
         let bsdf = scene.bsdf(&hit);
         // A glossy sample keeps its diffuse layer's albedo towards the eye, kd·(1 − E_d).
         let surface = match bsdf {
-            Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO, 1.0)),
+            Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO, 1.0, 1.0)),
             Bsdf::Glossy {
                 kd,
                 f0,
+                f90,
                 f0_d,
+                f90_d,
                 alpha,
             } => Some((
-                kd * diffuse_share(wo.dot(hit.normal).abs(), alpha, f0_d),
+                kd * diffuse_share(wo.dot(hit.normal).abs(), alpha, f0_d, f90_d),
                 f0,
                 alpha,
+                f90,
             )),
             _ => None,
         };
-        if let Some((albedo, specular, alpha)) = surface {
+        if let Some((albedo, specular, alpha, f90)) = surface {
             // Face the viewer: flip both normals to the side the ray came from.
             let (n, ng) = if hit.geo_normal.dot(wo) >= 0.0 {
                 (hit.normal, hit.geo_normal)
@@ -131,6 +134,7 @@ pub(super) fn trace_chain(
                     albedo,
                     specular,
                     alpha,
+                    f90,
                     primary: depth == 0,
                     lobe_traced: false,
                 },
@@ -244,7 +248,7 @@ pub(super) fn sample_traced_lobe(
     if !traces_lobe(bsdf, limit) {
         return None;
     }
-    let Bsdf::Glossy { f0, alpha, .. } = bsdf else {
+    let Bsdf::Glossy { f0, f90, alpha, .. } = bsdf else {
         return None;
     };
     let cos_o = wo.dot(n);
@@ -263,6 +267,6 @@ pub(super) fn sample_traced_lobe(
     if cos <= 0.0 || d.dot(ng) <= 0.0 {
         return None;
     }
-    let w = schlick(f0, wo.dot(h)) * (ggx_g2(cos_o, cos, alpha) / ggx_g1(cos_o, alpha) / p);
+    let w = schlick_to(f0, f90, wo.dot(h)) * (ggx_g2(cos_o, cos, alpha) / ggx_g1(cos_o, alpha) / p);
     Some((d, w))
 }

@@ -37,6 +37,9 @@ pub struct EyeSamples {
     /// The glossy lobe's GGX α at the sample (its material's roughness², or its
     /// metallic-roughness texture's there; 1 for Lambertian samples; f16).
     pub alpha: Vec<f16>,
+    /// The glossy layer's reflectance at grazing incidence f90 (1 but where
+    /// KHR_materials_specular scales a dielectric's layer; f16).
+    pub f90: Vec<f16>,
     /// [`EyeSamples::primary`] and [`EyeSamples::lobe_traced`], one bit each.
     pub flags: Vec<u8>,
     /// The splat target whose splatted irradiance this sample uses.
@@ -91,10 +94,10 @@ const PRIMARY: u8 = 1;
 const LOBE_TRACED: u8 = 2;
 
 /// Bytes of one eye sample in [`EyeSamples`]: position 12, the shading and geometric normals
-/// and wo 4 (octahedral), three colours 6 (f16), the offset and the GGX α 2 (f16),
-/// material, pixel and target 4, one byte of flags (106 with every vector, colour and number
+/// and wo 4 (octahedral), three colours 6 (f16), the offset, the GGX α and f90 2 (f16),
+/// material, pixel and target 4, one byte of flags (110 with every vector, colour and number
 /// in f32).
-pub const EYE_SAMPLE_BYTES: usize = 12 + 3 * 4 + 3 * 6 + 2 * 2 + 3 * 4 + 1;
+pub const EYE_SAMPLE_BYTES: usize = 12 + 3 * 4 + 3 * 6 + 3 * 2 + 3 * 4 + 1;
 
 impl EyeSamples {
     /// Number of eye samples.
@@ -184,17 +187,17 @@ impl EyeSamples {
         }
     }
 
-    /// The sample's BSDF: Lambertian, or glTF's glossy model with its α, f0, and the diffuse
-    /// colour its stored albedo was weighted from (the albedo is kd·(1 − E_d) towards the eye,
-    /// [`crate::bsdf::diffuse_share`]; the material's IOR gives f0_d).
+    /// The sample's BSDF: Lambertian, or glTF's glossy model with its α, f0, f90, and the
+    /// diffuse colour its stored albedo was weighted from (the albedo is kd·(1 − E_d) towards
+    /// the eye, [`crate::bsdf::diffuse_share`]; the material's IOR and KHR_materials_specular
+    /// give the dielectric's f0_d and f90_d).
     #[inline]
     pub fn bsdf(&self, i: usize, scene: &Scene) -> Bsdf {
         if self.is_glossy(i) {
-            let f0_d =
-                crate::bsdf::dielectric_f0(scene.materials[self.material[i] as usize].f0_ior());
+            let (f0_d, f90_d) = scene.materials[self.material[i] as usize].diffuse_weights();
             let cos_o = self.wo[i].get().dot(self.normal[i].get()).abs();
             let alpha = self.alpha[i].to_f32();
-            let keep = crate::bsdf::diffuse_share(cos_o, alpha, f0_d);
+            let keep = crate::bsdf::diffuse_share(cos_o, alpha, f0_d, f90_d);
             let albedo = self.albedo[i].get();
             Bsdf::Glossy {
                 kd: if keep > 0.0 {
@@ -203,7 +206,9 @@ impl EyeSamples {
                     Vec3::ZERO
                 },
                 f0: self.specular[i].get(),
+                f90: self.f90[i].to_f32(),
                 f0_d,
+                f90_d,
                 alpha,
             }
         } else {
@@ -228,6 +233,7 @@ impl EyeSamples {
         self.albedo.push(s.albedo);
         self.specular.push(s.specular);
         self.alpha.push(s.alpha);
+        self.f90.push(s.f90);
         self.flags.push(s.flags);
     }
 }
@@ -248,6 +254,7 @@ pub(super) struct PackedSample {
     pub(super) albedo: Rgb16,
     pub(super) specular: Rgb16,
     pub(super) alpha: f16,
+    pub(super) f90: f16,
     pub(super) flags: u8,
 }
 
@@ -265,6 +272,7 @@ impl PackedSample {
             albedo: Rgb16::new(s.albedo),
             specular: Rgb16::new(s.specular),
             alpha: f16::from_f32(s.alpha),
+            f90: f16::from_f32(s.f90),
             flags: (u8::from(s.primary) * PRIMARY) | (u8::from(s.lobe_traced) * LOBE_TRACED),
         }
     }
@@ -296,6 +304,8 @@ pub struct EyeSample {
     pub specular: Vec3,
     /// The glossy lobe's GGX α (1 for Lambertian samples).
     pub alpha: f32,
+    /// The glossy lobe's reflectance at grazing incidence (1 for Lambertian samples).
+    pub f90: f32,
     /// Seen directly from the camera (no specular bounce on the way).
     pub primary: bool,
     /// The glossy lobe is traced by the eye path ([`EyeSamples::lobe_traced`]).

@@ -18,6 +18,7 @@ fn raw(lobe_traced: bool) -> RawSample {
             albedo: Vec3::splat(0.5),
             specular: Vec3::splat(0.3),
             alpha: 0.3,
+            f90: 1.0,
             primary: true,
             lobe_traced,
         },

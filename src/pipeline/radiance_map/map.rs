@@ -256,7 +256,12 @@ fn shade(
     }
     // The specular layer's albedo towards the eye, its lobe's shape from the record.
     let cos_o = eye.wo[i].get().dot(eye.normal[i].get()).abs();
-    let ks = crate::bsdf::specular_albedo(cos_o, eye.alpha[i].to_f32(), eye.specular[i].get());
+    let ks = crate::bsdf::specular_albedo(
+        cos_o,
+        eye.alpha[i].to_f32(),
+        eye.specular[i].get(),
+        eye.f90[i].to_f32(),
+    );
     diffuse
         + match rec {
             Some(rec) => ks * glossy_radiance(eye, i, mode, rec) * rec_scale,
@@ -328,6 +333,7 @@ mod tests {
                 albedo: Vec3::splat(0.5),
                 specular: Vec3::ZERO,
                 alpha: 1.0,
+                f90: 1.0,
                 primary: true,
                 lobe_traced: false,
             };

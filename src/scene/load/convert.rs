@@ -210,13 +210,26 @@ pub(super) fn convert_material(
         .map(|i| i.ior.0)
         .filter(|i| i.is_finite() && *i >= 1.0)
         .unwrap_or(1.5);
-    let specular_off = ext
+    // KHR_materials_specular's factor and colour (its textures are named, not read).
+    let specular = ext
         .and_then(|e| e.specular.as_ref())
-        .is_some_and(|s| s.specular_factor.0 == 0.0);
+        .map(|s| {
+            let c = s.specular_color_factor.0;
+            crate::bsdf::SpecularLayer {
+                factor: finite_or(s.specular_factor.0, 1.0).clamp(0.0, 1.0),
+                color: Vec3::new(
+                    finite_or(c[0], 1.0),
+                    finite_or(c[1], 1.0),
+                    finite_or(c[2], 1.0),
+                )
+                .max(Vec3::ZERO),
+            }
+        })
+        .unwrap_or_default();
     let kind = if transmission > 0.5 {
         MaterialKind::Dielectric { ior }
     } else {
-        MaterialKind::classify(metallic, roughness, specular_off)
+        MaterialKind::classify(metallic, roughness, specular.factor <= 0.0)
     };
     let name = m.name.as_deref().unwrap_or("unnamed");
     // A negative or non-finite strength is not light: the material does not emit (and the
@@ -283,7 +296,7 @@ pub(super) fn convert_material(
         kind,
         metallic,
         roughness,
-        specular_off,
+        specular,
         ior,
         metal_rough_texture,
         normal_texture,
@@ -319,16 +332,24 @@ pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
                 }
             }
             "KHR_materials_specular" => {
-                let factor = e["specularFactor"].as_f64().unwrap_or(1.0);
-                let white = e["specularColorFactor"]
-                    .as_array()
-                    .is_none_or(|c| c.iter().all(|v| v.as_f64() == Some(1.0)));
+                // Factor and colour are read; the textures and a transmissive material's
+                // Fresnel (smooth glass keeps its own) are not.
                 let textures =
                     e.get("specularTexture").is_some() || e.get("specularColorTexture").is_some();
-                if factor == 0.0 || (factor == 1.0 && white && !textures) {
+                let default = e["specularFactor"].as_f64().is_none_or(|f| f == 1.0)
+                    && e["specularColorFactor"]
+                        .as_array()
+                        .is_none_or(|c| c.iter().all(|v| v.as_f64() == Some(1.0)));
+                let glass = raw["extensions"]["KHR_materials_transmission"]["transmissionFactor"]
+                    .as_f64()
+                    .is_some_and(|t| t > 0.5);
+                if textures {
+                    "KHR_materials_specular's textures (its factor and colour are read)".to_string()
+                } else if glass && !default {
+                    "KHR_materials_specular on a transmissive material".to_string()
+                } else {
                     continue;
                 }
-                "KHR_materials_specular (only a specularFactor of 0 is read)".to_string()
             }
             other => other.to_string(),
         };
