@@ -220,7 +220,7 @@ fn ceiling_sample(hit: &Hit, albedo: f32, pixel: u32) -> EyeSample {
         albedo: Vec3::splat(albedo),
         specular: Vec3::ZERO,
         alpha: 1.0,
-        f90: 1.0,
+        f90: 0.0,
         primary: true,
         lobe_traced: false,
     }

@@ -104,8 +104,9 @@ pub struct ImageArgs {
     /// Image height, pixels.
     #[arg(long, default_value_t = RenderSettings::default().height)]
     pub height: u32,
-    /// Eye samples per pixel, 4 unless given. For --method pt: paths per pixel; with
+    /// Eye samples per pixel, 4 unless given. For `render --method pt`: paths per pixel; with
     /// --time-budget or --batches, the most it traces (it stops at whichever comes first).
+    /// `compare` takes the path tracer's from --pt-spp.
     #[arg(long)]
     pub spp: Option<u32>,
 }

@@ -32,12 +32,16 @@ pub enum MaterialKind {
 
 impl MaterialKind {
     /// The model a metallic-roughness surface point is rendered with (not transmissive).
-    pub fn classify(metallic: f32, roughness: f32, specular_off: bool) -> Self {
+    pub fn classify(metallic: f32, roughness: f32, specular: crate::bsdf::SpecularLayer) -> Self {
+        // A KHR_materials_specular colour above white can raise the layer far above the
+        // IOR's f0 (up to 1): such a layer is kept however rough.
+        let faint = specular.factor <= 0.0 || specular.color.max_element() <= 1.0;
         if metallic >= 1.0 && roughness <= 0.0 {
             MaterialKind::Mirror
-        } else if metallic <= 0.0 && (specular_off || roughness >= 0.9) {
-            // A pure dielectric without its specular layer, or one so rough that its 4%
-            // layer is left out (docs/deviations.md §49). Any metal share keeps the model.
+        } else if metallic <= 0.0 && (specular.factor <= 0.0 || (roughness >= 0.9 && faint)) {
+            // A pure dielectric without its specular layer, or one so rough that its faint
+            // layer (the IOR's f0, 4% at glTF's 1.5) is left out (docs/deviations.md §49,
+            // §52). Any metal share keeps the model.
             MaterialKind::Diffuse
         } else {
             MaterialKind::Glossy {
@@ -176,12 +180,6 @@ impl Material {
             alpha: AlphaMode::Opaque,
             double_sided: false,
         }
-    }
-
-    /// KHR_materials_specular turns the dielectric's specular layer off (factor 0), which
-    /// leaves a metal share's as it is.
-    pub fn specular_off(&self) -> bool {
-        self.specular.factor <= 0.0
     }
 
     /// What weights its glossy model's diffuse layer: the dielectric's f0 (largest channel)
@@ -386,7 +384,7 @@ impl Scene {
             MaterialKind::Dielectric { .. } => m.kind,
             _ if m.metal_rough_texture.is_some() => {
                 let (metallic, roughness) = self.metal_rough(hit);
-                MaterialKind::classify(metallic, roughness, m.specular_off())
+                MaterialKind::classify(metallic, roughness, m.specular)
             }
             k => k,
         };
@@ -460,30 +458,37 @@ mod tests {
 
     #[test]
     fn only_pure_dielectrics_and_roughness_zero_metals_leave_the_microfacet_model() {
+        use crate::bsdf::SpecularLayer;
+        let core = SpecularLayer::default();
+        let off = SpecularLayer {
+            factor: 0.0,
+            color: Vec3::ONE,
+        };
         assert_eq!(
-            MaterialKind::classify(0.0, 0.95, false),
+            MaterialKind::classify(0.0, 0.95, core),
             MaterialKind::Diffuse
         );
-        assert_eq!(
-            MaterialKind::classify(1.0, 0.0, false),
-            MaterialKind::Mirror
-        );
+        assert_eq!(MaterialKind::classify(1.0, 0.0, core), MaterialKind::Mirror);
         // A metal share keeps the model, however rough (an antialiased texel between metal
         // and plastic), and KHR_materials_specular's zero factor turns off the dielectric's
-        // layer only.
-        for (m, r, off) in [(0.4, 0.95, false), (1.0, 0.5, true), (0.7, 0.0, false)] {
+        // layer only; a specular colour above white keeps even a very rough dielectric's
+        // layer, which it can raise far above the IOR's 4%.
+        let bright = SpecularLayer {
+            factor: 1.0,
+            color: Vec3::splat(10.0),
+        };
+        for (m, r, s) in [
+            (0.4, 0.95, core),
+            (1.0, 0.5, off),
+            (0.7, 0.0, core),
+            (0.0, 0.95, bright),
+        ] {
             assert!(
-                matches!(
-                    MaterialKind::classify(m, r, off),
-                    MaterialKind::Glossy { .. }
-                ),
-                "{m} {r} {off}"
+                matches!(MaterialKind::classify(m, r, s), MaterialKind::Glossy { .. }),
+                "{m} {r} {s:?}"
             );
         }
-        assert_eq!(
-            MaterialKind::classify(0.0, 0.3, true),
-            MaterialKind::Diffuse
-        );
+        assert_eq!(MaterialKind::classify(0.0, 0.3, off), MaterialKind::Diffuse);
     }
 
     #[test]

@@ -351,7 +351,7 @@ fn gather_from(
             },
             specular: Vec3::ZERO,
             alpha: 1.0,
-            f90: 1.0,
+            f90: 0.0,
             primary: false,
             lobe_traced: false,
         });

@@ -38,7 +38,7 @@ fn plane_seen_through(w: u32, h: u32, minify: f32, primary: bool) -> (EyeSamples
                 albedo: Vec3::splat(0.5),
                 specular: Vec3::ZERO,
                 alpha: 1.0,
-                f90: 1.0,
+                f90: 0.0,
                 primary,
                 lobe_traced: false,
             };
@@ -266,6 +266,7 @@ fn merged_samples_share_their_leads_value() {
         let matte = EyeSample {
             material: 1,
             specular: Vec3::ZERO,
+            f90: 0.0,
             ..base
         };
         // Seen through a chain: a plane farther away (irradiance belongs to a point, and

@@ -98,7 +98,7 @@ pub(super) fn trace_chain(
         let bsdf = scene.bsdf(&hit);
         // A glossy sample keeps its diffuse layer's albedo towards the eye, kd·(1 − E_d).
         let surface = match bsdf {
-            Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO, 1.0, 1.0)),
+            Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO, 1.0, 0.0)),
             Bsdf::Glossy {
                 kd,
                 f0,
@@ -222,8 +222,8 @@ pub(super) fn trace_chain(
 /// eye path. An infinite limit (diffuse mode, the paper without §8.1) traces none.
 #[inline]
 fn traces_lobe(bsdf: Bsdf, limit: f32) -> bool {
-    matches!(bsdf, Bsdf::Glossy { f0, alpha, .. }
-        if phong_equivalent(alpha) > limit && f0 != Vec3::ZERO)
+    matches!(bsdf, Bsdf::Glossy { f0, f90, alpha, .. }
+        if phong_equivalent(alpha) > limit && (f0 != Vec3::ZERO || f90 > 0.0))
 }
 
 /// One direction of a glossy lobe too sharp for the radiance map (its width as a Phong

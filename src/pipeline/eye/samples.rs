@@ -38,7 +38,7 @@ pub struct EyeSamples {
     /// metallic-roughness texture's there; 1 for Lambertian samples; f16).
     pub alpha: Vec<f16>,
     /// The glossy layer's reflectance at grazing incidence f90 (1 but where
-    /// KHR_materials_specular scales a dielectric's layer; f16).
+    /// KHR_materials_specular scales a dielectric's layer; 0 for Lambertian samples; f16).
     pub f90: Vec<f16>,
     /// [`EyeSamples::primary`] and [`EyeSamples::lobe_traced`], one bit each.
     pub flags: Vec<u8>,
@@ -120,10 +120,11 @@ impl EyeSamples {
         self.normal.iter().map(|n| n.get()).collect()
     }
 
-    /// True when the sample's BSDF has a glossy lobe.
+    /// True when the sample's BSDF has a glossy lobe (its Schlick Fresnel is not zero at
+    /// every angle: a KHR_materials_specular colour of black leaves f0 = 0 and f90 > 0).
     #[inline]
     pub fn is_glossy(&self, i: usize) -> bool {
-        self.specular[i].get() != Vec3::ZERO
+        self.specular[i].get() != Vec3::ZERO || self.f90[i].to_f32() > 0.0
     }
 
     /// Sample `i` is seen directly from the camera (no specular bounce on the way).
@@ -304,7 +305,7 @@ pub struct EyeSample {
     pub specular: Vec3,
     /// The glossy lobe's GGX α (1 for Lambertian samples).
     pub alpha: f32,
-    /// The glossy lobe's reflectance at grazing incidence (1 for Lambertian samples).
+    /// The glossy lobe's reflectance at grazing incidence (0 for Lambertian samples).
     pub f90: f32,
     /// Seen directly from the camera (no specular bounce on the way).
     pub primary: bool,

@@ -333,7 +333,7 @@ mod tests {
                 albedo: Vec3::splat(0.5),
                 specular: Vec3::ZERO,
                 alpha: 1.0,
-                f90: 1.0,
+                f90: 0.0,
                 primary: true,
                 lobe_traced: false,
             };

@@ -229,7 +229,7 @@ pub(super) fn convert_material(
     let kind = if transmission > 0.5 {
         MaterialKind::Dielectric { ior }
     } else {
-        MaterialKind::classify(metallic, roughness, specular.factor <= 0.0)
+        MaterialKind::classify(metallic, roughness, specular)
     };
     let name = m.name.as_deref().unwrap_or("unnamed");
     // A negative or non-finite strength is not light: the material does not emit (and the
@@ -343,10 +343,10 @@ pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
                 let glass = raw["extensions"]["KHR_materials_transmission"]["transmissionFactor"]
                     .as_f64()
                     .is_some_and(|t| t > 0.5);
-                if textures {
-                    "KHR_materials_specular's textures (its factor and colour are read)".to_string()
-                } else if glass && !default {
+                if glass && (textures || !default) {
                     "KHR_materials_specular on a transmissive material".to_string()
+                } else if textures {
+                    "KHR_materials_specular's textures (its factor and colour are read)".to_string()
                 } else {
                     continue;
                 }
