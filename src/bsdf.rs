@@ -1,8 +1,11 @@
 //! Scattering models with one shape: `eval` (f_r, no cosine), `pdf` (solid angle) and `sample`.
 //!
 //! Directions point away from the surface: `wo` towards the previous vertex, `wi` towards the
-//! next. `n` is the shading normal; models are two-sided where the physics allows (a Lambertian
-//! wall is lit from either side), the dielectric tells inside from outside by the sign of `wo·n`.
+//! next. `n` is the shading normal. The reflecting models (Lambertian, glossy) take it turned
+//! to the viewer's side of the geometric surface, which every caller does, and reflect into
+//! its hemisphere (a surface is lit from either side, as the side it is seen from); the
+//! mirror reflects on `wo`'s side; the dielectric takes the surface's own normal and tells
+//! inside from outside by the sign of `wo·n`.
 
 use crate::sampling::{cosine_hemisphere, luminance, to_world};
 use glam::{Vec2, Vec3};
@@ -76,12 +79,16 @@ impl Bsdf {
         !matches!(self, Bsdf::Lambert { .. } | Bsdf::Glossy { .. })
     }
 
-    /// f_r(wo, wi) without the cosine; zero for delta lobes and for directions on opposite
-    /// sides of `n`.
+    /// f_r(wo, wi) without the cosine; zero for delta lobes. For the reflecting models `n` is
+    /// the shading normal turned to the viewer's side of the geometric surface, and they
+    /// reflect into its hemisphere only (wi·n > 0). A viewer below it (a normal texture's
+    /// steep texel, a smooth-shaded mesh at a grazing view) still sees the diffuse layer lit
+    /// from there, as Cycles' diffuse closure does with the uncorrected normal; the specular
+    /// layer then reflects nothing (Cycles bends its normal; docs/deviations.md §53).
     pub fn eval(&self, wo: Vec3, wi: Vec3, n: Vec3) -> Vec3 {
         match *self {
             Bsdf::Lambert { albedo } => {
-                if wo.dot(n) * wi.dot(n) > 0.0 {
+                if wi.dot(n) > 0.0 {
                     albedo * FRAC_1_PI
                 } else {
                     Vec3::ZERO
@@ -96,17 +103,19 @@ impl Bsdf {
                 alpha,
             } => {
                 let (cos_o, cos_i) = (wo.dot(n), wi.dot(n));
-                if cos_o * cos_i <= 0.0 {
+                if cos_i <= 0.0 {
                     return Vec3::ZERO;
                 }
+                let diffuse = kd * (diffuse_share(cos_o.abs(), alpha, f0_d, f90_d) * FRAC_1_PI);
+                if cos_o <= 0.0 {
+                    return diffuse;
+                }
                 let h = (wo + wi).normalize_or_zero();
-                let side = if cos_o > 0.0 { 1.0 } else { -1.0 };
-                let (cos_o, cos_i, cos_h) = (cos_o.abs(), cos_i.abs(), side * h.dot(n));
                 let vh = wo.dot(h).max(0.0);
                 let spec =
-                    schlick_to(f0, f90, vh) * ggx_d(cos_h, alpha) * ggx_g2(cos_o, cos_i, alpha)
+                    schlick_to(f0, f90, vh) * ggx_d(h.dot(n), alpha) * ggx_g2(cos_o, cos_i, alpha)
                         / (4.0 * cos_o * cos_i);
-                kd * (diffuse_share(cos_o, alpha, f0_d, f90_d) * FRAC_1_PI) + spec
+                diffuse + spec
             }
             Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => Vec3::ZERO,
         }
@@ -115,25 +124,22 @@ impl Bsdf {
     /// Solid-angle pdf with which [`Bsdf::sample`] picks `wi` given `wo` (0 for delta lobes).
     pub fn pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
         match *self {
-            Bsdf::Lambert { .. } => {
-                if wo.dot(n) * wi.dot(n) > 0.0 {
-                    wi.dot(n).abs() * FRAC_1_PI
-                } else {
-                    0.0
-                }
-            }
+            Bsdf::Lambert { .. } => wi.dot(n).max(0.0) * FRAC_1_PI,
             Bsdf::Glossy { alpha, .. } => {
                 let (cos_o, cos_i) = (wo.dot(n), wi.dot(n));
-                if cos_o * cos_i <= 0.0 {
+                if cos_i <= 0.0 {
                     return 0.0;
                 }
-                let p_s = self.specular_probability(cos_o.abs());
+                // A viewer below the normal draws the diffuse layer only (eval's docs).
+                if cos_o <= 0.0 {
+                    return cos_i * FRAC_1_PI;
+                }
+                let p_s = self.specular_probability(cos_o);
                 let h = (wo + wi).normalize_or_zero();
-                let cos_h = h.dot(n) * cos_o.signum();
                 // Visible normals' density G₁(ωo)·|ωo·h|·D(h)/cos θo (Heitz 2018's D_ωo) times
                 // the reflection's Jacobian 1/(4|ωo·h|) (Walter et al. 2007, eq. 14).
-                let spec = ggx_g1(cos_o.abs(), alpha) * ggx_d(cos_h, alpha) / (4.0 * cos_o.abs());
-                (1.0 - p_s) * cos_i.abs() * FRAC_1_PI + p_s * spec
+                let spec = ggx_g1(cos_o, alpha) * ggx_d(h.dot(n), alpha) / (4.0 * cos_o);
+                (1.0 - p_s) * cos_i * FRAC_1_PI + p_s * spec
             }
             Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => 0.0,
         }
@@ -143,9 +149,8 @@ impl Bsdf {
     pub fn sample(&self, wo: Vec3, n: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         match *self {
             Bsdf::Lambert { albedo } => {
-                let side = if wo.dot(n) >= 0.0 { n } else { -n };
-                let wi = to_world(cosine_hemisphere(u), side);
-                let cos = wi.dot(side);
+                let wi = to_world(cosine_hemisphere(u), n);
+                let cos = wi.dot(n);
                 if cos <= 0.0 {
                     return None;
                 }
@@ -157,16 +162,16 @@ impl Bsdf {
                 })
             }
             Bsdf::Glossy { alpha, .. } => {
-                let side = if wo.dot(n) >= 0.0 { n } else { -n };
-                let cos_o = wo.dot(side);
-                let wi = if u_lobe < self.specular_probability(cos_o) {
-                    let h = sample_ggx_visible(wo, side, alpha, u);
+                let cos_o = wo.dot(n);
+                // A viewer below the normal draws the diffuse layer only (eval's docs).
+                let wi = if cos_o > 0.0 && u_lobe < self.specular_probability(cos_o) {
+                    let h = sample_ggx_visible(wo, n, alpha, u);
                     reflect(wo, h)
                 } else {
-                    to_world(cosine_hemisphere(u), side)
+                    to_world(cosine_hemisphere(u), n)
                 };
                 // Directions below the surface carry no reflection (f = 0 there).
-                let cos = wi.dot(side);
+                let cos = wi.dot(n);
                 if cos <= 0.0 {
                     return None;
                 }

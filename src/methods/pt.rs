@@ -309,13 +309,18 @@ pub fn radiance(
                 break;
             }
         }
-        // The BSDFs take the surface's own shading normal (a dielectric tells inside from
-        // outside by the sign of wo·n); `n` faces the viewer for the NEE cosine.
-        let ns = hit.normal;
+        // `n`: the shading normal on the viewer's side of the geometric surface, for the NEE
+        // cosine and the reflecting BSDFs; a dielectric takes the surface's own and tells
+        // inside from outside by the sign of wo·n (crate::bsdf's docs).
         let n = if hit.geo_normal.dot(wo) >= 0.0 {
-            ns
+            hit.normal
         } else {
-            -ns
+            -hit.normal
+        };
+        let ns = if matches!(bsdf, crate::bsdf::Bsdf::Dielectric { .. }) {
+            hit.normal
+        } else {
+            n
         };
         if !bsdf.is_specular() {
             // Next-event estimation, MIS-weighted against BSDF sampling.

@@ -196,7 +196,14 @@ pub(super) fn trace_photon(
             break;
         };
         let wo = -dir;
-        let Some(s) = bsdf.sample(wo, hit.normal, rng.next_2d(), rng.next_f32()) else {
+        // The reflecting models take the shading normal on the side the photon came from;
+        // a dielectric the surface's own (crate::bsdf's docs).
+        let n = if matches!(bsdf, Bsdf::Dielectric { .. }) || hit.geo_normal.dot(wo) >= 0.0 {
+            hit.normal
+        } else {
+            -hit.normal
+        };
+        let Some(s) = bsdf.sample(wo, n, rng.next_2d(), rng.next_f32()) else {
             break;
         };
         // Discard samples that leave through the geometric surface the wrong way.
@@ -223,9 +230,7 @@ pub(super) fn trace_photon(
         // Veach 1997, §3.7.6 (eval is not swap-symmetric, so the sample's own weight, which
         // holds f(ωo, ωi), cannot be used; one more eval per glossy bounce).
         let weight = match bsdf {
-            Bsdf::Glossy { .. } => {
-                bsdf.eval(s.wi, wo, hit.normal) * s.wi.dot(hit.normal).abs() / s.pdf
-            }
+            Bsdf::Glossy { .. } => bsdf.eval(s.wi, wo, n) * s.wi.dot(n).abs() / s.pdf,
             _ => s.weight,
         };
         let mut new_power = power * weight * adjoint;
