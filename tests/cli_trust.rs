@@ -26,6 +26,11 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// The `--stats s.json` a run wrote into `d`.
+fn stats(d: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap()
+}
+
 /// Refused before any work: a non-zero exit, no panic, the first line names `flag` (and
 /// `also`), nothing rendered (no timing table) and nothing written into `cwd`.
 fn refused(args: &[&str], flag: &str, also: &str) {
@@ -235,8 +240,7 @@ fn the_time_budget_bounds_final_gathering() {
         &d,
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    let j: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    let j = stats(&d);
     assert_eq!(j["passes"], 0, "{j}");
     assert_eq!(j["partial"], true, "an unfinished pass must say so: {j}");
     assert!(stderr(&o).contains("partial"), "{}", stderr(&o));
@@ -267,8 +271,7 @@ fn fractions_are_normalised_and_the_help_shows_what_the_parser_takes() {
     args.extend(["--fractions", "3,6,1", "--stats", "s.json"]);
     let o = run(&args, &d);
     assert!(o.status.success(), "{}", stderr(&o));
-    let j: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    let j = stats(&d);
     let f: Vec<f64> = j["settings"]["fractions"]
         .as_array()
         .unwrap()
@@ -345,8 +348,7 @@ fn batches_renders_exactly_that_many() {
         ];
         let o = run(&args, &d);
         assert!(o.status.success(), "{}", stderr(&o));
-        let j: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+        let j = stats(&d);
         assert_eq!(j["passes"], passes, "{method}: {j}");
     }
     let d = dir("batches_budget");
@@ -393,8 +395,7 @@ fn a_path_tracer_stops_at_the_given_spp_within_its_budget() {
         args.extend(budget);
         let o = run(&args, &d);
         assert!(o.status.success(), "{}", stderr(&o));
-        let j: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+        let j = stats(&d);
         assert_eq!(j["passes"], 3, "{budget:?}: {j}");
         let out = String::from_utf8_lossy(&o.stdout);
         assert!(out.contains("estimated error"), "{out}");
@@ -425,8 +426,7 @@ fn a_path_tracer_stops_at_the_given_spp_within_its_budget() {
         &d,
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    let j: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    let j = stats(&d);
     assert_eq!(j["passes"], 9, "{j}");
 }
 
@@ -559,8 +559,7 @@ fn ctrl_c_writes_the_image_so_far() {
     let status = child.wait().unwrap();
     assert_eq!(status.code(), Some(130));
     assert!(d.join("o.exr").exists());
-    let j: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    let j = stats(&d);
     assert_eq!(j["partial"], true);
     assert!(j["passes"].as_u64().unwrap() >= 1);
 }
