@@ -40,7 +40,8 @@ pub enum Bsdf {
     /// 1 − E_d(θo) ([`specular_albedo`] with f0_d), instead of the specification's
     /// 1 − F(v·h), which reflects up to 1.37 of the light at grazing angles
     /// (docs/deviations.md §49): the albedo is then ≤ 1 everywhere, as Cycles scales its base
-    /// layer. Not reciprocal in the diffuse layer: photons weigh by [`Bsdf::eval`] with the
+    /// layer. Not reciprocal in the diffuse layer (nor, like the Lambertian, where the shading
+    /// normal leans past ωo: [`Bsdf::eval`]): photons weigh by [`Bsdf::eval`] with the
     /// directions swapped (`adjoint`). KHR_materials_specular's factor s and colour c scale
     /// the dielectric's Fresnel: F_d = s·Schlick(min(f0_ior·c, 1), 1), so the layer's Schlick
     /// runs from f0 to f90 = (1 − m)·s + m ([`SpecularLayer`]).

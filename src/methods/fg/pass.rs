@@ -343,9 +343,15 @@ fn gather_from(
                     f90_d,
                     alpha,
                 } => {
-                    let c = dir.dot(hit.normal).abs();
-                    kd * crate::bsdf::diffuse_share(c, alpha, f0_d, f90_d)
-                        + crate::bsdf::specular_albedo(c, alpha, f0, f90)
+                    // The specular layer reflects nothing to a viewer below the shading
+                    // normal (docs/deviations.md §53).
+                    let c = -dir.dot(facing);
+                    let spec = if c > 0.0 {
+                        crate::bsdf::specular_albedo(c, alpha, f0, f90)
+                    } else {
+                        Vec3::ZERO
+                    };
+                    kd * crate::bsdf::diffuse_share(c.abs(), alpha, f0_d, f90_d) + spec
                 }
                 _ => scene.albedo(&hit),
             },

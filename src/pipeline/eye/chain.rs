@@ -252,8 +252,9 @@ pub(super) fn sample_traced_lobe(
         return None;
     };
     let cos_o = wo.dot(n);
-    // Seen from behind its shading normal (a normal texture at a grazing view) the model
-    // reflects nothing (`Bsdf::eval` is 0 there), and the visible normals need ωo above it.
+    // Seen from behind its shading normal (a normal texture at a grazing view) the specular
+    // layer reflects nothing (`Bsdf::eval` keeps the diffuse layer alone there, deviations
+    // §53), and the visible normals need ωo above it.
     if cos_o <= 0.0 {
         return None;
     }

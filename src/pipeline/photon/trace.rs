@@ -225,12 +225,16 @@ pub(super) fn trace_photon(
                 0.0
             }
         };
-        // glTF's glossy model is not reciprocal in its diffuse layer (bsdf::Bsdf::Glossy):
-        // light goes from ωi to ωo, so a photon weighs by f(ωi, ωo): the adjoint BSDF of
-        // Veach 1997, §3.7.6 (eval is not swap-symmetric, so the sample's own weight, which
-        // holds f(ωo, ωi), cannot be used; one more eval per glossy bounce).
+        // The reflecting models are not reciprocal: glTF's glossy model in its diffuse layer
+        // (bsdf::Bsdf::Glossy), and both where the shading normal leans past ωo (they
+        // reflect into its hemisphere only: a photon arriving from below it goes no further,
+        // as no path tracer's path comes that way; deviations §53). Light goes from ωi to
+        // ωo, so a photon weighs by f(ωi, ωo): the adjoint BSDF of Veach 1997, §3.7.6 (the
+        // sample's own weight holds f(ωo, ωi) and cannot be used; one more eval a bounce).
         let weight = match bsdf {
-            Bsdf::Glossy { .. } => bsdf.eval(s.wi, wo, n) * s.wi.dot(n).abs() / s.pdf,
+            Bsdf::Lambert { .. } | Bsdf::Glossy { .. } => {
+                bsdf.eval(s.wi, wo, n) * s.wi.dot(n).abs() / s.pdf
+            }
             _ => s.weight,
         };
         let mut new_power = power * weight * adjoint;

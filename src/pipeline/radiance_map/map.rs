@@ -254,8 +254,12 @@ fn shade(
     if !eye.lobe_in_map(i) {
         return diffuse;
     }
-    // The specular layer's albedo towards the eye, its lobe's shape from the record.
-    let cos_o = eye.wo[i].get().dot(eye.normal[i].get()).abs();
+    // The specular layer's albedo towards the eye, its lobe's shape from the record; none
+    // for a viewer below the shading normal (docs/deviations.md §53).
+    let cos_o = eye.wo[i].get().dot(eye.normal[i].get());
+    if cos_o <= 0.0 {
+        return diffuse;
+    }
     let ks = crate::bsdf::specular_albedo(
         cos_o,
         eye.alpha[i].to_f32(),
