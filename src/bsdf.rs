@@ -388,12 +388,12 @@ pub fn glossy_from_pbr(
     let m = metallic.clamp(0.0, 1.0);
     let base = base.clamp(Vec3::ZERO, Vec3::ONE);
     let (f0_c, f90_d) = specular.dielectric(ior);
-    let (f0_d, _) = specular.diffuse_weights(ior);
     Bsdf::Glossy {
         kd: (1.0 - m) * base,
         f0: (1.0 - m) * f0_c + m * base,
         f90: (1.0 - m) * f90_d + m,
-        f0_d,
+        // What weights the diffuse layer ([`SpecularLayer::diffuse_weights`]).
+        f0_d: f0_c.max_element(),
         f90_d,
         alpha: (roughness * roughness).clamp(ALPHA_MIN, 1.0),
     }
@@ -524,19 +524,19 @@ impl TableAt {
     }
 }
 
-/// A glossy model's specular lobe at ωo (shading normal `n`) as the radiance map's SH mode
-/// integrates it (§8.1, docs/deviations.md §49): its axis — the lobe's mean direction, in the
-/// plane of `n` and the mirror direction — and its zonal coefficients (bands 0–3) about that
-/// axis, normalised to unit albedo.
+/// A glossy model's specular lobe at ωo (shading normal `n`, ωo above it: a viewer below it
+/// sees no specular layer, docs/deviations.md §53) as the radiance map's SH mode integrates
+/// it (§8.1, docs/deviations.md §49): its axis — the lobe's mean direction, in the plane of
+/// `n` and the mirror direction — and its zonal coefficients (bands 0–3) about that axis,
+/// normalised to unit albedo.
 pub fn ggx_zonal(wo: Vec3, n: Vec3, alpha: f32) -> (Vec3, [f32; 4]) {
-    let (at, table) = (TableAt::new(wo.dot(n).abs(), alpha), &*ALBEDO);
+    let (at, table) = (TableAt::new(wo.dot(n), alpha), &*ALBEDO);
     let coeffs = std::array::from_fn(|b| at.read(|i, k| table.zonal[i][k][b]));
-    let side = if wo.dot(n) >= 0.0 { n } else { -n };
-    let r = reflect(wo, side);
-    let along = (r - side * r.dot(side)).normalize_or_zero();
+    let r = reflect(wo, n);
+    let along = (r - n * r.dot(n)).normalize_or_zero();
     let angle = at.read(|i, k| table.axis[i][k]);
     (
-        (side * angle.cos() + along * angle.sin()).normalize_or(side),
+        (n * angle.cos() + along * angle.sin()).normalize_or(n),
         coeffs,
     )
 }
@@ -558,6 +558,33 @@ pub fn specular_albedo(cos_o: f32, alpha: f32, f0: Vec3, f90: f32) -> Vec3 {
 }
 
 impl Bsdf {
+    /// A reflecting model's directional albedos towards ωo, cos θo = `cos_o` against the
+    /// normal on the viewer's side: the diffuse layer's kd·(1 − E_d(|cos θo|)) and the
+    /// specular layer's f0·A + f90·B, which a viewer below the normal does not see
+    /// (docs/deviations.md §53). A Lambertian's is its albedo; the delta models have none.
+    pub fn layer_albedos(&self, cos_o: f32) -> (Vec3, Vec3) {
+        match *self {
+            Bsdf::Lambert { albedo } => (albedo, Vec3::ZERO),
+            Bsdf::Glossy {
+                kd,
+                f0,
+                f90,
+                f0_d,
+                f90_d,
+                alpha,
+            } => {
+                let diffuse = kd * diffuse_share(cos_o.abs(), alpha, f0_d, f90_d);
+                let specular = if cos_o > 0.0 {
+                    specular_albedo(cos_o, alpha, f0, f90)
+                } else {
+                    Vec3::ZERO
+                };
+                (diffuse, specular)
+            }
+            Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => (Vec3::ZERO, Vec3::ZERO),
+        }
+    }
+
     /// A glossy model's specular layer alone (its diffuse colour zeroed); any other model
     /// as it is.
     pub fn specular_layer(self) -> Bsdf {

@@ -335,23 +335,9 @@ fn gather_from(
             // Gather hits are shaded as matte with the BSDF's whole reflectance (§8.4 uses no
             // radiance map there; docs/deviations.md).
             albedo: match bsdf {
-                crate::bsdf::Bsdf::Glossy {
-                    kd,
-                    f0,
-                    f90,
-                    f0_d,
-                    f90_d,
-                    alpha,
-                } => {
-                    // The specular layer reflects nothing to a viewer below the shading
-                    // normal (docs/deviations.md §53).
-                    let c = -dir.dot(facing);
-                    let spec = if c > 0.0 {
-                        crate::bsdf::specular_albedo(c, alpha, f0, f90)
-                    } else {
-                        Vec3::ZERO
-                    };
-                    kd * crate::bsdf::diffuse_share(c.abs(), alpha, f0_d, f90_d) + spec
+                crate::bsdf::Bsdf::Glossy { .. } => {
+                    let (diffuse, specular) = bsdf.layer_albedos(-dir.dot(facing));
+                    diffuse + specular
                 }
                 _ => scene.albedo(&hit),
             },

@@ -4,7 +4,7 @@
 
 use super::{EyeSample, EyeSettings};
 use crate::bsdf::{
-    Bsdf, diffuse_share, fresnel_dielectric, ggx_g1, ggx_g2, phong_equivalent, reflect, refract,
+    Bsdf, fresnel_dielectric, ggx_g1, ggx_g2, phong_equivalent, reflect, refract,
     sample_ggx_visible, schlick, schlick_to,
 };
 use crate::sampling::Rng;
@@ -99,19 +99,9 @@ pub(super) fn trace_chain(
         // A glossy sample keeps its diffuse layer's albedo towards the eye, kd·(1 − E_d).
         let surface = match bsdf {
             Bsdf::Lambert { albedo } => Some((albedo, Vec3::ZERO, 1.0, 0.0)),
-            Bsdf::Glossy {
-                kd,
-                f0,
-                f90,
-                f0_d,
-                f90_d,
-                alpha,
-            } => Some((
-                kd * diffuse_share(wo.dot(hit.normal).abs(), alpha, f0_d, f90_d),
-                f0,
-                alpha,
-                f90,
-            )),
+            Bsdf::Glossy { f0, f90, alpha, .. } => {
+                Some((bsdf.layer_albedos(wo.dot(hit.normal)).0, f0, alpha, f90))
+            }
             _ => None,
         };
         if let Some((albedo, specular, alpha, f90)) = surface {
