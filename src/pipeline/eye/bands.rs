@@ -147,7 +147,7 @@ pub(super) fn assign_targets(
     for i in 0..px.len() {
         let reach = MERGE_FOOTPRINTS * pixel_angle * px[i].path_length;
         let s = px[i].sample;
-        let glossy = (s.specular != Vec3::ZERO || s.f90 > 0.0) && !s.lobe_traced;
+        let glossy = s.is_glossy() && !s.lobe_traced;
         let found = if merge {
             px[..i].iter().find(|o| {
                 let t = o.target as usize;

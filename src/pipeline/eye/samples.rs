@@ -312,3 +312,10 @@ pub struct EyeSample {
     /// The glossy lobe is traced by the eye path ([`EyeSamples::lobe_traced`]).
     pub lobe_traced: bool,
 }
+
+impl EyeSample {
+    /// Its BSDF has a glossy lobe ([`EyeSamples::is_glossy`], before packing).
+    pub fn is_glossy(&self) -> bool {
+        self.specular != Vec3::ZERO || self.f90 > 0.0
+    }
+}
