@@ -101,6 +101,17 @@ fn choose_view(h: &mut Harness<'static, App>, mode: &str) {
     h.get_by_label(mode).click();
 }
 
+/// Step until the worker, restarted with the visibility test off, shows a frame without it.
+fn until_a_frame_without_domain_tests(h: &mut Harness<'static, App>) {
+    run_until(h, 60, "a frame without domain tests", |a| {
+        a.frame().is_some_and(|f| {
+            !f.settings.splat_visibility
+                && f.stats.method.passes >= 1
+                && f.stats.method.domain_tests == 0
+        })
+    });
+}
+
 fn pause(h: &mut Harness<'static, App>) {
     h.get_by_label("Pause (Space)").click();
     run_until(h, 30, "a paused frame", |a| {
@@ -589,13 +600,7 @@ fn visibility_checkbox_restarts_without_domain_tests() {
     assert!(h.state().frame().unwrap().stats.method.domain_tests > 0);
     h.get_by_label_contains("pairs tested");
     h.get_by_label("Visibility in the splat footprint").click();
-    run_until(&mut h, 60, "a frame without domain tests", |a| {
-        a.frame().is_some_and(|f| {
-            !f.settings.splat_visibility
-                && f.stats.method.passes >= 1
-                && f.stats.method.domain_tests == 0
-        })
-    });
+    until_a_frame_without_domain_tests(&mut h);
     h.run_steps(2);
     assert!(h.query_by_label_contains("pairs tested").is_none());
 }
@@ -613,19 +618,8 @@ fn the_status_bar_does_not_move_the_image() {
     h.run_steps(3);
     let top = |h: &Harness<'static, App>| h.get_by_label_contains("photons traced").rect().top();
     let before = top(&h);
-    h.get_by_label("Visibility in the splat footprint")
-        .scroll_to_me();
-    settle(&mut h, |h| {
-        h.get_by_label("Visibility in the splat footprint").rect()
-    });
-    h.get_by_label("Visibility in the splat footprint").click();
-    run_until(&mut h, 60, "a frame without domain tests", |a| {
-        a.frame().is_some_and(|f| {
-            !f.settings.splat_visibility
-                && f.stats.method.passes >= 1
-                && f.stats.method.domain_tests == 0
-        })
-    });
+    click(&mut h, "Visibility in the splat footprint");
+    until_a_frame_without_domain_tests(&mut h);
     let mut tops = Vec::new();
     for _ in 0..60 {
         h.step();
