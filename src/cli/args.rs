@@ -355,11 +355,7 @@ impl SettingsArgs {
             // With a time budget the path tracer adds one path per pixel per step, so the
             // budget bounds it (and a given --spp: `SettingsArgs::pt_path_cap`); otherwise
             // --spp paths in one step.
-            pt_spp: if self.run.time_budget.is_some() || self.run.batches.is_some() {
-                1
-            } else {
-                spp
-            },
+            pt_spp: if self.run.stepped() { 1 } else { spp },
             cache: self.cache_filter.cache(),
             cache_on: self.cache_filter.cache,
             filter: self.cache_filter.filter(),
@@ -373,8 +369,7 @@ impl SettingsArgs {
     /// trace: a --spp given with either (the render stops at whichever comes first). `None`
     /// without one, or when --spp was not given.
     pub fn pt_path_cap(&self) -> Option<u64> {
-        let budgeted = self.run.time_budget.is_some() || self.run.batches.is_some();
-        self.image.spp.filter(|_| budgeted).map(u64::from)
+        self.image.spp.filter(|_| self.run.stepped()).map(u64::from)
     }
 }
 
@@ -435,6 +430,12 @@ impl PhotonArgs {
 }
 
 impl RunArgs {
+    /// A render progressive over steps (`--time-budget` or `--batches`): the path tracer
+    /// then adds one path per pixel a step.
+    pub fn stepped(&self) -> bool {
+        self.time_budget.is_some() || self.batches.is_some()
+    }
+
     /// `--time-budget` seconds, `--batches` units of work, or one fixed batch.
     pub fn budget(&self) -> Budget {
         match (self.time_budget, self.batches) {

@@ -115,7 +115,7 @@ pub fn run(args: CompareArgs) -> Result<(), CliError> {
     let budget = args.settings.run.budget();
     let settings = RenderSettings {
         // With a time budget the path tracer adds one path per pixel per step.
-        pt_spp: if args.settings.run.time_budget.is_some() || args.settings.run.batches.is_some() {
+        pt_spp: if args.settings.run.stepped() {
             1
         } else {
             args.pt_spp
