@@ -365,13 +365,6 @@ impl SpecularLayer {
         let c = self.color.max(Vec3::ZERO);
         ((dielectric_f0(ior) * c).min(Vec3::ONE) * s, s)
     }
-
-    /// What weights the diffuse layer (module docs of [`Bsdf::Glossy`]): the dielectric's
-    /// f0 at its largest channel (the specification's `max_value(fr)`) and its f90.
-    pub fn diffuse_weights(&self, ior: f32) -> (f32, f32) {
-        let (f0, f90) = self.dielectric(ior);
-        (f0.max_element(), f90)
-    }
 }
 
 /// glTF metallic-roughness → [`Bsdf::Glossy`] (appendix B.3.5): kd = (1 − m)·base,
@@ -392,7 +385,8 @@ pub fn glossy_from_pbr(
         kd: (1.0 - m) * base,
         f0: (1.0 - m) * f0_c + m * base,
         f90: (1.0 - m) * f90_d + m,
-        // What weights the diffuse layer ([`SpecularLayer::diffuse_weights`]).
+        // What weights the diffuse layer: the dielectric's f0 at its largest channel (the
+        // extension's `max_value(dielectric_f0)`) and its f90.
         f0_d: f0_c.max_element(),
         f90_d,
         alpha: (roughness * roughness).clamp(ALPHA_MIN, 1.0),

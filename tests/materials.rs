@@ -385,7 +385,7 @@ fn the_damaged_helmet_loads_its_textures_and_does_not_glow() {
 }
 
 /// KHR_materials_specular's factor and colour reach the material (and so every ray's BSDF),
-/// named nowhere as ignored; its textures are named.
+/// named nowhere as ignored.
 #[test]
 fn the_specular_extension_s_factor_and_colour_are_read() {
     let mut g = GlbBuilder::default();
@@ -407,6 +407,90 @@ fn the_specular_extension_s_factor_and_colour_are_read() {
             factor: 0.5,
             color: Vec3::new(1.0, 0.5, 0.25)
         }
+    );
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .all(|w| !w.contains("KHR_materials_specular")),
+        "{:?}",
+        scene.warnings
+    );
+}
+
+/// KHR_materials_specular's textures vary the layer across a surface, as its "Properties"
+/// say: `specularTexture`'s A channel (linear) times the factor, `specularColorTexture`'s RGB
+/// (sRGB) times the colour; one image may carry both, as exporters write it.
+#[test]
+fn the_specular_extension_s_textures_vary_the_layer_across_a_surface() {
+    use raysplat::bsdf::{SpecularLayer, glossy_from_pbr};
+    let base = [0.6, 0.5, 0.4, 1.0];
+    let scene = square_of(
+        json!({"pbrMetallicRoughness": {"baseColorFactor": base,
+            "metallicFactor": 0.0, "roughnessFactor": 0.3},
+            "extensions": {"KHR_materials_specular": {
+                "specularFactor": 0.5, "specularColorFactor": [1.0, 1.0, 0.5],
+                "specularTexture": {"index": 0}, "specularColorTexture": {"index": 0}}}}),
+        &[(
+            vec![[255, 255, 255, 0], [255, 255, 255, 255], [255, 188, 0, 128]],
+            3,
+            1,
+        )],
+        &[],
+    );
+    let at = |x: f32| probe(&scene, x, 0.0).expect("the square");
+    // A = 0: the layer is off, the surface Lambertian.
+    assert!(
+        matches!(scene.bsdf(&at(-0.4)), Bsdf::Lambert { .. }),
+        "{:?}",
+        scene.bsdf(&at(-0.4))
+    );
+    // The sRGB code 188 decodes to 0.5029 (IEC 61966-2-1); A is linear.
+    let srgb188 = ((188.0f32 / 255.0 + 0.055) / 1.055).powf(2.4);
+    let base = Vec3::new(0.6, 0.5, 0.4);
+    for (x, layer) in [
+        (
+            0.0,
+            SpecularLayer {
+                factor: 0.5,
+                color: Vec3::new(1.0, 1.0, 0.5),
+            },
+        ),
+        (
+            0.4,
+            SpecularLayer {
+                factor: 0.5 * 128.0 / 255.0,
+                color: Vec3::new(1.0, srgb188, 0.0),
+            },
+        ),
+    ] {
+        let got = scene.specular_layer(&at(x));
+        assert!(
+            (got.factor - layer.factor).abs() < 1e-6
+                && (got.color - layer.color).abs().max_element() < 1e-5,
+            "{x}: {got:?} against {layer:?}"
+        );
+        let (
+            Bsdf::Glossy { f0, f90, .. },
+            Bsdf::Glossy {
+                f0: e0, f90: e90, ..
+            },
+        ) = (
+            scene.bsdf(&at(x)),
+            glossy_from_pbr(base, 0.3, 0.0, 1.5, layer),
+        )
+        else {
+            panic!("{x}: {:?}", scene.bsdf(&at(x)));
+        };
+        assert!((f0 - e0).abs().max_element() < 1e-5 && (f90 - e90).abs() < 1e-6);
+    }
+    // The red texel: f0 = 0.04 · s · c per channel, blue dark.
+    let Bsdf::Glossy { f0, .. } = scene.bsdf(&at(0.4)) else {
+        unreachable!()
+    };
+    assert!(
+        f0.z == 0.0 && (f0.x - 0.04 * 0.5 * 128.0 / 255.0).abs() < 1e-5,
+        "{f0}"
     );
     assert!(
         scene

@@ -69,7 +69,7 @@ const EMITTERS_TESTED_DIRECTLY: usize = 64;
 /// Reflected direct radiance towards the eye at every sample (BSDF applied, eye weight not),
 /// and the number of samples whose estimate was NaN or infinite (set to zero, not used).
 pub fn direct_light(scene: &Scene, eye: &EyeSamples, samples: u32, seed: u64) -> (Vec<Vec3>, u64) {
-    direct_light_through(scene, eye, samples, seed, |i| Some(eye.bsdf(i, scene)))
+    direct_light_through(scene, eye, samples, seed, |i| Some(eye.bsdf(i)))
 }
 
 /// Direct light reflected by the traced glossy lobes only (zero at other samples), for
@@ -84,7 +84,7 @@ pub fn traced_lobe_direct_light(
     seed: u64,
 ) -> (Vec<Vec3>, u64) {
     direct_light_through(scene, eye, samples, seed, |i| {
-        (eye.lobe_traced(i)).then(|| eye.bsdf(i, scene).specular_layer())
+        (eye.lobe_traced(i)).then(|| eye.bsdf(i).specular_layer())
     })
 }
 

@@ -144,6 +144,12 @@ pub struct Material {
     pub roughness: f32,
     /// KHR_materials_specular's factor and colour (the core model's 1 and white without it).
     pub specular: crate::bsdf::SpecularLayer,
+    /// KHR_materials_specular's `specularTexture` (linear; its A channel), multiplied with
+    /// the factor.
+    pub specular_texture: Option<TextureRef>,
+    /// KHR_materials_specular's `specularColorTexture` (sRGB; RGB), multiplied with the
+    /// colour.
+    pub specular_color_texture: Option<TextureRef>,
     /// Index of refraction (KHR_materials_ior; 1.5 by default): the dielectric's f0.
     pub ior: f32,
     /// metallicRoughnessTexture (linear; B metal, G rough), multiplied with the factors.
@@ -172,6 +178,8 @@ impl Material {
             metallic: 0.0,
             roughness: 1.0,
             specular: crate::bsdf::SpecularLayer::default(),
+            specular_texture: None,
+            specular_color_texture: None,
             ior: 1.5,
             metal_rough_texture: None,
             normal_texture: None,
@@ -180,12 +188,6 @@ impl Material {
             alpha: AlphaMode::Opaque,
             double_sided: false,
         }
-    }
-
-    /// What weights its glossy model's diffuse layer: the dielectric's f0 (largest channel)
-    /// and f90 ([`crate::bsdf::SpecularLayer::diffuse_weights`]).
-    pub fn diffuse_weights(&self) -> (f32, f32) {
-        self.specular.diffuse_weights(self.ior)
     }
 
     /// The material emits somewhere (a positive factor; a texture may still be black).
@@ -204,6 +206,8 @@ impl Material {
             &self.base_texture,
             &self.metal_rough_texture,
             &self.emissive_texture,
+            &self.specular_texture,
+            &self.specular_color_texture,
         ];
         self.normal_texture.is_some() || refs.iter().any(|t| t.as_ref().is_some_and(|t| t.set == 1))
     }
@@ -376,15 +380,36 @@ impl Scene {
         }
     }
 
+    /// KHR_materials_specular at a hit: the factor × `specularTexture`'s A channel and the
+    /// colour × `specularColorTexture`'s RGB (sRGB), as the extension's "Properties" say.
+    #[inline]
+    pub fn specular_layer(&self, hit: &Hit) -> crate::bsdf::SpecularLayer {
+        let m = &self.materials[hit.material as usize];
+        let mut layer = m.specular;
+        if let Some(t) = &m.specular_texture {
+            layer.factor *= self.read(t, t.uv(hit), false).w;
+        }
+        if let Some(t) = &m.specular_color_texture {
+            layer.color *= self.read(t, t.uv(hit), true).xyz();
+        }
+        layer
+    }
+
     /// The scattering model at a hit.
     #[inline]
     pub fn bsdf(&self, hit: &Hit) -> Bsdf {
         let m = &self.materials[hit.material as usize];
+        let textured = m.specular_texture.is_some() || m.specular_color_texture.is_some();
+        let specular = if textured {
+            self.specular_layer(hit)
+        } else {
+            m.specular
+        };
         let kind = match m.kind {
             MaterialKind::Dielectric { .. } => m.kind,
-            _ if m.metal_rough_texture.is_some() => {
+            _ if m.metal_rough_texture.is_some() || textured => {
                 let (metallic, roughness) = self.metal_rough(hit);
-                MaterialKind::classify(metallic, roughness, m.specular)
+                MaterialKind::classify(metallic, roughness, specular)
             }
             k => k,
         };
@@ -395,13 +420,9 @@ impl Scene {
             MaterialKind::Glossy {
                 roughness,
                 metallic,
-            } => crate::bsdf::glossy_from_pbr(
-                self.albedo(hit),
-                roughness,
-                metallic,
-                m.ior,
-                m.specular,
-            ),
+            } => {
+                crate::bsdf::glossy_from_pbr(self.albedo(hit), roughness, metallic, m.ior, specular)
+            }
             MaterialKind::Mirror => Bsdf::Mirror {
                 color: self.albedo(hit),
             },

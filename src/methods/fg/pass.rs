@@ -298,7 +298,7 @@ fn gather_from(
 ) {
     let mut rng = Rng::new(seed ^ 0xf1a1_9a7e, i as u64);
     let (p, nrm) = (eye.position[i], eye.normal[i].get());
-    let bsdf = eye.bsdf(i, scene);
+    let bsdf = eye.bsdf(i);
     let (ng, offset) = (eye.geo_normal[i].get(), eye.offset[i].get());
     for _ in 0..n {
         // BSDF sampling (cosine sampling for a Lambertian: f·cos/pdf = ρ).

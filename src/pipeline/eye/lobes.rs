@@ -69,7 +69,7 @@ pub fn trace_lobes(
                     eye.normal[k].get(),
                     eye.geo_normal[k].get(),
                 );
-                let bsdf = eye.bsdf(k, scene);
+                let bsdf = eye.bsdf(k);
                 if let Some((d, lobe_w)) =
                     sample_traced_lobe(bsdf, eye.wo[k].get(), n, ng, s.lobe_limit, &mut rng)
                 {

@@ -3,7 +3,6 @@
 
 use crate::bsdf::Bsdf;
 use crate::pack::{Bound16, Oct, Rgb16};
-use crate::scene::Scene;
 use glam::Vec3;
 use half::f16;
 
@@ -188,29 +187,21 @@ impl EyeSamples {
         }
     }
 
-    /// The sample's BSDF: Lambertian, or glTF's glossy model with its α, f0, f90, and the
-    /// diffuse colour its stored albedo was weighted from (the albedo is kd·(1 − E_d) towards
-    /// the eye, [`crate::bsdf::diffuse_share`]; the material's IOR and KHR_materials_specular
-    /// give the dielectric's f0_d and f90_d).
+    /// The sample's BSDF: Lambertian, or glTF's glossy model with its α, f0, f90 towards the
+    /// sample's own ωo. Its stored albedo is already the diffuse layer's kd·(1 − E_d) there
+    /// ([`crate::bsdf::diffuse_share`]), so the model takes it as kd with the dielectric's
+    /// weights f0_d = f90_d = 0 (a share of 1): the same diffuse term at ωo to the bit, without
+    /// the material's IOR and KHR_materials_specular, which its textures vary per hit.
     #[inline]
-    pub fn bsdf(&self, i: usize, scene: &Scene) -> Bsdf {
+    pub fn bsdf(&self, i: usize) -> Bsdf {
         if self.is_glossy(i) {
-            let (f0_d, f90_d) = scene.materials[self.material[i] as usize].diffuse_weights();
-            let cos_o = self.wo[i].get().dot(self.normal[i].get()).abs();
-            let alpha = self.alpha[i].to_f32();
-            let keep = crate::bsdf::diffuse_share(cos_o, alpha, f0_d, f90_d);
-            let albedo = self.albedo[i].get();
             Bsdf::Glossy {
-                kd: if keep > 0.0 {
-                    albedo / keep
-                } else {
-                    Vec3::ZERO
-                },
+                kd: self.albedo[i].get(),
                 f0: self.specular[i].get(),
                 f90: self.f90[i].to_f32(),
-                f0_d,
-                f90_d,
-                alpha,
+                f0_d: 0.0,
+                f90_d: 0.0,
+                alpha: self.alpha[i].to_f32(),
             }
         } else {
             Bsdf::Lambert {

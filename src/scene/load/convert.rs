@@ -210,7 +210,7 @@ pub(super) fn convert_material(
         .map(|i| i.ior.0)
         .filter(|i| i.is_finite() && *i >= 1.0)
         .unwrap_or(1.5);
-    // KHR_materials_specular's factor and colour (its textures are named, not read).
+    // KHR_materials_specular's factor and colour (its textures are read below).
     let specular = ext
         .and_then(|e| e.specular.as_ref())
         .map(|s| {
@@ -271,6 +271,10 @@ pub(super) fn convert_material(
     let normal_scale = finite_or(m.normal_texture.as_ref().map_or(1.0, |n| n.scale), 1.0);
     let normal_texture = slot(&raw["normalTexture"], "normal texture")?.map(|t| (t, normal_scale));
     let emissive_texture = slot(&raw["emissiveTexture"], "emissive texture")?;
+    let spec_raw = &raw["extensions"]["KHR_materials_specular"];
+    let specular_texture = slot(&spec_raw["specularTexture"], "specular texture")?;
+    let specular_color_texture =
+        slot(&spec_raw["specularColorTexture"], "specular colour texture")?;
     // The occlusion texture is checked but not applied: raysplat computes the occlusion it
     // stands for (docs/deviations.md §45).
     if let Some(o) = &m.occlusion_texture {
@@ -297,6 +301,8 @@ pub(super) fn convert_material(
         metallic,
         roughness,
         specular,
+        specular_texture,
+        specular_color_texture,
         ior,
         metal_rough_texture,
         normal_texture,
@@ -332,8 +338,8 @@ pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
                 }
             }
             "KHR_materials_specular" => {
-                // Factor and colour are read; the textures and a transmissive material's
-                // Fresnel (smooth glass keeps its own) are not.
+                // Factor, colour and their textures are read; a transmissive material's
+                // Fresnel (smooth glass keeps its own) is not.
                 let textures =
                     e.get("specularTexture").is_some() || e.get("specularColorTexture").is_some();
                 let default = e["specularFactor"].as_f64().is_none_or(|f| f == 1.0)
@@ -345,8 +351,6 @@ pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
                     .is_some_and(|t| t > 0.5);
                 if glass && (textures || !default) {
                     "KHR_materials_specular on a transmissive material".to_string()
-                } else if textures {
-                    "KHR_materials_specular's textures (its factor and colour are read)".to_string()
                 } else {
                     continue;
                 }
