@@ -519,9 +519,14 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
         "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
             "KHR_materials_ior": {"ior": 1.4},
             "KHR_materials_specular": {"specularColorFactor": [1.0, 0.5, 0.5]}}}));
+    // Solid glass with an absorbing volume: everything rendered, nothing named.
+    let solid_glass = g.material(json!({"pbrMetallicRoughness": {"roughnessFactor": 0.0},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_volume": {"thicknessFactor": 0.2, "attenuationDistance": 0.5,
+                "attenuationColor": [0.9, 0.5, 0.5], "thicknessTexture": {"index": 0}}}}));
     for (k, m) in materials
         .into_iter()
-        .chain([sheen, plain_glass])
+        .chain([sheen, plain_glass, solid_glass])
         .enumerate()
     {
         quad(&mut g, k as f32, 0.5, false, m, &[]);
@@ -549,13 +554,27 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
     let specular = lines("KHR_materials_specular");
     assert_eq!(specular.len(), 1, "{:?}", scene.warnings);
     assert!(specular[0].contains("transmissive"), "{specular:?}");
-    // What is rendered is not named: the strength, the IOR, smooth full transmission.
+    // What is rendered is not named: the strength, the IOR, smooth full transmission with a
+    // volume (its thickness texture is for renderers that cannot trace the volume).
     assert!(lines("emissive_strength").is_empty() && lines("KHR_materials_ior").is_empty());
-    assert_eq!(
-        lines("KHR_materials_transmission").len(),
-        1,
+    assert!(lines("KHR_materials_volume;").len() == 1 && lines("volume ").is_empty());
+    // Transmission without a volume is glTF's thin wall, drawn as solid glass: named.
+    let thin = lines("thin wall");
+    assert!(
+        thin.len() == 1 && thin[0].contains("#7") && !thin[0].contains("#8"),
         "{:?}",
         scene.warnings
+    );
+    assert_eq!(
+        lines("KHR_materials_transmission").len(),
+        2,
+        "{:?}",
+        scene.warnings
+    );
+    assert!(
+        scene.materials[8].absorption.is_some_and(|s| s.x > 0.0 && s.y > s.x),
+        "{:?}",
+        scene.materials[8].absorption
     );
 }
 
@@ -656,4 +675,141 @@ fn texture_coordinates_far_out_load_and_render() {
     quad(&mut g, 1.0, 0.5, true, light, &[]);
     let scene = Arc::new(Scene::from_glb_bytes(&g.to_glb(), "far uv").expect("loads"));
     common::renders_cleanly(scene).expect("renders");
+}
+
+/// A closed box between `lo` and `hi`, its faces wound outwards (a volume's boundary).
+fn closed_box(g: &mut GlbBuilder, lo: Vec3, hi: Vec3, material: u32) {
+    let (mut p, mut n, mut idx) = (Vec::new(), Vec::new(), Vec::<u32>::new());
+    for axis in 0..3 {
+        for outer in [false, true] {
+            let mut nrm = Vec3::ZERO;
+            nrm[axis] = if outer { 1.0 } else { -1.0 };
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let base = p.len() as u32;
+            for (a, b) in [(false, false), (true, false), (true, true), (false, true)] {
+                let mut q = if outer { hi } else { lo };
+                q[u] = if a { hi[u] } else { lo[u] };
+                q[v] = if b { hi[v] } else { lo[v] };
+                p.push(q);
+                n.push(nrm);
+            }
+            let c = |k: u32| p[(base + k) as usize];
+            if (c(1) - c(0)).cross(c(2) - c(0)).dot(nrm) > 0.0 {
+                idx.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+            } else {
+                idx.extend([base, base + 2, base + 1, base, base + 3, base + 2]);
+            }
+        }
+    }
+    g.mesh("box", &p, &n, &idx, material);
+}
+
+/// Smooth glass (IOR 1.5) with KHR_materials_volume: `thickness` its thicknessFactor, white
+/// light turning into `color` over 1 m.
+fn absorbing_glass(g: &mut GlbBuilder, thickness: f32, color: [f32; 3]) -> u32 {
+    g.material(json!({"name": "absorbing glass",
+        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 0.0},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_ior": {"ior": 1.5},
+            "KHR_materials_volume": {"thicknessFactor": thickness,
+                "attenuationDistance": 1.0, "attenuationColor": color}}}))
+}
+
+/// KHR_materials_volume: light through a slab of glass 0.5 m thick whose medium turns white
+/// into (0.5, 0.8, 1) over 1 m, seen at normal incidence against an emitter behind it, is
+/// Le·(1 − R)²·τ/(1 − R²τ²) with τ = exp(−σ·0.5), σ = −ln(colour) (Beer–Lambert, every
+/// internal reflection pair summed; R = 0.04 at IOR 1.5). The eye pass's deterministic
+/// Fresnel split (rs: nothing diffuse, so its image is that chain alone) and the path tracer
+/// agree with it; a thickness of 0, the extension's thin wall, absorbs nothing.
+#[test]
+fn a_volume_absorbs_along_the_path_inside_as_beer_lambert_says() {
+    let color = [0.5f32, 0.8, 1.0];
+    let scene_with = |thickness: f32| {
+        let mut g = GlbBuilder::default();
+        let glass = absorbing_glass(&mut g, thickness, color);
+        closed_box(
+            &mut g,
+            Vec3::new(-1.0, -1.0, -0.25),
+            Vec3::new(1.0, 1.0, 0.25),
+            glass,
+        );
+        let light = g.material(json!({"pbrMetallicRoughness":
+            {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]}, "emissiveFactor": [1.0, 1.0, 1.0]}));
+        let q = [
+            Vec3::new(-3.0, -3.0, -1.5),
+            Vec3::new(3.0, -3.0, -1.5),
+            Vec3::new(3.0, 3.0, -1.5),
+            Vec3::new(-3.0, 3.0, -1.5),
+        ];
+        g.mesh("light", &q, &[Vec3::Z; 4], &[0, 1, 2, 0, 2, 3], light);
+        g.camera("cam", Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.05);
+        Arc::new(Scene::from_glb_bytes(&g.to_glb(), "slab").expect("loads"))
+    };
+    let r = 0.04f32;
+    let expected = |tau: Vec3| (1.0 - r) * (1.0 - r) * tau / (Vec3::ONE - r * r * tau * tau);
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 4,
+        photons: 1_000,
+        ..RenderSettings::default()
+    };
+    for (thickness, tau) in [
+        (1.0, Vec3::from_array(color.map(|c| c.powf(0.5)))),
+        (0.0, Vec3::ONE),
+    ] {
+        let scene = scene_with(thickness);
+        let want = expected(tau);
+        let eye = render_method(&scene, MethodKind::Rs, &settings, Budget::Fixed)
+            .expect("rs renders")
+            .film
+            .mean();
+        let pt = path_traced(&scene, &settings, 256).mean();
+        for (what, got, tol) in [("eye pass", eye, 0.005), ("path tracer", pt, 0.02)] {
+            let worst = (got / want - Vec3::ONE).abs().max_element();
+            assert!(
+                worst < tol,
+                "thickness {thickness}, {what}: {got} against {want}"
+            );
+        }
+    }
+}
+
+/// Photons cross an absorbing volume as the path tracer's paths do: a white floor lit by an
+/// area light through a horizontal slab of absorbing glass (shadow rays stop at glass, so
+/// the light under it is all caustic) renders with the same mean colour in rs and the path
+/// tracer, and its red share is the absorbed one, not the clear glass's.
+#[test]
+fn photons_are_absorbed_inside_a_volume_as_the_path_tracer_s_paths_are() {
+    let mut g = GlbBuilder::default();
+    let m = white(&mut g);
+    plane(&mut g, 4.0, m);
+    let glass = absorbing_glass(&mut g, 1.0, [0.25, 0.8, 1.0]);
+    closed_box(
+        &mut g,
+        Vec3::new(-1.5, 0.8, -1.5),
+        Vec3::new(1.5, 1.2, 1.5),
+        glass,
+    );
+    common::ceiling_light(&mut g, Vec3::Y * 3.0, 0.5, 20.0);
+    g.camera("under", Vec3::new(0.0, 0.7, 0.01), Vec3::ZERO, 1.6);
+    let scene = Arc::new(Scene::from_glb_bytes(&g.to_glb(), "slab over floor").expect("loads"));
+    let settings = RenderSettings {
+        width: 24,
+        height: 24,
+        spp: 2,
+        photons: 200_000,
+        ..RenderSettings::default()
+    };
+    let rs = render_method(&scene, MethodKind::Rs, &settings, Budget::Passes(4))
+        .expect("rs renders")
+        .film
+        .mean();
+    let pt = path_traced(&scene, &settings, 256).mean();
+    let worst = (rs / pt - Vec3::ONE).abs().max_element();
+    assert!(worst < 0.05, "rs {rs}, pt {pt}");
+    // Through 0.4 m of a medium that keeps 25% of red over 1 m, at least half the red is
+    // absorbed on the way down (more along slanted paths) and none of the blue.
+    assert!(rs.x < 0.6 * rs.z && pt.x < 0.6 * pt.z, "rs {rs}, pt {pt}");
 }

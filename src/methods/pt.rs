@@ -292,6 +292,8 @@ pub fn radiance(
             }
             break;
         };
+        // Absorbed along the segment inside a volume (KHR_materials_volume).
+        beta *= scene.transmittance(&hit, dir);
         let wo = -dir;
         let le = scene.emitted(&hit, wo);
         if le != Vec3::ZERO {

@@ -88,6 +88,9 @@ pub(super) fn trace_chain(
             }
             continue;
         };
+        // Light from this hit crossed the segment: absorbed inside a volume (glass with
+        // KHR_materials_volume), whole elsewhere.
+        let w = w * scene.transmittance(&hit, d);
         let path_length = travelled + hit.t;
         let wo = -d;
         // Light met straight off a traced lobe is NEE's at the lobe's eye sample (its BSDF

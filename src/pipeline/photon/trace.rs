@@ -237,7 +237,10 @@ pub(super) fn trace_photon(
             }
             _ => s.weight,
         };
-        let mut new_power = power * weight * adjoint;
+        // The segment just travelled was absorbed inside a volume (KHR_materials_volume):
+        // the stored ray keeps the power it entered with (it ends on the volume's specular
+        // boundary, where nothing lands), the photon goes on with what came through.
+        let mut new_power = power * weight * adjoint * scene.transmittance(&hit, dir);
         // Russian roulette keeping the photon power roughly constant.
         let q = (new_power.max_element() / power.max_element()).min(1.0);
         if pushed && let Some(last) = out.last_mut() {

@@ -167,11 +167,29 @@ impl GlbBuilder {
             "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}}));
     }
 
+    /// The extensions its materials use, each once, in the order first met (the file's
+    /// `extensionsUsed` must list them).
+    fn material_extensions(&self) -> Vec<String> {
+        let mut used: Vec<String> = Vec::new();
+        for m in &self.materials {
+            for name in m["extensions"]
+                .as_object()
+                .into_iter()
+                .flat_map(|e| e.keys())
+            {
+                if !used.contains(name) {
+                    used.push(name.clone());
+                }
+            }
+        }
+        used
+    }
+
     /// The GLB file.
     pub fn to_glb(&self) -> Vec<u8> {
         let mut root = json!({
             "asset": {"version": "2.0", "generator": concat!("raysplat ", env!("CARGO_PKG_VERSION"))},
-            "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior"],
+            "extensionsUsed": self.material_extensions(),
             "scene": 0,
             "scenes": [{"nodes": (0..self.nodes.len()).collect::<Vec<_>>()}],
             "nodes": self.nodes,

@@ -264,7 +264,9 @@ fn glass_material(g: &mut GlbBuilder) -> u32 {
             "metallicFactor": 0.0, "roughnessFactor": 0.0},
         "extensions": {
             "KHR_materials_transmission": {"transmissionFactor": 1.0},
-            "KHR_materials_ior": {"ior": 1.5}
+            "KHR_materials_ior": {"ior": 1.5},
+            // Solid glass: glTF's transmission alone is a thin wall.
+            "KHR_materials_volume": {"thicknessFactor": 1.0}
         }
     }))
 }

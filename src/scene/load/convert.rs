@@ -284,6 +284,19 @@ pub(super) fn convert_material(
             &format!("material {index}'s occlusion texture"),
         )?;
     }
+    // KHR_materials_volume on glass: Beer–Lambert absorption inside. A thickness of 0 (the
+    // default) is the extension's thin wall, which absorbs nothing; the thickness itself (and
+    // its texture) is for renderers that cannot trace the volume: raysplat measures the path
+    // inside (docs/deviations.md §54).
+    let volume = &raw["extensions"]["KHR_materials_volume"];
+    let absorption = match kind {
+        MaterialKind::Dielectric { .. }
+            if volume["thicknessFactor"].as_f64().is_some_and(|t| t > 0.0) =>
+        {
+            absorption(volume)
+        }
+        _ => None,
+    };
     use json::material::AlphaMode as Mode;
     let alpha = match m.alpha_mode {
         Checked::Valid(Mode::Mask) => {
@@ -310,7 +323,25 @@ pub(super) fn convert_material(
         emissive_texture,
         alpha,
         double_sided: m.double_sided,
+        absorption,
     })
+}
+
+/// σ = −ln(c)/d per channel for KHR_materials_volume's `attenuationColor` c (white by
+/// default) and `attenuationDistance` d (+∞ by default: no absorption); a black channel
+/// absorbs all (σ saturates at f32::MAX, so that exp(−σ·0) stays 1).
+fn absorption(volume: &Value) -> Option<Vec3> {
+    let d = volume["attenuationDistance"].as_f64()?;
+    let c = &volume["attenuationColor"];
+    let channel = |i: usize| c[i].as_f64().unwrap_or(1.0);
+    if !(d.is_finite() && d > 0.0) {
+        return None;
+    }
+    let sigma = Vec3::from_array(std::array::from_fn(|i| {
+        let c = channel(i).clamp(0.0, 1.0);
+        (-c.ln() / d).min(f32::MAX as f64) as f32
+    }));
+    (sigma.max_element() > 0.0).then_some(sigma)
 }
 
 /// What material `m` (its raw JSON) asks for that raysplat does not render: one name per
@@ -326,17 +357,28 @@ pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
             "KHR_materials_transmission" => {
                 let factor = e["transmissionFactor"].as_f64().unwrap_or(0.0);
                 let rough = m.pbr_metallic_roughness.roughness_factor.0 >= 0.05;
+                let solid = raw["extensions"]["KHR_materials_volume"]["thicknessFactor"]
+                    .as_f64()
+                    .is_some_and(|t| t > 0.0);
                 if e.get("transmissionTexture").is_some() {
-                    "KHR_materials_transmission's texture".to_string()
+                    out.push("KHR_materials_transmission's texture".to_string());
                 } else if factor > 0.0 && factor < 1.0 {
-                    "KHR_materials_transmission's partial factors (above 0.5 renders as glass, below as opaque)".to_string()
+                    out.push("KHR_materials_transmission's partial factors (above 0.5 renders as glass, below as opaque)".to_string());
                 } else if factor > 0.5 && rough {
-                    "KHR_materials_transmission's rough transmission (rendered as smooth glass)"
-                        .to_string()
-                } else {
-                    continue;
+                    out.push(
+                        "KHR_materials_transmission's rough transmission (rendered as smooth glass)"
+                            .to_string(),
+                    );
                 }
+                if factor > 0.5 && !solid {
+                    // glTF's default is a thin wall; the volume extension makes it solid
+                    // (docs/deviations.md §54).
+                    out.push("KHR_materials_transmission's thin wall (no KHR_materials_volume; rendered as solid, refracting glass)".to_string());
+                }
+                continue;
             }
+            // Rendered on glass with a thickness; elsewhere it has no effect.
+            "KHR_materials_volume" => continue,
             "KHR_materials_specular" => {
                 // Factor, colour and their textures are read; a transmissive material's
                 // Fresnel (smooth glass keeps its own) is not.
