@@ -580,6 +580,25 @@ impl Bsdf {
     }
 
     /// A glossy model's specular layer alone (its diffuse colour zeroed); any other model
+    /// The factor a radiance estimate takes on crossing a dielectric from ωo to ωi,
+    /// (η_o/η_i)² (Veach 1997, §5.2: radiance over η² is what is conserved; pbrt-v4's
+    /// `TransportMode::Radiance`): 1/ior² entering (ωo on the side `n` points to), ior²
+    /// leaving, 1 for reflection and every other model. Flux (photons) takes none. A path
+    /// that enters and leaves a volume carries both, which cancel: only an estimate that
+    /// stops inside one (an eye sample on a surface within glass) sees the difference.
+    pub fn radiance_scale(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
+        match *self {
+            Bsdf::Dielectric { ior, .. } if wo.dot(n) * wi.dot(n) < 0.0 => {
+                if wo.dot(n) > 0.0 {
+                    1.0 / (ior * ior)
+                } else {
+                    ior * ior
+                }
+            }
+            _ => 1.0,
+        }
+    }
+
     /// as it is.
     pub fn specular_layer(self) -> Bsdf {
         match self {

@@ -117,14 +117,28 @@ fn gltf_materials_and_lights_load_as_documented() {
         "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}),
     );
     let glass = g.material(
-        json!({"extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+        json!({"pbrMetallicRoughness": {"metallicFactor": 0.0, "roughnessFactor": 0.0},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
         "KHR_materials_ior": {"ior": 1.33}}}),
     );
     let emissive = g.material(json!({"emissiveFactor": [0.5, 0.5, 0.5],
         "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}}));
-    for (i, m) in [diffuse, mirror, glossy, spec_off, glass, emissive]
-        .into_iter()
-        .enumerate()
+    // glTF's metallic defaults to 1, and transmission replaces only the dielectric's
+    // diffuse layer: without a metallic factor this is a metal (deviations §55).
+    let metal_glass = g.material(
+        json!({"extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}}}),
+    );
+    for (i, m) in [
+        diffuse,
+        mirror,
+        glossy,
+        spec_off,
+        glass,
+        emissive,
+        metal_glass,
+    ]
+    .into_iter()
+    .enumerate()
     {
         let o = Vec3::new(i as f32, 0.0, 0.0);
         g.mesh(
@@ -145,6 +159,11 @@ fn gltf_materials_and_lights_load_as_documented() {
     );
     assert_eq!(kind(3), MaterialKind::Diffuse);
     assert!(matches!(kind(4), MaterialKind::Dielectric { ior } if (ior - 1.33).abs() < 1e-6));
+    assert!(
+        matches!(kind(6), MaterialKind::Glossy { metallic, .. } if metallic == 1.0),
+        "{:?}",
+        kind(6)
+    );
     // glTF emissive is radiance: factor × strength.
     assert_eq!(s.materials[5].emission, Vec3::splat(2.0));
     // One emissive triangle and the point light.

@@ -359,7 +359,9 @@ pub fn radiance(
         if !Scene::leaves_correctly(&hit, wo, s.wi, transmitted) {
             break;
         }
-        beta *= s.weight;
+        // Radiance through a dielectric scales by η² (it cancels on every path that leaves
+        // the volume it entered; not on one from a light or camera inside it).
+        beta *= s.weight * bsdf.radiance_scale(wo, s.wi, ns);
         if !beta.is_finite() || beta.max_element() <= 0.0 {
             break;
         }

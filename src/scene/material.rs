@@ -23,7 +23,9 @@ pub enum MaterialKind {
     },
     /// A perfect mirror: a metal of roughness 0 (the specification's exact limit).
     Mirror,
-    /// Smooth glass (KHR_materials_transmission > 0.5).
+    /// Smooth glass: KHR_materials_transmission's factor 1 on a dielectric (metallic 0)
+    /// with no texture to vary either (a partial share is chosen per hit,
+    /// [`Scene::bsdf`]).
     Dielectric {
         /// Index of refraction (KHR_materials_ior, 1.5 by default).
         ior: f32,
@@ -164,6 +166,11 @@ pub struct Material {
     pub alpha: AlphaMode,
     /// glTF doubleSided: an emissive material emits from both faces.
     pub double_sided: bool,
+    /// KHR_materials_transmission's factor (0 without the extension): the share of the
+    /// dielectric's diffuse layer replaced by smooth glass.
+    pub transmission: f32,
+    /// `transmissionTexture` (linear; its R channel), multiplied with the factor.
+    pub transmission_texture: Option<TextureRef>,
     /// KHR_materials_volume's absorption coefficient σ = −ln(attenuationColor) /
     /// attenuationDistance per channel (world units⁻¹), on glass whose volume has a thickness
     /// (a thickness of 0 is the extension's thin wall); `None` where light inside is not
@@ -192,6 +199,8 @@ impl Material {
             emissive_texture: None,
             alpha: AlphaMode::Opaque,
             double_sided: false,
+            transmission: 0.0,
+            transmission_texture: None,
             absorption: None,
         }
     }
@@ -214,6 +223,7 @@ impl Material {
             &self.emissive_texture,
             &self.specular_texture,
             &self.specular_color_texture,
+            &self.transmission_texture,
         ];
         self.normal_texture.is_some() || refs.iter().any(|t| t.as_ref().is_some_and(|t| t.set == 1))
     }
@@ -401,7 +411,22 @@ impl Scene {
         layer
     }
 
-    /// The scattering model at a hit.
+    /// Part of its light goes through as glass (KHR_materials_transmission above 0, but not
+    /// the whole of it everywhere): a photon reaching it lands, since wherever the hit is not
+    /// glass the surface is seen ([`Scene::bsdf`]).
+    #[inline]
+    pub fn partly_transmissive(&self, hit: &Hit) -> bool {
+        let m = &self.materials[hit.material as usize];
+        m.transmission > 0.0 && !matches!(m.kind, MaterialKind::Dielectric { .. })
+    }
+
+    /// The scattering model at a hit. A partly transmissive material is glTF's mixture
+    /// (KHR_materials_transmission, "Implementation"): of the dielectric share (1 − m) a
+    /// share t (factor × texture) is glass; both share one specular reflection, so the BSDF
+    /// is p·f_glass + (1 − p)·f_opaque with p = (1 − m)·t, f_opaque the metallic-roughness
+    /// model with metallic m/(1 − p). Each hit draws one of the two with probability p from
+    /// a hash of the hit (the same hit always draws the same, different rays independently):
+    /// unbiased for every estimator that samples its paths (docs/deviations.md §55).
     #[inline]
     pub fn bsdf(&self, hit: &Hit) -> Bsdf {
         let m = &self.materials[hit.material as usize];
@@ -413,8 +438,25 @@ impl Scene {
         };
         let kind = match m.kind {
             MaterialKind::Dielectric { .. } => m.kind,
-            _ if m.metal_rough_texture.is_some() || textured => {
+            _ if m.metal_rough_texture.is_some() || textured || m.transmission > 0.0 => {
                 let (metallic, roughness) = self.metal_rough(hit);
+                let mut metallic = metallic;
+                if m.transmission > 0.0 {
+                    let t = match &m.transmission_texture {
+                        Some(tex) => m.transmission * self.read(tex, tex.uv(hit), false).x,
+                        None => m.transmission,
+                    };
+                    let p = (1.0 - metallic) * t;
+                    if p >= 1.0 || (p > 0.0 && glass_draw(hit) < p) {
+                        return Bsdf::Dielectric {
+                            ior: m.ior,
+                            tint: self.albedo(hit),
+                        };
+                    }
+                    if p > 0.0 {
+                        metallic = (metallic / (1.0 - p)).min(1.0);
+                    }
+                }
                 MaterialKind::classify(metallic, roughness, specular)
             }
             k => k,
@@ -480,6 +522,17 @@ impl Scene {
             Vec3::ZERO
         }
     }
+}
+
+/// A uniform number in [0, 1) for a hit's choice between glass and the opaque model: a hash
+/// of where the ray met it and how far it came, so the same hit always draws the same.
+#[inline]
+fn glass_draw(hit: &Hit) -> f32 {
+    let p = hit.position;
+    super::trace::unit_hash(
+        hit.triangle ^ 0x7a5c_e1d3,
+        [p.x, p.y, p.z, hit.t, hit.uv.x, hit.uv.y],
+    )
 }
 
 #[cfg(test)]

@@ -254,14 +254,19 @@ pub(crate) fn perturbed(n: Vec3, geo: Vec3, tangent: Vec4, s: Vec3) -> Vec3 {
     }
 }
 
-/// A uniform number in [0, 1) from the ray and the triangle (SplitMix64 over their bits):
-/// the same ray always meets the same coverage, different rays sample it independently.
+/// A uniform number in [0, 1) from the ray and the triangle: the same ray always meets the
+/// same coverage, different rays sample it independently.
 #[inline]
 fn coverage_hash(r: &Ray, tri: u32) -> f32 {
-    let o = Vec3::from(r.origin);
-    let d = Vec3::from(r.direction);
-    let mut h = (tri as u64) ^ 0x9E37_79B9_7F4A_7C15;
-    for x in [o.x, o.y, o.z, d.x, d.y, d.z] {
+    let (o, d) = (Vec3::from(r.origin), Vec3::from(r.direction));
+    unit_hash(tri, [o.x, o.y, o.z, d.x, d.y, d.z])
+}
+
+/// A uniform number in [0, 1) from a key and six floats (SplitMix64 over their bits).
+#[inline]
+pub(crate) fn unit_hash(key: u32, words: [f32; 6]) -> f32 {
+    let mut h = (key as u64) ^ 0x9E37_79B9_7F4A_7C15;
+    for x in words {
         h = (h ^ x.to_bits() as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         h ^= h >> 31;
     }

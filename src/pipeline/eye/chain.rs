@@ -202,7 +202,9 @@ pub(super) fn trace_chain(
                 let r = reflect(wo, n);
                 push(r, w * f, false, &mut top);
                 if let Some(t) = refract(wo, n, eta) {
-                    push(t, w * tint * (1.0 - f), true, &mut top);
+                    // Radiance crossing into glass falls by η² (Bsdf::radiance_scale): an
+                    // eye sample inside a volume sees light that photons delivered as flux.
+                    push(t, w * tint * ((1.0 - f) * eta * eta), true, &mut top);
                 }
             }
         }

@@ -204,7 +204,8 @@ pub(super) fn convert_material(
     let transmission = ext
         .and_then(|e| e.transmission.as_ref())
         .map(|t| finite_or(t.transmission_factor.0, 0.0))
-        .unwrap_or(0.0);
+        .unwrap_or(0.0)
+        .clamp(0.0, 1.0);
     let ior = ext
         .and_then(|e| e.ior.as_ref())
         .map(|i| i.ior.0)
@@ -226,11 +227,6 @@ pub(super) fn convert_material(
             }
         })
         .unwrap_or_default();
-    let kind = if transmission > 0.5 {
-        MaterialKind::Dielectric { ior }
-    } else {
-        MaterialKind::classify(metallic, roughness, specular)
-    };
     let name = m.name.as_deref().unwrap_or("unnamed");
     // A negative or non-finite strength is not light: the material does not emit (and the
     // loader says so).
@@ -271,6 +267,20 @@ pub(super) fn convert_material(
     let normal_scale = finite_or(m.normal_texture.as_ref().map_or(1.0, |n| n.scale), 1.0);
     let normal_texture = slot(&raw["normalTexture"], "normal texture")?.map(|t| (t, normal_scale));
     let emissive_texture = slot(&raw["emissiveTexture"], "emissive texture")?;
+    let transmission_texture = slot(
+        &raw["extensions"]["KHR_materials_transmission"]["transmissionTexture"],
+        "transmission texture",
+    )?;
+    // Smooth glass everywhere, or a share of it chosen per hit (Scene::bsdf).
+    let kind = if transmission >= 1.0
+        && metallic <= 0.0
+        && transmission_texture.is_none()
+        && metal_rough_texture.is_none()
+    {
+        MaterialKind::Dielectric { ior }
+    } else {
+        MaterialKind::classify(metallic, roughness, specular)
+    };
     let spec_raw = &raw["extensions"]["KHR_materials_specular"];
     let specular_texture = slot(&spec_raw["specularTexture"], "specular texture")?;
     let specular_color_texture =
@@ -289,14 +299,12 @@ pub(super) fn convert_material(
     // its texture) is for renderers that cannot trace the volume: raysplat measures the path
     // inside (docs/deviations.md §54).
     let volume = &raw["extensions"]["KHR_materials_volume"];
-    let absorption = match kind {
-        MaterialKind::Dielectric { .. }
-            if volume["thicknessFactor"].as_f64().is_some_and(|t| t > 0.0) =>
-        {
+    let absorption =
+        if transmission > 0.0 && volume["thicknessFactor"].as_f64().is_some_and(|t| t > 0.0) {
             absorption(volume)
-        }
-        _ => None,
-    };
+        } else {
+            None
+        };
     use json::material::AlphaMode as Mode;
     let alpha = match m.alpha_mode {
         Checked::Valid(Mode::Mask) => {
@@ -323,6 +331,8 @@ pub(super) fn convert_material(
         emissive_texture,
         alpha,
         double_sided: m.double_sided,
+        transmission,
+        transmission_texture,
         absorption,
     })
 }
@@ -360,17 +370,13 @@ pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
                 let solid = raw["extensions"]["KHR_materials_volume"]["thicknessFactor"]
                     .as_f64()
                     .is_some_and(|t| t > 0.0);
-                if e.get("transmissionTexture").is_some() {
-                    out.push("KHR_materials_transmission's texture".to_string());
-                } else if factor > 0.0 && factor < 1.0 {
-                    out.push("KHR_materials_transmission's partial factors (above 0.5 renders as glass, below as opaque)".to_string());
-                } else if factor > 0.5 && rough {
+                if factor > 0.0 && rough {
                     out.push(
                         "KHR_materials_transmission's rough transmission (rendered as smooth glass)"
                             .to_string(),
                     );
                 }
-                if factor > 0.5 && !solid {
+                if factor > 0.0 && !solid {
                     // glTF's default is a thin wall; the volume extension makes it solid
                     // (docs/deviations.md §54).
                     out.push("KHR_materials_transmission's thin wall (no KHR_materials_volume; rendered as solid, refracting glass)".to_string());
