@@ -705,16 +705,48 @@ fn closed_box(g: &mut GlbBuilder, lo: Vec3, hi: Vec3, material: u32) {
     g.mesh("box", &p, &n, &idx, material);
 }
 
+/// A white floor lit by an area light 3 m above it through a closed slab of `material`
+/// between `lo` and `hi`, seen by a camera at `eye` looking at `at` (vertical field `fov`):
+/// the mean colours of rs (4 batches of 200,000 photons) and of the path tracer (256 paths)
+/// at `size`² pixels, `spp` eye samples each.
+fn slab_over_lit_floor(
+    material: Value,
+    (lo, hi): (Vec3, Vec3),
+    (eye, at, fov): (Vec3, Vec3, f32),
+    (size, spp): (u32, u32),
+) -> (Vec3, Vec3) {
+    let mut g = GlbBuilder::default();
+    let m = white(&mut g);
+    plane(&mut g, 4.0, m);
+    let slab = g.material(material);
+    closed_box(&mut g, lo, hi, slab);
+    common::ceiling_light(&mut g, Vec3::Y * 3.0, 0.5, 20.0);
+    g.camera("view", eye, at, fov);
+    let scene = Arc::new(Scene::from_glb_bytes(&g.to_glb(), "slab").expect("loads"));
+    let settings = RenderSettings {
+        width: size,
+        height: size,
+        spp,
+        photons: 200_000,
+        ..RenderSettings::default()
+    };
+    let rs = render_method(&scene, MethodKind::Rs, &settings, Budget::Passes(4))
+        .expect("rs renders")
+        .film
+        .mean();
+    (rs, path_traced(&scene, &settings, 256).mean())
+}
+
 /// Smooth glass (IOR 1.5) with KHR_materials_volume: `thickness` its thicknessFactor, white
 /// light turning into `color` over 1 m.
-fn absorbing_glass(g: &mut GlbBuilder, thickness: f32, color: [f32; 3]) -> u32 {
-    g.material(json!({"name": "absorbing glass",
+fn absorbing_glass(thickness: f32, color: [f32; 3]) -> Value {
+    json!({"name": "absorbing glass",
         "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0],
             "metallicFactor": 0.0, "roughnessFactor": 0.0},
         "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
             "KHR_materials_ior": {"ior": 1.5},
             "KHR_materials_volume": {"thicknessFactor": thickness,
-                "attenuationDistance": 1.0, "attenuationColor": color}}}))
+                "attenuationDistance": 1.0, "attenuationColor": color}}})
 }
 
 /// KHR_materials_volume: light through a slab of glass 0.5 m thick whose medium turns white
@@ -728,7 +760,7 @@ fn a_volume_absorbs_along_the_path_inside_as_beer_lambert_says() {
     let color = [0.5f32, 0.8, 1.0];
     let scene_with = |thickness: f32| {
         let mut g = GlbBuilder::default();
-        let glass = absorbing_glass(&mut g, thickness, color);
+        let glass = g.material(absorbing_glass(thickness, color));
         closed_box(
             &mut g,
             Vec3::new(-1.0, -1.0, -0.25),
@@ -783,31 +815,12 @@ fn a_volume_absorbs_along_the_path_inside_as_beer_lambert_says() {
 /// tracer, and its red share is the absorbed one, not the clear glass's.
 #[test]
 fn photons_are_absorbed_inside_a_volume_as_the_path_tracer_s_paths_are() {
-    let mut g = GlbBuilder::default();
-    let m = white(&mut g);
-    plane(&mut g, 4.0, m);
-    let glass = absorbing_glass(&mut g, 1.0, [0.25, 0.8, 1.0]);
-    closed_box(
-        &mut g,
-        Vec3::new(-1.5, 0.8, -1.5),
-        Vec3::new(1.5, 1.2, 1.5),
-        glass,
+    let (rs, pt) = slab_over_lit_floor(
+        absorbing_glass(1.0, [0.25, 0.8, 1.0]),
+        (Vec3::new(-1.5, 0.8, -1.5), Vec3::new(1.5, 1.2, 1.5)),
+        (Vec3::new(0.0, 0.7, 0.01), Vec3::ZERO, 1.6),
+        (24, 2),
     );
-    common::ceiling_light(&mut g, Vec3::Y * 3.0, 0.5, 20.0);
-    g.camera("under", Vec3::new(0.0, 0.7, 0.01), Vec3::ZERO, 1.6);
-    let scene = Arc::new(Scene::from_glb_bytes(&g.to_glb(), "slab over floor").expect("loads"));
-    let settings = RenderSettings {
-        width: 24,
-        height: 24,
-        spp: 2,
-        photons: 200_000,
-        ..RenderSettings::default()
-    };
-    let rs = render_method(&scene, MethodKind::Rs, &settings, Budget::Passes(4))
-        .expect("rs renders")
-        .film
-        .mean();
-    let pt = path_traced(&scene, &settings, 256).mean();
     let worst = (rs / pt - Vec3::ONE).abs().max_element();
     assert!(worst < 0.05, "rs {rs}, pt {pt}");
     // Through 0.4 m of a medium that keeps 25% of red over 1 m, at least half the red is
@@ -899,41 +912,15 @@ fn partial_transmission_draws_glass_with_its_share_at_each_hit() {
 /// the colour the slab's inside multiplies, was +66% on the side facing the camera).
 #[test]
 fn a_partly_transmissive_pane_renders_as_the_path_tracer_does() {
-    let mut g = GlbBuilder::default();
-    let m = white(&mut g);
-    plane(&mut g, 4.0, m);
-    let pane = g.material(
+    let (rs, pt) = slab_over_lit_floor(
         json!({"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.6, 0.3, 1.0],
-            "metallicFactor": 0.0, "roughnessFactor": 0.0},
-        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.5},
-            "KHR_materials_volume": {"thicknessFactor": 0.05}}}),
+                "metallicFactor": 0.0, "roughnessFactor": 0.0},
+            "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.5},
+                "KHR_materials_volume": {"thicknessFactor": 0.05}}}),
+        (Vec3::new(-1.0, 0.9, -1.0), Vec3::new(1.0, 1.4, 1.0)),
+        (Vec3::new(0.0, 2.5, 3.0), Vec3::new(0.0, 0.3, 0.0), 1.0),
+        (32, 4),
     );
-    closed_box(
-        &mut g,
-        Vec3::new(-1.0, 0.9, -1.0),
-        Vec3::new(1.0, 1.4, 1.0),
-        pane,
-    );
-    common::ceiling_light(&mut g, Vec3::Y * 3.0, 0.5, 20.0);
-    g.camera(
-        "above",
-        Vec3::new(0.0, 2.5, 3.0),
-        Vec3::new(0.0, 0.3, 0.0),
-        1.0,
-    );
-    let scene = Arc::new(Scene::from_glb_bytes(&g.to_glb(), "pane").expect("loads"));
-    let settings = RenderSettings {
-        width: 32,
-        height: 32,
-        spp: 4,
-        photons: 200_000,
-        ..RenderSettings::default()
-    };
-    let rs = render_method(&scene, MethodKind::Rs, &settings, Budget::Passes(4))
-        .expect("rs renders")
-        .film
-        .mean();
-    let pt = path_traced(&scene, &settings, 256).mean();
     let worst = (rs / pt - Vec3::ONE).abs().max_element();
     assert!(worst < 0.05, "rs {rs}, pt {pt}");
 }
