@@ -511,22 +511,30 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
             "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1.0},
                 "KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}})));
     }
-    let sheen = g.material(json!({"extensions": {"KHR_materials_sheen": {},
+    let sheen = g.material(json!({"pbrMetallicRoughness": {"metallicFactor": 0.0},
+        "extensions": {"KHR_materials_sheen": {},
         "KHR_materials_transmission": {"transmissionFactor": 0.3},
         "KHR_materials_specular": {"specularFactor": 0.5}}}));
     // KHR_materials_specular's factor is read on an opaque material, not on glass.
-    let plain_glass = g.material(json!({"pbrMetallicRoughness": {"roughnessFactor": 0.0},
+    let plain_glass = g.material(json!({"pbrMetallicRoughness":
+            {"metallicFactor": 0.0, "roughnessFactor": 0.0},
         "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
             "KHR_materials_ior": {"ior": 1.4},
             "KHR_materials_specular": {"specularColorFactor": [1.0, 0.5, 0.5]}}}));
     // Solid glass with an absorbing volume: everything rendered, nothing named.
-    let solid_glass = g.material(json!({"pbrMetallicRoughness": {"roughnessFactor": 0.0},
+    let solid_glass = g.material(json!({"pbrMetallicRoughness":
+            {"metallicFactor": 0.0, "roughnessFactor": 0.0},
         "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
             "KHR_materials_volume": {"thicknessFactor": 0.2, "attenuationDistance": 0.5,
                 "attenuationColor": [0.9, 0.5, 0.5], "thicknessTexture": {"index": 0}}}}));
+    // Transmission on a metal (glTF's default metallic 1) has no glass share: nothing about
+    // glass is named for it.
+    let metal_glass = g.material(json!({
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_specular": {"specularFactor": 0.5}}}));
     for (k, m) in materials
         .into_iter()
-        .chain([sheen, plain_glass, solid_glass])
+        .chain([sheen, plain_glass, solid_glass, metal_glass])
         .enumerate()
     {
         quad(&mut g, k as f32, 0.5, false, m, &[]);
@@ -551,7 +559,10 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
     assert!(lines("partial").is_empty(), "{:?}", scene.warnings);
     let specular = lines("KHR_materials_specular");
     assert_eq!(specular.len(), 1, "{:?}", scene.warnings);
-    assert!(specular[0].contains("transmissive"), "{specular:?}");
+    assert!(
+        specular[0].contains("transmissive") && !specular[0].contains("#9"),
+        "{specular:?}"
+    );
     // What is rendered is not named: the strength, the IOR, smooth full transmission with a
     // volume (its thickness texture is for renderers that cannot trace the volume).
     assert!(lines("emissive_strength").is_empty() && lines("KHR_materials_ior").is_empty());
@@ -559,7 +570,10 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
     // Transmission without a volume is glTF's thin wall, drawn as solid glass: named.
     let thin = lines("thin wall");
     assert!(
-        thin.len() == 1 && thin[0].contains("#7") && !thin[0].contains("#8"),
+        thin.len() == 1
+            && thin[0].contains("#7")
+            && !thin[0].contains("#8")
+            && !thin[0].contains("#9"),
         "{:?}",
         scene.warnings
     );

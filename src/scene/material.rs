@@ -439,8 +439,7 @@ impl Scene {
         let kind = match m.kind {
             MaterialKind::Dielectric { .. } => m.kind,
             _ if m.metal_rough_texture.is_some() || textured || m.transmission > 0.0 => {
-                let (metallic, roughness) = self.metal_rough(hit);
-                let mut metallic = metallic;
+                let (mut metallic, roughness) = self.metal_rough(hit);
                 if m.transmission > 0.0 {
                     let t = match &m.transmission_texture {
                         Some(tex) => m.transmission * self.read(tex, tex.uv(hit), false).x,

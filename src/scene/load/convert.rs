@@ -361,22 +361,30 @@ pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
     let Some(exts) = raw["extensions"].as_object() else {
         return out;
     };
+    // Some of it is glass: a transmission factor on a dielectric share (glTF's metallic is 1
+    // unless the file says otherwise, and transmission replaces only the dielectric's diffuse
+    // layer; a metallic-roughness texture may lower it). Scene::bsdf draws that share.
+    let pbr = &m.pbr_metallic_roughness;
+    let glass = exts
+        .get("KHR_materials_transmission")
+        .and_then(|t| t["transmissionFactor"].as_f64())
+        .is_some_and(|t| t > 0.0)
+        && (pbr.metallic_factor.0 < 1.0 || pbr.metallic_roughness_texture.is_some());
     for (name, e) in exts {
         let what = match name.as_str() {
             "KHR_materials_emissive_strength" | "KHR_materials_ior" => continue,
             "KHR_materials_transmission" => {
-                let factor = e["transmissionFactor"].as_f64().unwrap_or(0.0);
-                let rough = m.pbr_metallic_roughness.roughness_factor.0 >= 0.05;
+                let rough = pbr.roughness_factor.0 >= 0.05;
                 let solid = raw["extensions"]["KHR_materials_volume"]["thicknessFactor"]
                     .as_f64()
                     .is_some_and(|t| t > 0.0);
-                if factor > 0.0 && rough {
+                if glass && rough {
                     out.push(
                         "KHR_materials_transmission's rough transmission (rendered as smooth glass)"
                             .to_string(),
                     );
                 }
-                if factor > 0.0 && !solid {
+                if glass && !solid {
                     // glTF's default is a thin wall; the volume extension makes it solid
                     // (docs/deviations.md §54).
                     out.push("KHR_materials_transmission's thin wall (no KHR_materials_volume; rendered as solid, refracting glass)".to_string());
@@ -386,17 +394,14 @@ pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
             // Rendered on glass with a thickness; elsewhere it has no effect.
             "KHR_materials_volume" => continue,
             "KHR_materials_specular" => {
-                // Factor, colour and their textures are read; a transmissive material's
-                // Fresnel (smooth glass keeps its own) is not.
+                // Factor, colour and their textures are read; the glass share's Fresnel
+                // (smooth glass keeps its own) is not.
                 let textures =
                     e.get("specularTexture").is_some() || e.get("specularColorTexture").is_some();
                 let default = e["specularFactor"].as_f64().is_none_or(|f| f == 1.0)
                     && e["specularColorFactor"]
                         .as_array()
                         .is_none_or(|c| c.iter().all(|v| v.as_f64() == Some(1.0)));
-                let glass = raw["extensions"]["KHR_materials_transmission"]["transmissionFactor"]
-                    .as_f64()
-                    .is_some_and(|t| t > 0.5);
                 if glass && (textures || !default) {
                     "KHR_materials_specular on a transmissive material".to_string()
                 } else {
