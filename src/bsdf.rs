@@ -65,19 +65,36 @@ pub enum Bsdf {
         /// Reflectance.
         color: Vec3,
     },
-    /// Smooth glass: Fresnel-weighted specular reflection and refraction.
+    /// Glass: Fresnel-weighted reflection and refraction (KHR_materials_transmission), smooth
+    /// (α = 0: two Dirac deltas) or rough through the same microfacet model as the glossy
+    /// BRDF (Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces",
+    /// with GGX's height-correlated masking and the exact dielectric Fresnel at ωo·h).
     Dielectric {
         /// Index of refraction (inside over outside, the normal pointing outside).
         ior: f32,
         /// Colour of the transmitted light (reflection is untinted).
         tint: Vec3,
+        /// GGX α = roughness²; 0 for smooth glass (below [`ALPHA_MIN`] it is smooth).
+        alpha: f32,
     },
 }
 
 impl Bsdf {
     /// True for models whose every lobe is a Dirac delta (handled by deterministic eye chains).
     pub fn is_specular(&self) -> bool {
-        !matches!(self, Bsdf::Lambert { .. } | Bsdf::Glossy { .. })
+        match *self {
+            Bsdf::Lambert { .. } | Bsdf::Glossy { .. } => false,
+            Bsdf::Dielectric { alpha, .. } => alpha <= 0.0,
+            Bsdf::Mirror { .. } => true,
+        }
+    }
+
+    /// True for the reflecting models (Lambertian, glossy): where eye samples and photons
+    /// rest. Light reaches the far side of glass, smooth or rough, through it: eye paths and
+    /// photons are traced on (a rough glass's lobe is not a reflection the radiance map or
+    /// a splat kernel could hold).
+    pub fn is_reflecting(&self) -> bool {
+        matches!(self, Bsdf::Lambert { .. } | Bsdf::Glossy { .. })
     }
 
     /// f_r(wo, wi) without the cosine; zero for delta lobes. For the reflecting models `n` is
@@ -118,6 +135,16 @@ impl Bsdf {
                         / (4.0 * cos_o * cos_i);
                 diffuse + spec
             }
+            Bsdf::Dielectric { ior, tint, alpha } if alpha > 0.0 => {
+                let Some(m) = RoughGlass::at(wo, wi, n, ior, alpha) else {
+                    return Vec3::ZERO;
+                };
+                if m.transmits {
+                    tint * m.value
+                } else {
+                    Vec3::splat(m.value)
+                }
+            }
             Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => Vec3::ZERO,
         }
     }
@@ -141,6 +168,9 @@ impl Bsdf {
                 // the reflection's Jacobian 1/(4|ωo·h|) (Walter et al. 2007, eq. 14).
                 let spec = ggx_g1(cos_o, alpha) * ggx_d(h.dot(n), alpha) / (4.0 * cos_o);
                 (1.0 - p_s) * cos_i * FRAC_1_PI + p_s * spec
+            }
+            Bsdf::Dielectric { ior, alpha, .. } if alpha > 0.0 => {
+                RoughGlass::at(wo, wi, n, ior, alpha).map_or(0.0, |m| m.pdf)
             }
             Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => 0.0,
         }
@@ -194,29 +224,119 @@ impl Bsdf {
                 pdf: 1.0,
                 specular: true,
             }),
-            Bsdf::Dielectric { ior, tint } => {
+            Bsdf::Dielectric { ior, tint, alpha } => {
                 let cos_o = wo.dot(n);
-                let entering = cos_o > 0.0;
-                let (eta, nn) = if entering { (1.0 / ior, n) } else { (ior, -n) };
-                let f = fresnel_dielectric(cos_o.abs(), eta);
-                if u_lobe < f {
-                    Some(BsdfSample {
-                        wi: reflect(wo, nn),
-                        weight: Vec3::ONE,
-                        pdf: f,
-                        specular: true,
-                    })
+                let (eta, nn) = if cos_o > 0.0 {
+                    (1.0 / ior, n)
                 } else {
-                    let wi = refract(wo, nn, eta)?;
-                    Some(BsdfSample {
+                    (ior, -n)
+                };
+                // The microfacet normal: the surface's own for smooth glass, else one drawn
+                // from GGX's visible normals (Heitz 2018). Fresnel at ωo·h chooses the lobe.
+                let h = if alpha > 0.0 {
+                    sample_ggx_visible(wo, nn, alpha, u)
+                } else {
+                    nn
+                };
+                let f = fresnel_dielectric(wo.dot(h), eta);
+                let reflects = u_lobe < f;
+                let wi = if reflects {
+                    reflect(wo, h)
+                } else {
+                    refract(wo, h, eta)?
+                };
+                if alpha <= 0.0 {
+                    return Some(BsdfSample {
                         wi,
-                        weight: tint,
-                        pdf: 1.0 - f,
+                        weight: if reflects { Vec3::ONE } else { tint },
+                        pdf: if reflects { f } else { 1.0 - f },
                         specular: true,
-                    })
+                    });
                 }
+                // A rough lobe's direction must land on its side of the macrosurface.
+                let cos_i = wi.dot(nn);
+                if (cos_i > 0.0) != reflects || cos_i == 0.0 {
+                    return None;
+                }
+                let pdf = RoughGlass::at(wo, wi, n, ior, alpha)?.pdf;
+                if pdf <= 0.0 {
+                    return None;
+                }
+                // f·|cos θi|/pdf with the visible normals' density: G₂/G₁(ωo), the Fresnel
+                // choice cancelling F or 1 − F (Heitz 2018, eq. 19 for either lobe).
+                let g = ggx_g2(cos_o, cos_i, alpha) / ggx_g1(cos_o, alpha);
+                Some(BsdfSample {
+                    wi,
+                    weight: if reflects { Vec3::splat(g) } else { tint * g },
+                    pdf,
+                    specular: false,
+                })
             }
         }
+    }
+}
+
+/// Rough glass's value and density for one pair of directions (Walter et al. 2007, §5.2, with
+/// GGX's height-correlated G₂ and visible-normal sampling; pbrt-v4's `DielectricBxDF` has the
+/// same terms). `n` is the surface's own normal (pointing outside); ωo's side decides which
+/// medium it is in. Reflection: f = F·D·G₂/(4|cos θo||cos θi|) about h = ωo + ωi.
+/// Refraction: with η' = η_i/η_o (the medium of ωi over that of ωo) and
+/// h = ωo + η'·ωi turned to ωo's side, f = (1 − F)·D·G₂·|ωi·h||ωo·h| /
+/// (|cos θo||cos θi|·(ωi·h + ωo·h/η')²), the importance (flux) form: radiance takes
+/// [`Bsdf::radiance_scale`]'s 1/η'² on top, as smooth glass does. The density is the visible
+/// normals' G₁(ωo)·(ωo·h)·D(h)/cos θo times the Fresnel choice and the Jacobian,
+/// 1/(4 ωo·h) for reflection and |ωi·h|/(ωi·h + ωo·h/η')² for refraction (Walter eq. 14, 17).
+struct RoughGlass {
+    value: f32,
+    pdf: f32,
+    transmits: bool,
+}
+
+impl RoughGlass {
+    #[inline]
+    fn at(wo: Vec3, wi: Vec3, n: Vec3, ior: f32, alpha: f32) -> Option<Self> {
+        let cos_n = wo.dot(n);
+        let (eta, nn) = if cos_n > 0.0 {
+            (1.0 / ior, n)
+        } else {
+            (ior, -n)
+        };
+        let (cos_o, cos_i) = (wo.dot(nn), wi.dot(nn));
+        if cos_o <= 0.0 || cos_i == 0.0 {
+            return None;
+        }
+        let transmits = cos_i < 0.0;
+        let etap = 1.0 / eta;
+        let mut h = if transmits { wo + wi * etap } else { wo + wi }.normalize_or_zero();
+        if h == Vec3::ZERO {
+            return None;
+        }
+        if h.dot(nn) < 0.0 {
+            h = -h;
+        }
+        let (oh, ih) = (wo.dot(h), wi.dot(h));
+        // The microfacet must face ωo, and ωi lie on its side (reflection) or behind it.
+        if oh <= 0.0 || (ih > 0.0) == transmits {
+            return None;
+        }
+        let f = fresnel_dielectric(oh, eta);
+        let d = ggx_d(h.dot(nn), alpha);
+        let g2 = ggx_g2(cos_o, cos_i, alpha);
+        let visible = ggx_g1(cos_o, alpha) * oh * d / cos_o;
+        Some(if transmits {
+            let denom = (ih + oh / etap) * (ih + oh / etap);
+            RoughGlass {
+                value: (1.0 - f) * d * g2 * (ih * oh).abs() / (cos_o * cos_i.abs() * denom),
+                pdf: (1.0 - f) * visible * ih.abs() / denom,
+                transmits,
+            }
+        } else {
+            RoughGlass {
+                value: f * d * g2 / (4.0 * cos_o * cos_i),
+                pdf: f * visible / (4.0 * oh),
+                transmits,
+            }
+        })
     }
 }
 
@@ -241,6 +361,15 @@ pub const ALPHA_MIN: f32 = 1e-3;
 pub fn phong_equivalent(alpha: f32) -> f32 {
     let a = alpha.max(ALPHA_MIN);
     (2.0 / (a * a) - 2.0).clamp(1.0, 1e4)
+}
+
+/// Glass's GGX α for a glTF roughness: roughness², and 0 (smooth, two Dirac deltas) where
+/// that is below [`ALPHA_MIN`] (roughness below 0.032), whose lobe is narrower than any
+/// pixel's footprint and which the eye passes then split deterministically.
+pub fn glass_alpha(roughness: f32) -> f32 {
+    let a = roughness.clamp(0.0, 1.0).powi(2);
+    // NaN (never from the loader, which keeps factors finite) reads as smooth.
+    if a >= ALPHA_MIN { a } else { 0.0 }
 }
 
 /// Schlick's Fresnel f0 + (1 − f0)(1 − cos)⁵ (glTF appendix B.3.4), per channel.

@@ -576,13 +576,15 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
         "{:?}",
         scene.warnings
     );
-    // Material #6's rough transmission (roughness 1 by default) and both thin walls.
+    // Both thin walls, one line; material #6's rough transmission (roughness 1 by default)
+    // is rendered and not named (deviations §56).
     assert_eq!(
         lines("KHR_materials_transmission").len(),
-        2,
+        1,
         "{:?}",
         scene.warnings
     );
+    assert!(lines("rough").is_empty(), "{:?}", scene.warnings);
     assert!(
         scene.materials[8]
             .absorption
@@ -857,8 +859,9 @@ fn partial_transmission_draws_glass_with_its_share_at_each_hit() {
             let hit =
                 probe(&scene, x.0 + (x.1 - x.0) * u.x, 0.9 * (u.y - 0.5)).expect("the square");
             match scene.bsdf(&hit) {
-                Bsdf::Dielectric { ior, tint } => {
+                Bsdf::Dielectric { ior, tint, alpha } => {
                     assert!(ior == 1.5 && (tint - Vec3::new(0.9, 0.6, 0.3)).length() < 1e-6);
+                    assert_eq!(alpha, 0.0, "roughness 0: smooth glass");
                     glass += 1;
                 }
                 other => assert!(!other.is_specular() || matches!(other, Bsdf::Mirror { .. })),
@@ -929,4 +932,32 @@ fn a_partly_transmissive_pane_renders_as_the_path_tracer_does() {
     );
     let worst = (rs / pt - Vec3::ONE).abs().max_element();
     assert!(worst < 0.05, "rs {rs}, pt {pt}");
+}
+
+/// Rough glass (KHR_materials_transmission with roughness, and a volume): a slab 0.5 m
+/// thick between an area light and a white floor, seen from above at an angle. The eye
+/// passes follow both of its lobes about one visible normal drawn per hit, photons and the
+/// path tracer sample one by Fresnel, and the path tracer's NEE reaches the light through it
+/// where no other glass is in the way (deviations §56): rs's mean colour is the path
+/// tracer's within 5% at roughness 0.5 and 1 (it was within 2.5% at 0, 0.05, 0.2, 0.5 and 1
+/// when measured), and the floor under the slab is lit through it. Before the path tracer's
+/// MIS knew that NEE draws both sides of rough glass, it counted light through it twice
+/// and read 1.36× rs at roughness 0.5.
+#[test]
+fn rough_glass_renders_as_the_path_tracer_does() {
+    let glass = |roughness: f32| {
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.6, 0.3, 1.0],
+                "metallicFactor": 0.0, "roughnessFactor": roughness},
+            "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                "KHR_materials_volume": {"thicknessFactor": 0.5}}})
+    };
+    let view = (Vec3::new(0.0, 2.5, 3.0), Vec3::new(0.0, 0.3, 0.0), 1.0);
+    let slab = (Vec3::new(-1.0, 0.9, -1.0), Vec3::new(1.0, 1.4, 1.0));
+    for roughness in [0.5, 1.0] {
+        let (rs, pt) = slab_over_lit_floor(glass(roughness), slab, view, (32, 4));
+        let worst = (rs / pt - Vec3::ONE).abs().max_element();
+        assert!(worst < 0.05, "roughness {roughness}: rs {rs}, pt {pt}");
+        // The tint shows: light through the slab is redder than blue.
+        assert!(pt.x > 1.2 * pt.z, "{pt}");
+    }
 }

@@ -319,25 +319,26 @@ pub fn radiance(
         } else {
             -hit.normal
         };
-        let ns = if matches!(bsdf, crate::bsdf::Bsdf::Dielectric { .. }) {
-            hit.normal
-        } else {
-            n
-        };
+        let glass = matches!(bsdf, crate::bsdf::Bsdf::Dielectric { .. });
+        let ns = if glass { hit.normal } else { n };
         if !bsdf.is_specular() {
             // Next-event estimation, MIS-weighted against BSDF sampling.
             let u = rng.next_f32();
             if let Some(ls) = scene.lights.sample_direct(hit.position, u, rng.next_2d()) {
-                let cos = n.dot(ls.wi);
-                // The light must also lie on the viewer's side of the geometric surface (as
-                // for photons and NEE at eye samples): a shading normal can lean past it.
+                // Rough glass is lit from both sides (its BSDF samples reach lights beyond
+                // it, so NEE must too, or MIS would lose their share); the reflecting models
+                // from the viewer's side.
+                let through = glass && n.dot(ls.wi) < 0.0;
+                let cos = if through { -n.dot(ls.wi) } else { n.dot(ls.wi) };
+                // The light must also lie on that side of the geometric surface (as for
+                // photons and NEE at eye samples): a shading normal can lean past it.
                 if cos > 0.0
                     && ls.value.is_finite()
-                    && Scene::leaves_correctly(&hit, wo, ls.wi, false)
+                    && Scene::leaves_correctly(&hit, wo, ls.wi, through)
                 {
                     let from = scene.offset(&hit, ls.wi);
                     if scene.light_visible(from, &ls) {
-                        let f = bsdf.eval(wo, ls.wi, ns);
+                        let f = bsdf.eval(wo, ls.wi, ns) * bsdf.radiance_scale(wo, ls.wi, ns);
                         // Point lights (infinite pdf) take the whole weight.
                         let w = power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, ns));
                         l += beta * f * ls.value * (cos * w);
@@ -354,8 +355,7 @@ pub fn radiance(
         };
         // A sample through the geometric surface the wrong way ends the path, as it ends a
         // photon (the light pass): both sides then treat shading normals alike.
-        let transmitted = matches!(bsdf, crate::bsdf::Bsdf::Dielectric { .. })
-            && Scene::leaves_correctly(&hit, wo, s.wi, true);
+        let transmitted = glass && Scene::leaves_correctly(&hit, wo, s.wi, true);
         if !Scene::leaves_correctly(&hit, wo, s.wi, transmitted) {
             break;
         }
@@ -375,7 +375,9 @@ pub fn radiance(
         specular = s.specular;
         prev_pdf = s.pdf;
         prev_pos = hit.position;
-        prev_n = n;
+        // The MIS weights below treat a direction below `prev_n` as one NEE cannot draw;
+        // rough glass's NEE draws both sides, so its normal is the one on the sample's side.
+        prev_n = if glass && s.wi.dot(n) < 0.0 { -n } else { n };
         origin = scene.offset(&hit, s.wi);
         leaving = hit.triangle;
         dir = s.wi;

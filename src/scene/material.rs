@@ -23,9 +23,9 @@ pub enum MaterialKind {
     },
     /// A perfect mirror: a metal of roughness 0 (the specification's exact limit).
     Mirror,
-    /// Smooth glass: KHR_materials_transmission's factor 1 on a dielectric (metallic 0)
-    /// with no texture to vary either (a partial share is chosen per hit,
-    /// [`Scene::bsdf`]).
+    /// Glass, smooth or rough (its material's roughness): KHR_materials_transmission's
+    /// factor 1 on a dielectric (metallic 0) with no texture to vary either (a partial share
+    /// is chosen per hit, [`Scene::bsdf`]).
     Dielectric {
         /// Index of refraction (KHR_materials_ior, 1.5 by default).
         ior: f32,
@@ -167,7 +167,7 @@ pub struct Material {
     /// glTF doubleSided: an emissive material emits from both faces.
     pub double_sided: bool,
     /// KHR_materials_transmission's factor (0 without the extension): the share of the
-    /// dielectric's diffuse layer replaced by smooth glass.
+    /// dielectric's diffuse layer replaced by glass (as rough as the surface).
     pub transmission: f32,
     /// `transmissionTexture` (linear; its R channel), multiplied with the factor.
     pub transmission_texture: Option<TextureRef>,
@@ -450,6 +450,7 @@ impl Scene {
                         return Bsdf::Dielectric {
                             ior: m.ior,
                             tint: self.albedo(hit),
+                            alpha: crate::bsdf::glass_alpha(roughness),
                         };
                     }
                     if p > 0.0 {
@@ -476,6 +477,7 @@ impl Scene {
             MaterialKind::Dielectric { ior } => Bsdf::Dielectric {
                 ior,
                 tint: self.albedo(hit),
+                alpha: crate::bsdf::glass_alpha(m.roughness),
             },
         }
     }

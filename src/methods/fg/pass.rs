@@ -315,7 +315,7 @@ fn gather_from(
         };
         // One read of the hit's textures for both the test and the shading below.
         let bsdf = scene.bsdf(&hit);
-        if bsdf.is_specular() {
+        if !bsdf.is_reflecting() {
             continue;
         }
         let (facing, geo_facing) = if hit.geo_normal.dot(dir) <= 0.0 {

@@ -191,20 +191,46 @@ pub(super) fn trace_chain(
                 // The conductor's Fresnel, as `Bsdf::sample` gives photons and the path tracer.
                 push(r, w * schlick(color, wo.dot(n)), false, &mut top);
             }
-            Bsdf::Dielectric { ior, tint } => {
+            Bsdf::Dielectric { ior, tint, alpha } => {
                 let cos_o = wo.dot(hit.normal);
                 let (eta, n) = if cos_o > 0.0 {
                     (1.0 / ior, hit.normal)
                 } else {
                     (ior, -hit.normal)
                 };
-                let f = fresnel_dielectric(cos_o.abs(), eta);
-                let r = reflect(wo, n);
-                push(r, w * f, false, &mut top);
-                if let Some(t) = refract(wo, n, eta) {
+                // Both lobes are followed about one microfacet normal: the surface's own for
+                // smooth glass, one drawn from GGX's visible normals for rough glass, whose
+                // reflection and refraction about it each estimate their lobe with the weight
+                // F·G₂/G₁(ωo) and (1 − F)·G₂/G₁(ωo) (Heitz 2018, eq. 19; `Bsdf::sample`
+                // draws one of the two by F instead). A direction that lands on the wrong
+                // side of the macrosurface carries nothing.
+                let h = if alpha > 0.0 {
+                    sample_ggx_visible(wo, n, alpha, rng.next_2d())
+                } else {
+                    n
+                };
+                let cos_o = wo.dot(n);
+                let masking = |d: Vec3| {
+                    if alpha > 0.0 {
+                        ggx_g2(cos_o, d.dot(n), alpha) / ggx_g1(cos_o, alpha)
+                    } else {
+                        1.0
+                    }
+                };
+                let f = fresnel_dielectric(wo.dot(h), eta);
+                let r = reflect(wo, h);
+                if r.dot(n) > 0.0 {
+                    push(r, w * (f * masking(r)), false, &mut top);
+                }
+                if let Some(t) = refract(wo, h, eta).filter(|t| t.dot(n) < 0.0) {
                     // Radiance crossing into glass falls by η² (Bsdf::radiance_scale): an
                     // eye sample inside a volume sees light that photons delivered as flux.
-                    push(t, w * tint * ((1.0 - f) * eta * eta), true, &mut top);
+                    push(
+                        t,
+                        w * tint * ((1.0 - f) * eta * eta * masking(t)),
+                        true,
+                        &mut top,
+                    );
                 }
             }
         }

@@ -143,9 +143,10 @@ pub(super) fn trace_photon(
         };
         // The model at the hit, read once (a metallic-roughness texture is read here only).
         let bsdf = hit.as_ref().map(|h| scene.bsdf(h));
-        // A photon lands where the surface can be seen: a partly transmissive one is, even
-        // where this hit drew its glass (the eye's hits there draw their own).
-        let lands = bsdf.is_some_and(|b| !b.is_specular())
+        // A photon lands where the surface can be seen: a reflecting one (glass, smooth or
+        // rough, passes it on), or a partly transmissive one even where this hit drew its
+        // glass (the eye's hits there draw their own).
+        let lands = bsdf.is_some_and(|b| b.is_reflecting())
             || hit.as_ref().is_some_and(|h| scene.partly_transmissive(h));
         let end_normal = hit.as_ref().map_or(Vec3::ZERO, |h| {
             if h.geo_normal.dot(dir) <= 0.0 {

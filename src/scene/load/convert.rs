@@ -374,16 +374,10 @@ pub(super) fn unrendered(m: &json::Material, raw: &Value) -> Vec<String> {
         let what = match name.as_str() {
             "KHR_materials_emissive_strength" | "KHR_materials_ior" => continue,
             "KHR_materials_transmission" => {
-                let rough = pbr.roughness_factor.0 >= 0.05;
+                // Rough transmission is rendered (bsdf::Bsdf::Dielectric's microfacet model).
                 let solid = raw["extensions"]["KHR_materials_volume"]["thicknessFactor"]
                     .as_f64()
                     .is_some_and(|t| t > 0.0);
-                if glass && rough {
-                    out.push(
-                        "KHR_materials_transmission's rough transmission (rendered as smooth glass)"
-                            .to_string(),
-                    );
-                }
                 if glass && !solid {
                     // glTF's default is a thin wall; the volume extension makes it solid
                     // (docs/deviations.md §54).
