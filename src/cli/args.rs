@@ -151,7 +151,7 @@ pub struct DirectArgs {
     #[arg(long, default_value = RenderSettings::default().direct.name(), value_parser = choice::<DirectMode>())]
     pub direct: DirectMode,
     /// Light samples per eye sample for --direct nee.
-    #[arg(long, default_value_t = RenderSettings::default().nee_samples)]
+    #[arg(long, default_value_t = raysplat::settings::FRONT_END_NEE_SAMPLES)]
     pub nee_samples: u32,
 }
 

@@ -229,7 +229,7 @@ impl Default for SessionConfig {
             settings: RenderSettings {
                 spp: 1,
                 photons: 20_000,
-                nee_samples: 4,
+                nee_samples: crate::settings::FRONT_END_NEE_SAMPLES,
                 ..RenderSettings::default()
             },
             max_stored_rays: 4_000_000,

@@ -76,6 +76,11 @@ impl Choice for DirectMode {
     }
 }
 
+/// Light samples per eye sample in the window and on the command line: 4 light samples per
+/// eye sample cost little beside the eye pass and its photons and cut the noise of direct
+/// light where it is the eye side's largest part (docs/deviations.md §50, §57).
+pub const FRONT_END_NEE_SAMPLES: u32 = 4;
+
 /// Everything a render depends on, besides the scene and the camera's pose.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RenderSettings {
@@ -97,7 +102,8 @@ pub struct RenderSettings {
     pub direct: DirectMode,
     /// Longest specular chain followed by eye and photon paths.
     pub max_specular_depth: u32,
-    /// Light samples per eye sample for NEE.
+    /// Light samples per eye sample for NEE (1 here, the library's and the benchmarks'
+    /// Table 2 rows; the window and the command line draw [`FRONT_END_NEE_SAMPLES`]).
     pub nee_samples: u32,
     /// Give up filling a photon class after this many emitted photons per stored-photon budget.
     pub max_emitted_factor: u64,
