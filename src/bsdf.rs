@@ -365,11 +365,17 @@ pub fn phong_equivalent(alpha: f32) -> f32 {
 
 /// Glass's GGX α for a glTF roughness: roughness², and 0 (smooth, two Dirac deltas) where
 /// that is below [`ALPHA_MIN`] (roughness below 0.032), whose lobe is narrower than any
-/// pixel's footprint and which the eye passes then split deterministically.
-pub fn glass_alpha(roughness: f32) -> f32 {
+/// pixel's footprint and which the eye passes then split deterministically, or where the
+/// IOR is 1: light passes straight through whatever the roughness (the refraction's half
+/// vector ωo + ωi vanishes there; pbrt-v4's dielectric is smooth at η = 1 too).
+pub fn glass_alpha(roughness: f32, ior: f32) -> f32 {
     let a = roughness.clamp(0.0, 1.0).powi(2);
     // NaN (never from the loader, which keeps factors finite) reads as smooth.
-    if a >= ALPHA_MIN { a } else { 0.0 }
+    if a >= ALPHA_MIN && (ior - 1.0).abs() > 1e-4 {
+        a
+    } else {
+        0.0
+    }
 }
 
 /// Schlick's Fresnel f0 + (1 − f0)(1 − cos)⁵ (glTF appendix B.3.4), per channel.

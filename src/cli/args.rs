@@ -475,14 +475,19 @@ mod tests {
         render: RenderArgs,
     }
 
-    /// With no flags, the settings are the library's defaults (the path tracer takes --spp).
+    /// With no flags, the settings are the library's defaults (the path tracer takes --spp),
+    /// but for the front ends' light samples per eye sample (docs/deviations.md §57).
     #[test]
     fn no_flags_give_the_default_settings() {
         let args = Probe::try_parse_from(["raysplat"]).unwrap().render;
         let d = RenderSettings::default();
         assert_eq!(
             args.settings().unwrap(),
-            RenderSettings { pt_spp: d.spp, ..d }
+            RenderSettings {
+                pt_spp: d.spp,
+                nee_samples: raysplat::settings::FRONT_END_NEE_SAMPLES,
+                ..d
+            }
         );
         assert_eq!(args.settings.run.budget(), Budget::Fixed);
     }

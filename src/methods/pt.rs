@@ -305,7 +305,8 @@ pub fn radiance(
             l += beta * le * w;
         }
         let bsdf = scene.bsdf(&hit);
-        if !bsdf.is_specular() {
+        // Glass, smooth or rough, is no diffuse vertex (the eye passes go on through both).
+        if bsdf.is_reflecting() {
             diffuse += 1;
             if diffuse > max_diffuse {
                 break;

@@ -450,7 +450,7 @@ impl Scene {
                         return Bsdf::Dielectric {
                             ior: m.ior,
                             tint: self.albedo(hit),
-                            alpha: crate::bsdf::glass_alpha(roughness),
+                            alpha: crate::bsdf::glass_alpha(roughness, m.ior),
                         };
                     }
                     if p > 0.0 {
@@ -477,7 +477,7 @@ impl Scene {
             MaterialKind::Dielectric { ior } => Bsdf::Dielectric {
                 ior,
                 tint: self.albedo(hit),
-                alpha: crate::bsdf::glass_alpha(m.roughness),
+                alpha: crate::bsdf::glass_alpha(m.roughness, ior),
             },
         }
     }

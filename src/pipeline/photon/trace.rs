@@ -263,7 +263,10 @@ pub(super) fn trace_photon(
         }
         u_here = u_next;
         (c_here, c_density) = (c_next, if s.specular { SPECULAR_PDF } else { s.pdf });
-        any_diffuse |= !s.specular;
+        // Light that crossed only glass, smooth or rough, is a caustic (the paper's L S+
+        // paths, blurred where the glass is rough): final gathering's gather rays stop at
+        // glass and leave such light to the caustic photons (deviations §56).
+        any_diffuse |= bsdf.is_reflecting();
         normal = if cos_g_out >= 0.0 {
             hit.geo_normal
         } else {
