@@ -225,38 +225,26 @@ impl Bsdf {
                 specular: true,
             }),
             Bsdf::Dielectric { ior, tint, alpha } => {
-                let cos_o = wo.dot(n);
-                let (eta, nn) = if cos_o > 0.0 {
-                    (1.0 / ior, n)
+                let lobes = glass_lobes(wo, n, ior, alpha, u);
+                // Fresnel at ωo·h chooses the lobe.
+                let reflects = u_lobe < lobes.fresnel;
+                let (wi, masking) = if reflects {
+                    lobes.reflected
                 } else {
-                    (ior, -n)
-                };
-                // The microfacet normal: the surface's own for smooth glass, else one drawn
-                // from GGX's visible normals (Heitz 2018). Fresnel at ωo·h chooses the lobe.
-                let h = if alpha > 0.0 {
-                    sample_ggx_visible(wo, nn, alpha, u)
-                } else {
-                    nn
-                };
-                let f = fresnel_dielectric(wo.dot(h), eta);
-                let reflects = u_lobe < f;
-                let wi = if reflects {
-                    reflect(wo, h)
-                } else {
-                    refract(wo, h, eta)?
-                };
+                    lobes.refracted
+                }?;
+                let colour = if reflects { Vec3::ONE } else { tint };
                 if alpha <= 0.0 {
                     return Some(BsdfSample {
                         wi,
-                        weight: if reflects { Vec3::ONE } else { tint },
-                        pdf: if reflects { f } else { 1.0 - f },
+                        weight: colour,
+                        pdf: if reflects {
+                            lobes.fresnel
+                        } else {
+                            1.0 - lobes.fresnel
+                        },
                         specular: true,
                     });
-                }
-                // A rough lobe's direction must land on its side of the macrosurface.
-                let cos_i = wi.dot(nn);
-                if (cos_i > 0.0) != reflects || cos_i == 0.0 {
-                    return None;
                 }
                 let pdf = RoughGlass::at(wo, wi, n, ior, alpha)?.pdf;
                 if pdf <= 0.0 {
@@ -264,15 +252,61 @@ impl Bsdf {
                 }
                 // f·|cos θi|/pdf with the visible normals' density: G₂/G₁(ωo), the Fresnel
                 // choice cancelling F or 1 − F (Heitz 2018, eq. 19 for either lobe).
-                let g = ggx_g2(cos_o, cos_i, alpha) / ggx_g1(cos_o, alpha);
                 Some(BsdfSample {
                     wi,
-                    weight: if reflects { Vec3::splat(g) } else { tint * g },
+                    weight: colour * masking,
                     pdf,
                     specular: false,
                 })
             }
         }
+    }
+}
+
+/// Both lobes of glass about one microfacet normal: the surface's own for smooth glass
+/// (α = 0), else one drawn with `u` from GGX's visible normals at ωo (Heitz 2018). `n` is the
+/// surface's own normal (pointing outside); ωo's side decides the medium it is in.
+pub struct GlassLobes {
+    /// The dielectric Fresnel reflectance at ωo·h.
+    pub fresnel: f32,
+    /// The reflected direction and its masking G₂/G₁(ωo) (1 for smooth glass); `None` where
+    /// rough glass reflects below the macrosurface.
+    pub reflected: Option<(Vec3, f32)>,
+    /// The refracted direction and its masking; `None` on total internal reflection, or where
+    /// rough glass refracts back to ωo's side.
+    pub refracted: Option<(Vec3, f32)>,
+}
+
+/// [`GlassLobes`] at ωo: what [`Bsdf::sample`] draws one of by Fresnel, and what the eye
+/// passes follow both of (each lobe's one-sample estimate is its F or 1 − F times its masking,
+/// times the tint and [`Bsdf::radiance_scale`] where it refracts).
+#[inline]
+pub fn glass_lobes(wo: Vec3, n: Vec3, ior: f32, alpha: f32, u: Vec2) -> GlassLobes {
+    let (eta, nn) = if wo.dot(n) > 0.0 {
+        (1.0 / ior, n)
+    } else {
+        (ior, -n)
+    };
+    let h = if alpha > 0.0 {
+        sample_ggx_visible(wo, nn, alpha, u)
+    } else {
+        nn
+    };
+    let cos_o = wo.dot(nn);
+    // A rough lobe's direction must land on its side of the macrosurface; smooth glass's
+    // always does.
+    let lobe = |d: Vec3, above: bool| {
+        if alpha <= 0.0 {
+            return Some((d, 1.0));
+        }
+        let cos_i = d.dot(nn);
+        (cos_i != 0.0 && (cos_i > 0.0) == above)
+            .then(|| (d, ggx_g2(cos_o, cos_i, alpha) / ggx_g1(cos_o, alpha)))
+    };
+    GlassLobes {
+        fresnel: fresnel_dielectric(wo.dot(h), eta),
+        reflected: lobe(reflect(wo, h), true),
+        refracted: refract(wo, h, eta).and_then(|t| lobe(t, false)),
     }
 }
 

@@ -1,15 +1,16 @@
-//! One camera ray's eye path (§3): deterministic specular chains and traced glossy lobes,
+//! One camera ray's eye path (§3): specular chains (split deterministically, rough glass about
+//! one drawn microfacet normal) and traced glossy lobes,
 //! the eye samples it leaves and the emission it sees, and the sampled directions of lobes too
 //! sharp for the radiance map.
 
 use super::{EyeSample, EyeSettings};
 use crate::bsdf::{
-    Bsdf, fresnel_dielectric, ggx_g1, ggx_g2, phong_equivalent, reflect, refract,
-    sample_ggx_visible, schlick, schlick_to,
+    Bsdf, ggx_g1, ggx_g2, glass_lobes, phong_equivalent, reflect, sample_ggx_visible, schlick,
+    schlick_to,
 };
 use crate::sampling::Rng;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// Branches whose weight falls below this are dropped (they cannot change a pixel visibly).
 pub(super) const MIN_BRANCH_WEIGHT: f32 = 1e-3;
@@ -192,45 +193,26 @@ pub(super) fn trace_chain(
                 push(r, w * schlick(color, wo.dot(n)), false, &mut top);
             }
             Bsdf::Dielectric { ior, tint, alpha } => {
-                let cos_o = wo.dot(hit.normal);
-                let (eta, n) = if cos_o > 0.0 {
-                    (1.0 / ior, hit.normal)
+                // Both lobes are followed about one microfacet normal (drawn for rough glass
+                // only, so that smooth glass keeps its streams), each an unbiased one-sample
+                // estimate of its lobe (`bsdf::glass_lobes`; `Bsdf::sample` draws one of the
+                // two by Fresnel instead). A rough lobe that lands on the wrong side of the
+                // macrosurface carries nothing.
+                let u = if alpha > 0.0 {
+                    rng.next_2d()
                 } else {
-                    (ior, -hit.normal)
+                    Vec2::ZERO
                 };
-                // Both lobes are followed about one microfacet normal: the surface's own for
-                // smooth glass, one drawn from GGX's visible normals for rough glass, whose
-                // reflection and refraction about it each estimate their lobe with the weight
-                // F·G₂/G₁(ωo) and (1 − F)·G₂/G₁(ωo) (Heitz 2018, eq. 19; `Bsdf::sample`
-                // draws one of the two by F instead). A direction that lands on the wrong
-                // side of the macrosurface carries nothing.
-                let h = if alpha > 0.0 {
-                    sample_ggx_visible(wo, n, alpha, rng.next_2d())
-                } else {
-                    n
-                };
-                let cos_o = wo.dot(n);
-                let masking = |d: Vec3| {
-                    if alpha > 0.0 {
-                        ggx_g2(cos_o, d.dot(n), alpha) / ggx_g1(cos_o, alpha)
-                    } else {
-                        1.0
-                    }
-                };
-                let f = fresnel_dielectric(wo.dot(h), eta);
-                let r = reflect(wo, h);
-                if r.dot(n) > 0.0 {
-                    push(r, w * (f * masking(r)), false, &mut top);
+                let lobes = glass_lobes(wo, hit.normal, ior, alpha, u);
+                let f = lobes.fresnel;
+                if let Some((r, masking)) = lobes.reflected {
+                    push(r, w * (f * masking), false, &mut top);
                 }
-                if let Some(t) = refract(wo, h, eta).filter(|t| t.dot(n) < 0.0) {
+                if let Some((t, masking)) = lobes.refracted {
                     // Radiance crossing into glass falls by η² (Bsdf::radiance_scale): an
                     // eye sample inside a volume sees light that photons delivered as flux.
-                    push(
-                        t,
-                        w * tint * ((1.0 - f) * eta * eta * masking(t)),
-                        true,
-                        &mut top,
-                    );
+                    let scale = bsdf.radiance_scale(wo, t, hit.normal);
+                    push(t, w * tint * ((1.0 - f) * masking * scale), true, &mut top);
                 }
             }
         }
