@@ -176,6 +176,19 @@ impl Bsdf {
         }
     }
 
+    /// Solid-angle density with which the eye passes' branch of `wi`'s lobe of rough glass
+    /// (reflected on ωo's side of the shading normal, refracted across it) draws `wi`:
+    /// [`Bsdf::pdf`] without the Fresnel choice, since the eye passes follow both lobes about
+    /// one microfacet normal ([`glass_lobes`]). Zero for every other model and smooth glass.
+    pub fn glass_lobe_pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
+        match *self {
+            Bsdf::Dielectric { ior, alpha, .. } if alpha > 0.0 => {
+                RoughGlass::at(wo, wi, n, ior, alpha).map_or(0.0, |m| m.lobe_pdf)
+            }
+            _ => 0.0,
+        }
+    }
+
     /// `u` picks the direction, `u_lobe` the lobe (Fresnel choice for the dielectric).
     pub fn sample(&self, wo: Vec3, n: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         match *self {
@@ -323,6 +336,9 @@ pub fn glass_lobes(wo: Vec3, n: Vec3, ior: f32, alpha: f32, u: Vec2) -> GlassLob
 struct RoughGlass {
     value: f32,
     pdf: f32,
+    /// The density without the Fresnel choice: that of the eye passes' branch of this lobe,
+    /// which follows both lobes about one drawn microfacet normal ([`glass_lobes`]).
+    lobe_pdf: f32,
     transmits: bool,
 }
 
@@ -359,15 +375,19 @@ impl RoughGlass {
         let visible = ggx_g1(cos_o, alpha) * oh * d / cos_o;
         Some(if transmits {
             let denom = (ih + oh / etap) * (ih + oh / etap);
+            let lobe_pdf = visible * ih.abs() / denom;
             RoughGlass {
                 value: (1.0 - f) * d * g2 * (ih * oh).abs() / (cos_o * cos_i.abs() * denom),
-                pdf: (1.0 - f) * visible * ih.abs() / denom,
+                pdf: (1.0 - f) * lobe_pdf,
+                lobe_pdf,
                 transmits,
             }
         } else {
+            let lobe_pdf = visible / (4.0 * oh);
             RoughGlass {
                 value: f * d * g2 / (4.0 * cos_o * cos_i),
-                pdf: f * visible / (4.0 * oh),
+                pdf: f * lobe_pdf,
+                lobe_pdf,
                 transmits,
             }
         })

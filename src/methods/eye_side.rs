@@ -105,6 +105,7 @@ impl EyeSide {
             merge_targets: settings.merge_targets,
             lobe_limit: settings.radiance_map.lobe_limit(),
             follow_lobes: options.lobes == LobeDraws::InEyePass,
+            light_samples: settings.nee_samples,
         };
         let EyePass {
             samples: eye,

@@ -73,6 +73,7 @@ impl Pass {
                 // that traces the lobe already.
                 lobe_limit: f32::INFINITY,
                 follow_lobes: true,
+                light_samples: s.nee_samples,
             },
         );
         timings.t_eye += t.elapsed().as_secs_f64();

@@ -8,8 +8,9 @@ use crate::bsdf::{
     Bsdf, ggx_g1, ggx_g2, glass_lobes, phong_equivalent, reflect, sample_ggx_visible, schlick,
     schlick_to,
 };
+use crate::pipeline::direct::power_heuristic;
 use crate::sampling::Rng;
-use crate::scene::Scene;
+use crate::scene::{Hit, Scene};
 use glam::{Vec2, Vec3};
 
 /// Branches whose weight falls below this are dropped (they cannot change a pixel visibly).
@@ -35,6 +36,10 @@ pub(super) struct Branch {
     pub(super) leaving: u32,
     /// The ray leaves a traced lobe.
     pub(super) from_lobe: bool,
+    /// The density with which a rough glass vertex's branch drew `dir`
+    /// ([`Bsdf::glass_lobe_pdf`]): the emission it meets is weighted against that vertex's
+    /// light samples (multiple importance sampling). Zero: whole weight.
+    pub(super) lobe_pdf: f32,
 }
 
 /// An eye sample as a chain leaves it, before it is packed.
@@ -66,6 +71,7 @@ pub(super) fn trace_chain(
         travelled: 0.0,
         leaving: u32::MAX,
         from_lobe: false,
+        lobe_pdf: 0.0,
     }; BRANCH_STACK];
     stack[0] = start;
     let mut top = 1;
@@ -80,12 +86,19 @@ pub(super) fn trace_chain(
             travelled,
             leaving,
             from_lobe,
+            lobe_pdf,
         } = stack[top];
         let Some(hit) = scene.intersect_except(o, d, f32::INFINITY, leaving) else {
             // Escaped: the environment seen directly or through the chain (off a traced lobe
-            // it is NEE's at the lobe's eye sample, as emission below).
+            // it is NEE's at the lobe's eye sample, as emission below; off rough glass it is
+            // weighted against that vertex's light samples).
             if !from_lobe {
-                emitted += w * scene.background(d);
+                let le = scene.background(d);
+                if le != Vec3::ZERO {
+                    let m =
+                        branch_weight(lobe_pdf, s.light_samples, || scene.lights.pdf_escaped(d));
+                    emitted += w * le * m;
+                }
             }
             continue;
         };
@@ -97,7 +110,13 @@ pub(super) fn trace_chain(
         // Light met straight off a traced lobe is NEE's at the lobe's eye sample (its BSDF
         // sample under MIS holds this path), so it is not counted twice.
         if !from_lobe {
-            emitted += w * scene.emitted(&hit, wo);
+            let le = scene.emitted(&hit, wo);
+            if le != Vec3::ZERO {
+                let m = branch_weight(lobe_pdf, s.light_samples, || {
+                    scene.lights.pdf_direct(hit.triangle, o, hit.position)
+                });
+                emitted += w * le * m;
+            }
         }
         let bsdf = scene.bsdf(&hit);
         // A glossy sample keeps its diffuse layer's albedo towards the eye, kd·(1 − E_d).
@@ -150,6 +169,7 @@ pub(super) fn trace_chain(
                     travelled: path_length,
                     leaving: hit.triangle,
                     from_lobe: true,
+                    lobe_pdf: 0.0,
                 };
                 top += 1;
             } else if depth < max_depth && traces_lobe(bsdf, s.lobe_limit) {
@@ -161,7 +181,7 @@ pub(super) fn trace_chain(
         }
         // A branch that leaves through the geometric surface the wrong way (a shading normal
         // can send it there) is dropped, as photons and the path tracer drop it.
-        let mut push = |d: Vec3, w: Vec3, transmit: bool, top: &mut usize| {
+        let mut push = |d: Vec3, w: Vec3, transmit: bool, lobe_pdf: f32, top: &mut usize| {
             if w.max_element() >= MIN_BRANCH_WEIGHT
                 && *top < BRANCH_STACK
                 && Scene::leaves_correctly(&hit, wo, d, transmit)
@@ -174,6 +194,7 @@ pub(super) fn trace_chain(
                     travelled: path_length,
                     leaving: hit.triangle,
                     from_lobe: false,
+                    lobe_pdf,
                 };
                 *top += 1;
             }
@@ -190,7 +211,7 @@ pub(super) fn trace_chain(
                 };
                 let r = reflect(wo, n);
                 // The conductor's Fresnel, as `Bsdf::sample` gives photons and the path tracer.
-                push(r, w * schlick(color, wo.dot(n)), false, &mut top);
+                push(r, w * schlick(color, wo.dot(n)), false, 0.0, &mut top);
             }
             Bsdf::Dielectric { ior, tint, alpha } => {
                 // Both lobes are followed about one microfacet normal (drawn for rough glass
@@ -205,19 +226,78 @@ pub(super) fn trace_chain(
                 };
                 let lobes = glass_lobes(wo, hit.normal, ior, alpha, u);
                 let f = lobes.fresnel;
+                if alpha > 0.0 {
+                    emitted += w * rough_glass_light(scene, &hit, bsdf, wo, s.light_samples, rng);
+                }
+                // The density of each rough branch's direction, for the emission it meets.
+                let lobe_pdf = |d: Vec3| bsdf.glass_lobe_pdf(wo, d, hit.normal);
                 if let Some((r, masking)) = lobes.reflected {
-                    push(r, w * (f * masking), false, &mut top);
+                    push(r, w * (f * masking), false, lobe_pdf(r), &mut top);
                 }
                 if let Some((t, masking)) = lobes.refracted {
                     // Radiance crossing into glass falls by η² (Bsdf::radiance_scale): an
                     // eye sample inside a volume sees light that photons delivered as flux.
                     let scale = bsdf.radiance_scale(wo, t, hit.normal);
-                    push(t, w * tint * ((1.0 - f) * masking * scale), true, &mut top);
+                    let weight = w * tint * ((1.0 - f) * masking * scale);
+                    push(t, weight, true, lobe_pdf(t), &mut top);
                 }
             }
         }
     }
     emitted
+}
+
+/// The multiple-importance weight (Veach's power heuristic) of emission met by a branch drawn
+/// with density `lobe_pdf` at a rough glass vertex, against that vertex's `light_samples`
+/// light samples, whose density for the same direction `light_pdf` gives (a branch with
+/// `lobe_pdf` zero did not leave rough glass: whole weight).
+#[inline]
+fn branch_weight(lobe_pdf: f32, light_samples: u32, light_pdf: impl FnOnce() -> f32) -> f32 {
+    if lobe_pdf > 0.0 && light_samples > 0 {
+        power_heuristic(lobe_pdf, light_samples as f32 * light_pdf())
+    } else {
+        1.0
+    }
+}
+
+/// Light seen through and off rough glass at `hit`, by `light_samples` light samples from
+/// both sides (next-event estimation, as the path tracer's at rough glass): the radiance
+/// towards ωo before the branch's weight, each sample weighted against the branch of its lobe
+/// by [`branch_weight`]'s heuristic (n·p_light against the lobe's density), so that the two
+/// branches and the light samples together count every light once. Point, spot and
+/// directional lights, which no branch can meet, are reached this way only.
+fn rough_glass_light(
+    scene: &Scene,
+    hit: &Hit,
+    bsdf: Bsdf,
+    wo: Vec3,
+    light_samples: u32,
+    rng: &mut Rng,
+) -> Vec3 {
+    let n = hit.normal;
+    let mut sum = Vec3::ZERO;
+    for _ in 0..light_samples {
+        let u = rng.next_f32();
+        let Some(ls) = scene.lights.sample_direct(hit.position, u, rng.next_2d()) else {
+            continue;
+        };
+        // Across the shading normal from ωo: the refracted lobe; on its side: the reflected.
+        let through = (wo.dot(n) > 0.0) != (ls.wi.dot(n) > 0.0);
+        if !ls.value.is_finite() || !Scene::leaves_correctly(hit, wo, ls.wi, through) {
+            continue;
+        }
+        let f = bsdf.eval(wo, ls.wi, n);
+        if f == Vec3::ZERO || !scene.light_visible(scene.offset(hit, ls.wi), &ls) {
+            continue;
+        }
+        let m = power_heuristic(
+            light_samples as f32 * ls.pdf,
+            bsdf.glass_lobe_pdf(wo, ls.wi, n),
+        );
+        let cos = ls.wi.dot(n).abs();
+        sum += f * ls.value * (cos * bsdf.radiance_scale(wo, ls.wi, n) * m);
+    }
+    sum / light_samples.max(1) as f32
 }
 
 /// True when `bsdf` is glossy with a lobe sharper than `limit` (the directional mode's

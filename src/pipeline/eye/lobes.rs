@@ -84,6 +84,7 @@ pub fn trace_lobes(
                         travelled: p.distance(camera.position),
                         leaving: u32::MAX,
                         from_lobe: true,
+                        lobe_pdf: 0.0,
                     };
                     if w.max_element() >= MIN_BRANCH_WEIGHT {
                         emitted[(pixel - y * s.width) as usize] +=

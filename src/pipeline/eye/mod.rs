@@ -52,6 +52,9 @@ pub struct EyeSettings {
     /// when false they are only marked, and [`trace_lobes`] draws their directions, anew per
     /// call (rs draws them per photon batch so that the previewer's reflections converge).
     pub follow_lobes: bool,
+    /// Light samples at each rough glass vertex of a chain (the render's light samples per
+    /// eye sample), weighted against the vertex's branches; 0: none (the branches alone).
+    pub light_samples: u32,
 }
 
 /// What the eye pass produced.
@@ -112,6 +115,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                     travelled: 0.0,
                     leaving: u32::MAX,
                     from_lobe: false,
+                    lobe_pdf: 0.0,
                 };
                 emitted[x as usize] += trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut out);
             }
