@@ -51,6 +51,19 @@ impl Rng {
     }
 }
 
+/// Veach's power heuristic (β = 2) for the sampler (multiple importance sampling) with density `a` against one with `b`.
+#[inline]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 && a2.is_finite() {
+        a2 / (a2 + b2)
+    } else if a2.is_finite() {
+        0.0
+    } else {
+        1.0
+    }
+}
+
 /// SplitMix64's finaliser (Steele et al. 2014): a well-mixed 64-bit value from `z`, to
 /// derive independent seeds from one seed and a counter.
 pub fn splitmix64(mut z: u64) -> u64 {

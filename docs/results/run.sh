@@ -17,7 +17,7 @@ run() {
     local dir=$1 ref_spp=$2 spp=$3 k0=$4 ks=$5
     shift 5
     # Table 2's rows take one light sample per eye sample, as they were recorded (the
-    # command line's default is 4 since 2026-11-27, docs/deviations.md §57), unless a row
+    # command line's default is 4 since 2026-11-26, docs/deviations.md §57), unless a row
     # says otherwise.
     local nee=(--nee-samples 1)
     [[ " $* " == *" --nee-samples "* ]] && nee=()

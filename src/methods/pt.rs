@@ -5,8 +5,8 @@
 use crate::film::Film;
 use crate::film::estimate::of_independent_samples;
 use crate::methods::{Method, MethodError, MethodStats, Step, Timings};
-use crate::pipeline::direct::{bsdf_emission_weight, escaped_weight, power_heuristic};
-use crate::sampling::{Rng, luminance};
+use crate::pipeline::direct::{bsdf_emission_weight, escaped_weight};
+use crate::sampling::{Rng, luminance, power_heuristic};
 use crate::scene::{Camera, Scene};
 use crate::settings::{MethodKind, RenderSettings};
 use glam::Vec3;

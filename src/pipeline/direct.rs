@@ -9,23 +9,10 @@
 
 use crate::bsdf::Bsdf;
 use crate::pipeline::eye::EyeSamples;
-use crate::sampling::Rng;
+use crate::sampling::{Rng, power_heuristic};
 use crate::scene::{Hit, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
-
-/// Veach's power heuristic (β = 2) for the sampler with density `a` against one with `b`.
-#[inline]
-pub fn power_heuristic(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 && a2.is_finite() {
-        a2 / (a2 + b2)
-    } else if a2.is_finite() {
-        0.0
-    } else {
-        1.0
-    }
-}
 
 /// The MIS weight (power heuristic, against light sampling) of emission at `hit`, found along
 /// the BSDF-sampled direction `wi` with solid-angle density `pdf` from `from`, whose

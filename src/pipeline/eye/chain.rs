@@ -8,8 +8,7 @@ use crate::bsdf::{
     Bsdf, ggx_g1, ggx_g2, glass_lobes, phong_equivalent, reflect, sample_ggx_visible, schlick,
     schlick_to,
 };
-use crate::pipeline::direct::power_heuristic;
-use crate::sampling::Rng;
+use crate::sampling::{Rng, power_heuristic};
 use crate::scene::{Hit, Scene};
 use glam::{Vec2, Vec3};
 
@@ -40,6 +39,8 @@ pub(super) struct Branch {
     /// ([`Bsdf::glass_lobe_pdf`]): the emission it meets is weighted against that vertex's
     /// light samples (multiple importance sampling). Zero: whole weight.
     pub(super) lobe_pdf: f32,
+    /// That vertex's position (where its light samples were drawn from), when `lobe_pdf` > 0.
+    pub(super) vertex: Vec3,
 }
 
 /// An eye sample as a chain leaves it, before it is packed.
@@ -72,6 +73,7 @@ pub(super) fn trace_chain(
         leaving: u32::MAX,
         from_lobe: false,
         lobe_pdf: 0.0,
+        vertex: Vec3::ZERO,
     }; BRANCH_STACK];
     stack[0] = start;
     let mut top = 1;
@@ -87,6 +89,7 @@ pub(super) fn trace_chain(
             leaving,
             from_lobe,
             lobe_pdf,
+            vertex,
         } = stack[top];
         let Some(hit) = scene.intersect_except(o, d, f32::INFINITY, leaving) else {
             // Escaped: the environment seen directly or through the chain (off a traced lobe
@@ -113,7 +116,7 @@ pub(super) fn trace_chain(
             let le = scene.emitted(&hit, wo);
             if le != Vec3::ZERO {
                 let m = branch_weight(lobe_pdf, s.light_samples, || {
-                    scene.lights.pdf_direct(hit.triangle, o, hit.position)
+                    scene.lights.pdf_direct(hit.triangle, vertex, hit.position)
                 });
                 emitted += w * le * m;
             }
@@ -170,6 +173,7 @@ pub(super) fn trace_chain(
                     leaving: hit.triangle,
                     from_lobe: true,
                     lobe_pdf: 0.0,
+                    vertex: hit.position,
                 };
                 top += 1;
             } else if depth < max_depth && traces_lobe(bsdf, s.lobe_limit) {
@@ -195,6 +199,7 @@ pub(super) fn trace_chain(
                     leaving: hit.triangle,
                     from_lobe: false,
                     lobe_pdf,
+                    vertex: hit.position,
                 };
                 *top += 1;
             }

@@ -85,6 +85,7 @@ pub fn trace_lobes(
                         leaving: u32::MAX,
                         from_lobe: true,
                         lobe_pdf: 0.0,
+                        vertex: p,
                     };
                     if w.max_element() >= MIN_BRANCH_WEIGHT {
                         emitted[(pixel - y * s.width) as usize] +=

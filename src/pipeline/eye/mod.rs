@@ -116,6 +116,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                     leaving: u32::MAX,
                     from_lobe: false,
                     lobe_pdf: 0.0,
+                    vertex: camera.position,
                 };
                 emitted[x as usize] += trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut out);
             }
