@@ -3,7 +3,8 @@
 //! texture and a normal texture of dimples on the floor (repeat sampler, tangents computed),
 //! a sphere whose metallic-roughness texture bands smooth metal with rough plastic, a cube
 //! coloured by COLOR_0, an alpha-MASK screen with round holes, a panel whose emissive
-//! texture is bright on one half only, and two plain plastic spheres (roughness 0.3, 0.6).
+//! texture is bright on one half only, two plain plastic spheres (roughness 0.3, 0.6) and a
+//! frosted glass sphere (rough transmission, IOR, volume).
 //! Textures are generated here and written as PNG.
 
 use super::GlbBuilder;
@@ -135,6 +136,17 @@ pub(super) fn features(g: &mut GlbBuilder) {
         let (p, n, i) = uv_sphere(Vec3::new(0.9 + 0.9 * k as f32, 0.35, 1.0), 0.35, 48, 24);
         g.mesh(&format!("plastic_sphere_{k}"), &p, &n, &i, m);
     }
+
+    // A frosted glass sphere: KHR_materials_transmission through the microfacet model
+    // (roughness 0.25), KHR_materials_ior and KHR_materials_volume (solid, clear).
+    let frosted = g.material(json!({"name": "frosted_glass",
+        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 0.25},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_ior": {"ior": 1.5},
+            "KHR_materials_volume": {"thicknessFactor": 0.6}}}));
+    let (p, n, i) = uv_sphere(Vec3::new(-0.6, 0.28, 1.5), 0.28, 48, 24);
+    g.mesh("frosted_sphere", &p, &n, &i, frosted);
 
     // A cube coloured by COLOR_0, one colour per face.
     let white = g.material(pbr("vertex_coloured", [1.0; 4], 0.0, 1.0));
