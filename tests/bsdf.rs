@@ -478,7 +478,7 @@ fn light_sampling_matches_its_pdf() {
                 let u = rng.next_f32();
                 scene
                     .lights
-                    .sample_direct(origin, u, rng.next_2d())
+                    .sample_direct(origin, None, u, rng.next_2d())
                     .map(|s| q.inverse() * s.wi)
             },
             |d| match scene.intersect(origin, q * d, f32::INFINITY) {

@@ -102,7 +102,10 @@ fn an_emissive_texture_emits_only_where_it_is_bright() {
     let mut rng = Rng::new(1, 0);
     let (mut on_dark, mut drawn, mut e_light) = (0, 0, 0.0f64);
     for _ in 0..n {
-        let Some(s) = scene.lights.sample_direct(p, rng.next_f32(), rng.next_2d()) else {
+        let Some(s) = scene
+            .lights
+            .sample_direct(p, Some(Vec3::Y), rng.next_f32(), rng.next_2d())
+        else {
             continue;
         };
         drawn += 1;
@@ -661,7 +664,10 @@ fn an_alpha_masked_emitter_sends_no_light_through_its_holes() {
     let mut rng = Rng::new(2, 0);
     let (mut e_light, mut lit_holes) = (0.0f64, 0);
     for _ in 0..n {
-        if let Some(s) = scene.lights.sample_direct(p, rng.next_f32(), rng.next_2d()) {
+        if let Some(s) = scene
+            .lights
+            .sample_direct(p, Some(Vec3::Y), rng.next_f32(), rng.next_2d())
+        {
             let q = p + s.wi * s.distance;
             lit_holes += usize::from(q.x > 1e-3 && s.value.max_element() > 0.0);
             e_light += (luminance(s.value) * s.wi.y.max(0.0)) as f64;

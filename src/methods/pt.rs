@@ -277,6 +277,8 @@ pub fn radiance(
     let mut prev_pos = o;
     // The viewer-side normal at the previous vertex (for `bsdf_emission_weight`).
     let mut prev_n = Vec3::ZERO;
+    // The previous vertex was glass, whose light samples come from both sides.
+    let mut prev_glass = false;
     let mut leaving = u32::MAX;
     for depth in 0..max_depth {
         let Some(hit) = scene.intersect_except(origin, dir, f32::INFINITY, leaving) else {
@@ -286,7 +288,7 @@ pub fn radiance(
                 let w = if specular {
                     1.0
                 } else {
-                    escaped_weight(scene, prev_n, dir, prev_pdf)
+                    escaped_weight(scene, prev_n, prev_glass, dir, prev_pdf)
                 };
                 l += beta * le * w;
             }
@@ -325,7 +327,11 @@ pub fn radiance(
         if !bsdf.is_specular() {
             // Next-event estimation, MIS-weighted against BSDF sampling.
             let u = rng.next_f32();
-            if let Some(ls) = scene.lights.sample_direct(hit.position, u, rng.next_2d()) {
+            let facing = (!glass).then_some(n);
+            if let Some(ls) = scene
+                .lights
+                .sample_direct(hit.position, facing, u, rng.next_2d())
+            {
                 // Rough glass is lit from both sides (its BSDF samples reach lights beyond
                 // it, so NEE must too, or MIS would lose their share); the reflecting models
                 // from the viewer's side.
@@ -379,6 +385,7 @@ pub fn radiance(
         // The MIS weights below treat a direction below `prev_n` as one NEE cannot draw;
         // rough glass's NEE draws both sides, so its normal is the one on the sample's side.
         prev_n = if glass && s.wi.dot(n) < 0.0 { -n } else { n };
+        prev_glass = glass;
         origin = scene.offset(&hit, s.wi);
         leaving = hit.triangle;
         dir = s.wi;

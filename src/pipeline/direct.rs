@@ -40,13 +40,16 @@ pub fn bsdf_emission_weight(
 /// The MIS weight (power heuristic, against light sampling) of the environment seen along a
 /// BSDF-sampled direction `wi` that escapes the scene, sampled with solid-angle density `pdf`
 /// at a point whose viewer-side shading normal is `n` (below it the BSDF sample takes the
-/// whole weight, as in [`bsdf_emission_weight`]). Shared by NEE at eye samples and the path
-/// tracer.
-pub fn escaped_weight(scene: &Scene, n: Vec3, wi: Vec3, pdf: f32) -> f32 {
+/// whole weight, as in [`bsdf_emission_weight`]), whose light samples were drawn for a
+/// receiver facing `n` or, `two_sided`, for one lit from both sides (rough glass; as
+/// [`crate::scene::Lights::sample_direct`] takes it). Shared by NEE at eye samples and the
+/// path tracer.
+pub fn escaped_weight(scene: &Scene, n: Vec3, two_sided: bool, wi: Vec3, pdf: f32) -> f32 {
     if n.dot(wi) <= 0.0 {
         return 1.0;
     }
-    power_heuristic(pdf, scene.lights.pdf_escaped(wi))
+    let facing = (!two_sided).then_some(n);
+    power_heuristic(pdf, scene.lights.pdf_escaped(wi, facing))
 }
 
 /// Area lights tested one by one before a BSDF-sampled ray's full traversal (at most this
@@ -125,7 +128,7 @@ fn direct_light_through(
             let mut sum = Vec3::ZERO;
             for _ in 0..samples {
                 let u = rng.next_f32();
-                let Some(ls) = scene.lights.sample_direct(p, u, rng.next_2d()) else {
+                let Some(ls) = scene.lights.sample_direct(p, Some(n), u, rng.next_2d()) else {
                     continue;
                 };
                 let cos = n.dot(ls.wi);
@@ -164,7 +167,7 @@ fn direct_light_through(
                     // Escaped: the environment, weighted against its light sampling.
                     let le = scene.background(s.wi);
                     if le != Vec3::ZERO {
-                        sum += s.weight * le * escaped_weight(scene, n, s.wi, s.pdf);
+                        sum += s.weight * le * escaped_weight(scene, n, false, s.wi, s.pdf);
                     }
                     continue;
                 };

@@ -98,8 +98,9 @@ pub(super) fn trace_chain(
             if !from_lobe {
                 let le = scene.background(d);
                 if le != Vec3::ZERO {
-                    let m =
-                        branch_weight(lobe_pdf, s.light_samples, || scene.lights.pdf_escaped(d));
+                    let m = branch_weight(lobe_pdf, s.light_samples, || {
+                        scene.lights.pdf_escaped(d, None)
+                    });
                     emitted += w * le * m;
                 }
             }
@@ -283,7 +284,10 @@ fn rough_glass_light(
     let mut sum = Vec3::ZERO;
     for _ in 0..light_samples {
         let u = rng.next_f32();
-        let Some(ls) = scene.lights.sample_direct(hit.position, u, rng.next_2d()) else {
+        let Some(ls) = scene
+            .lights
+            .sample_direct(hit.position, None, u, rng.next_2d())
+        else {
             continue;
         };
         // Across the shading normal from ωo: the refracted lobe; on its side: the reflected.

@@ -10,7 +10,7 @@
 mod sample;
 mod textured;
 
-use super::environment::{Environment, SunLight};
+use super::environment::{EnvLight, Environment, SunLight};
 use super::{AlphaMode, Material, NO_EXTRA, Texture, TextureRef, TriExtra, TriShading};
 use crate::sampling::{Distribution1D, luminance};
 use glam::Vec2;
@@ -122,6 +122,37 @@ pub struct EmittedPhoton {
     /// A photon from infinitely far away (a directional light, the sun, the environment): it
     /// starts on a disc outside the scene, and its density does not fall with distance.
     pub parallel: bool,
+}
+
+/// The density with which [`Lights::sample_direct`] draws direction `d` from the environment
+/// `e` for a receiver `facing` that way: a uniform environment is drawn cosine-weighted about
+/// the receiver's normal (its radiance has no direction to importance-sample, the receiver's
+/// cosine is all the structure there is: an unoccluded Lambertian receiver then has no
+/// variance; docs/deviations.md §58), otherwise from the environment's own distribution.
+#[inline]
+pub(crate) fn environment_pdf(e: &EnvLight, d: Vec3, facing: Option<Vec3>) -> f32 {
+    match (e, facing) {
+        (EnvLight::Uniform(_), Some(n)) => d.dot(n).max(0.0) * std::f32::consts::FRAC_1_PI,
+        _ => e.pdf(d),
+    }
+}
+
+/// A direction towards the environment `e` for a receiver `facing` that way, the radiance
+/// from it and its density ([`environment_pdf`]).
+#[inline]
+pub(crate) fn sample_environment(
+    e: &EnvLight,
+    facing: Option<Vec3>,
+    u: Vec2,
+) -> Option<(Vec3, Vec3, f32)> {
+    match (e, facing) {
+        (EnvLight::Uniform(l), Some(n)) => {
+            let d = crate::sampling::to_world(crate::sampling::cosine_hemisphere(u), n);
+            let pdf = environment_pdf(e, d, facing);
+            (pdf > 0.0).then_some((d, *l, pdf))
+        }
+        _ => e.sample(u),
+    }
 }
 
 /// A point on a light for explicit direct lighting.
@@ -385,13 +416,14 @@ impl Lights {
     }
 
     /// Solid-angle pdf with which [`Lights::sample_direct`] picks direction `d` towards the
-    /// environment or the sun (selection included): the light-sampling side of MIS for a
-    /// BSDF-sampled ray that escapes.
+    /// environment or the sun (selection included) for a receiver `facing` that way (as
+    /// `sample_direct` takes it): the light-sampling side of MIS for a BSDF-sampled ray that
+    /// escapes.
     #[inline]
-    pub fn pdf_escaped(&self, d: Vec3) -> f32 {
+    pub fn pdf_escaped(&self, d: Vec3, facing: Option<Vec3>) -> f32 {
         let mut p = 0.0;
         if let Some(e) = &self.environment.light {
-            p += self.p_environment * e.pdf(d);
+            p += self.p_environment * environment_pdf(e, d, facing);
         }
         if let Some(s) = &self.environment.sun {
             p += self.p_sun * s.pdf(d);

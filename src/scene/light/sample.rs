@@ -220,8 +220,17 @@ impl Lights {
         })
     }
 
-    /// Sample a point on a light as seen from `p` for next-event estimation.
-    pub fn sample_direct(&self, p: Vec3, u_light: f32, u: Vec2) -> Option<LightSample> {
+    /// Sample a point on a light as seen from `p` for next-event estimation. `facing`: the
+    /// normal of the hemisphere the receiver takes light from, or `None` for one lit from
+    /// both sides (rough glass); a uniform environment is drawn cosine-weighted about it
+    /// ([`super::environment_pdf`]), everything else ignores it.
+    pub fn sample_direct(
+        &self,
+        p: Vec3,
+        facing: Option<Vec3>,
+        u_light: f32,
+        u: Vec2,
+    ) -> Option<LightSample> {
         let (i, p_sel) = self.select(u_light)?;
         match self.lights[i] {
             Light::Area {
@@ -302,7 +311,7 @@ impl Lights {
             }
             Light::Environment { .. } => {
                 let env: &EnvLight = self.environment.light.as_ref()?;
-                let (wi, radiance, pdf) = env.sample(u)?;
+                let (wi, radiance, pdf) = super::sample_environment(env, facing, u)?;
                 (pdf > 0.0).then(|| LightSample {
                     wi,
                     distance: f32::INFINITY,
