@@ -345,42 +345,48 @@ fn a_file_without_lights_is_lit_by_the_uniform_environment() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
-/// A uniform environment's light samples follow the receiver's cosine (deviations §58): for
-/// a receiver facing n every sample lies above it, its density is cos θ/π (times the
-/// environment's selection) as `pdf_escaped` gives it for MIS, and value·cos θ is π·L for
-/// every single sample, so an unoccluded Lambertian receiver's light samples carry no
-/// variance. A receiver lit from both sides (rough glass, no normal) draws the whole sphere
-/// at 1/(4π). The open furnace above checks that every method stays unbiased with it.
+/// A uniform environment's light samples cover the receiver's hemisphere (deviations §58):
+/// for a receiver facing n every sample lies above it, its density is 1/(2π) (times the
+/// environment's selection, here 1) as `pdf_escaped` gives it for MIS, and its value is
+/// 2π·L; over many samples the mean of value·cos θ is the unoccluded irradiance π·L, and
+/// the samples fill the hemisphere evenly (as many above cos θ = 0.5 as below). A receiver
+/// lit from both sides (rough glass, no normal) draws the whole sphere at 1/(4π). The open
+/// furnace above checks that every method stays unbiased with it.
 #[test]
-fn a_uniform_environment_is_drawn_by_the_receivers_cosine() {
+fn a_uniform_environment_is_drawn_over_the_receivers_hemisphere() {
     let mut scene = furnace(false);
     scene.set_environment(&uniform(L)).unwrap();
     let lights = &scene.lights;
     let mut rng = raysplat::sampling::Rng::new(5, 0);
     let p = Vec3::new(0.0, 3.0, 0.0);
-    for k in 0..200 {
+    let count = 20_000;
+    let (mut irradiance, mut steep) = (0.0f64, 0usize);
+    for k in 0..count {
         let n = raysplat::sampling::uniform_sphere(rng.next_2d());
         let s = lights
             .sample_direct(p, Some(n), rng.next_f32(), rng.next_2d())
             .expect("the environment is the only light");
         let cos = s.wi.dot(n);
         assert!(cos >= 0.0, "sample {k}: below the receiver ({cos})");
-        let e = s.value.x * cos;
         assert!(
-            (e - PI * L).abs() < 1e-3 * PI * L,
-            "sample {k}: value·cos {e}"
+            (s.value.x - 2.0 * PI * L).abs() < 1e-3 * L,
+            "sample {k}: value {}",
+            s.value
         );
         let pdf = lights.pdf_escaped(s.wi, Some(n));
+        assert!((pdf - 0.5 / PI).abs() < 1e-6, "sample {k}: pdf {pdf}");
         assert!(
-            (pdf - cos / PI).abs() < 1e-4,
-            "sample {k}: pdf {pdf} against {}",
-            cos / PI
-        );
-        assert!(
-            (s.pdf - pdf).abs() < 1e-4,
+            (s.pdf - pdf).abs() < 1e-6,
             "sample {k}: the sample's pdf {}",
             s.pdf
         );
+        assert_eq!(
+            lights.pdf_escaped(-s.wi, Some(n)),
+            0.0,
+            "nothing is drawn below"
+        );
+        irradiance += (s.value.x * cos) as f64;
+        steep += usize::from(cos > 0.5);
         let both = lights
             .sample_direct(p, None, rng.next_f32(), rng.next_2d())
             .expect("the environment is the only light");
@@ -391,4 +397,16 @@ fn a_uniform_environment_is_drawn_by_the_receivers_cosine() {
         );
         assert!((lights.pdf_escaped(both.wi, None) - both.pdf).abs() < 1e-6);
     }
+    // value·cos θ is uniform on [0, 2πL]: σ/mean = 1/√3, so 4σ of the mean is 1.6%.
+    let e = irradiance / count as f64;
+    let want = (PI * L) as f64;
+    assert!(
+        (e / want - 1.0).abs() < 0.016,
+        "irradiance {e} against π·L = {want}"
+    );
+    let share = steep as f64 / count as f64;
+    assert!(
+        (share - 0.5).abs() < 0.015,
+        "share above cos θ = 0.5: {share}"
+    );
 }

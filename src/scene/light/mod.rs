@@ -125,14 +125,22 @@ pub struct EmittedPhoton {
 }
 
 /// The density with which [`Lights::sample_direct`] draws direction `d` from the environment
-/// `e` for a receiver `facing` that way: a uniform environment is drawn cosine-weighted about
-/// the receiver's normal (its radiance has no direction to importance-sample, the receiver's
-/// cosine is all the structure there is: an unoccluded Lambertian receiver then has no
-/// variance; docs/deviations.md §58), otherwise from the environment's own distribution.
+/// `e` for a receiver `facing` that way: a uniform environment is drawn uniformly over the
+/// receiver's hemisphere (its radiance has no direction to importance-sample; over the whole
+/// sphere half the samples fell below the receiver; the receiver's cosine would duplicate
+/// the BSDF's own samples, which MIS combines with these, and was worse inside rooms lit
+/// through a window: docs/deviations.md §58), otherwise from the environment's own
+/// distribution.
 #[inline]
 pub(crate) fn environment_pdf(e: &EnvLight, d: Vec3, facing: Option<Vec3>) -> f32 {
     match (e, facing) {
-        (EnvLight::Uniform(_), Some(n)) => d.dot(n).max(0.0) * std::f32::consts::FRAC_1_PI,
+        (EnvLight::Uniform(_), Some(n)) => {
+            if d.dot(n) > 0.0 {
+                0.5 * std::f32::consts::FRAC_1_PI
+            } else {
+                0.0
+            }
+        }
         _ => e.pdf(d),
     }
 }
@@ -147,7 +155,8 @@ pub(crate) fn sample_environment(
 ) -> Option<(Vec3, Vec3, f32)> {
     match (e, facing) {
         (EnvLight::Uniform(l), Some(n)) => {
-            let d = crate::sampling::to_world(crate::sampling::cosine_hemisphere(u), n);
+            let d = crate::sampling::uniform_sphere(u);
+            let d = if d.dot(n) < 0.0 { -d } else { d };
             let pdf = environment_pdf(e, d, facing);
             (pdf > 0.0).then_some((d, *l, pdf))
         }
