@@ -29,7 +29,9 @@ p.add_argument("--width", type=int, default=200)
 p.add_argument("--height", type=int, default=200)
 p.add_argument("--camera", default=None)
 p.add_argument("--env-strength", type=float, default=1.0)
+p.add_argument("--env-map", default=None, help="an equirectangular map instead of the uniform light")
 p.add_argument("--multiscatter", action="store_true")
+p.add_argument("--env-rotation-z", type=float, default=-1.5707963, help=argparse.SUPPRESS)
 a = p.parse_args()
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -53,6 +55,21 @@ world.use_nodes = True
 bg = world.node_tree.nodes["Background"]
 bg.inputs[0].default_value = (1, 1, 1, 1)
 bg.inputs[1].default_value = a.env_strength
+if a.env_map:
+    # raysplat's map convention (scene::environment::direction_of_uv, glTF's Y up): u = 1/2
+    # looks along -Z, u = 3/4 along +X. Blender's (Z up, glTF -Z is Blender +Y): u = 1/2
+    # looks along +X. A quarter turn about the vertical maps one onto the other.
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    tex = nodes.new("ShaderNodeTexEnvironment")
+    tex.image = bpy.data.images.load(a.env_map)
+    tex.image.colorspace_settings.name = "Linear Rec.709"
+    tex.interpolation = "Closest"
+    coord = nodes.new("ShaderNodeTexCoord")
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, a.env_rotation_z)
+    links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    links.new(tex.outputs["Color"], bg.inputs[0])
 sc.render.engine = "CYCLES"
 sc.cycles.device = "CPU"
 sc.cycles.samples = a.spp

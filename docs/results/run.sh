@@ -116,32 +116,45 @@ done
 # bpy==4.2.0`), 200×200 under the uniform environment. The reference (cycles.exr) is rendered
 # once into the scene's folder; the Khronos models get a camera first (tools/with_camera.py).
 materials() {
-    local dir=$1 scene=$2 cam=$3
+    local dir=$1 scene=$2 cam=$3 map=${4:-}
+    # With a map: both renderers lit by it (tools/studio_environment.py), else the uniform one.
+    local cyc_env=() rs_env=()
+    if [ -n "$map" ]; then
+        cyc_env=(--env-map "$(realpath "$map")")
+        rs_env=(--environment "$map")
+    fi
     mkdir -p "$OUT/$dir"
     if [ ! -f "$OUT/$dir/cycles.exr" ]; then
         # bpy 4.2 may crash on exit after it has written the image: the file decides.
         local abs
         abs=$(realpath "$scene")
         (cd /tmp && python3 "$OLDPWD/tools/cycles_reference.py" "$abs" \
-            "$OLDPWD/$OUT/$dir/cycles.exr" --spp 2048 --width 200 --height 200 --camera "$cam") ||
+            "$OLDPWD/$OUT/$dir/cycles.exr" --spp 2048 --width 200 --height 200 --camera "$cam" \
+            "${cyc_env[@]}") ||
             [ -f "$OUT/$dir/cycles.exr" ]
     fi
     $R compare "$scene" --camera "$cam" --width 200 --height 200 --methods rs,pt --pt-spp 256 \
-        --reference "$OUT/$dir/cycles.exr" --out-dir "$OUT/$dir"
+        "${rs_env[@]}" --reference "$OUT/$dir/cycles.exr" --out-dir "$OUT/$dir"
     # rs under a 10 s budget at its defaults (guided emission), its relMSE against Cycles in
     # rs_10s/compare.json.
     $R compare "$scene" --camera "$cam" --width 200 --height 200 --time-budget 10 --methods rs \
-        --reference "$OUT/$dir/cycles.exr" --out-dir "$OUT/$dir/rs_10s" >/dev/null
+        "${rs_env[@]}" --reference "$OUT/$dir/cycles.exr" --out-dir "$OUT/$dir/rs_10s" >/dev/null
 }
 python3 -c "import bpy" 2>/dev/null && {
-    materials features assets/features.glb features_camera
-    for m in DamagedHelmet.glb Suzanne/Suzanne.gltf; do
-        name=$(basename "${m%.*}")
-        if [ -f "$S/khronos/$m" ]; then
-            case $name in DamagedHelmet) view="--distance 3.3 --yfov 0.7" ;; *) view="--distance 4.5 --yfov 0.6" ;; esac
-            python3 tools/with_camera.py "$S/khronos/$m" "/tmp/raysplat_$name" $view
-            materials "khronos_$name" "/tmp/raysplat_$name/$(basename "$m")" cam
-        fi
+    # Each scene under the uniform environment and under a studio map (suffix _map).
+    python3 tools/studio_environment.py "$OUT/studio.exr"
+    for env in "" _map; do
+        map=
+        [ -n "$env" ] && map="$OUT/studio.exr"
+        materials "features$env" assets/features.glb features_camera $map
+        for m in DamagedHelmet.glb Suzanne/Suzanne.gltf; do
+            name=$(basename "${m%.*}")
+            if [ -f "$S/khronos/$m" ]; then
+                case $name in DamagedHelmet) view="--distance 3.3 --yfov 0.7" ;; *) view="--distance 4.5 --yfov 0.6" ;; esac
+                python3 tools/with_camera.py "$S/khronos/$m" "/tmp/raysplat_$name" $view
+                materials "khronos_$name$env" "/tmp/raysplat_$name/$(basename "$m")" cam $map
+            fi
+        done
     done
 }
 bash docs/results/room.sh
