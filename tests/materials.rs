@@ -534,9 +534,11 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
     let metal_glass = g.material(json!({
         "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
             "KHR_materials_specular": {"specularFactor": 0.5}}}));
+    // Unlit (shown as its base colour whatever the light) is not drawn: named.
+    let unlit = g.material(json!({"name": "flat", "extensions": {"KHR_materials_unlit": {}}}));
     for (k, m) in materials
         .into_iter()
-        .chain([sheen, plain_glass, solid_glass, metal_glass])
+        .chain([sheen, plain_glass, solid_glass, metal_glass, unlit])
         .enumerate()
     {
         quad(&mut g, k as f32, 0.5, false, m, &[]);
@@ -557,6 +559,12 @@ fn what_a_material_uses_and_is_not_rendered_is_named_once() {
         "{coat:?}"
     );
     assert_eq!(lines("KHR_materials_sheen").len(), 1);
+    let unlit = lines("KHR_materials_unlit");
+    assert!(
+        unlit.len() == 1 && unlit[0].contains("flat"),
+        "{:?}",
+        scene.warnings
+    );
     // A partial factor is rendered (deviations §55).
     assert!(lines("partial").is_empty(), "{:?}", scene.warnings);
     let specular = lines("KHR_materials_specular");

@@ -3,8 +3,11 @@
 //! texture and a normal texture of dimples on the floor (repeat sampler, tangents computed),
 //! a sphere whose metallic-roughness texture bands smooth metal with rough plastic, a cube
 //! coloured by COLOR_0, an alpha-MASK screen with round holes, a panel whose emissive
-//! texture is bright on one half only, two plain plastic spheres (roughness 0.3, 0.6) and a
-//! frosted glass sphere (rough transmission, IOR, volume).
+//! texture is bright on one half only, two plain plastic spheres (roughness 0.3, 0.6; the
+//! rougher one's specular layer tinted by KHR_materials_specular), a frosted glass sphere
+//! (rough transmission, IOR, volume) and an alpha-BLEND pane. The banded sphere's texture is
+//! scaled by KHR_texture_transform and mirrored by its sampler; the floor has an occlusion
+//! texture (read, not applied).
 //! Textures are generated here and written as PNG.
 
 use super::GlbBuilder;
@@ -82,6 +85,11 @@ pub(super) fn features(g: &mut GlbBuilder) {
     let mut floor = pbr("floor", [1.0; 4], 0.0, 0.8);
     floor["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": checker});
     floor["normalTexture"] = json!({"index": dimples, "scale": 1.0});
+    // Read and, as glTF's renderers with global illumination do, not applied (deviations
+    // §45): the image must not change with it. The normal texture's image, linear as
+    // occlusion is (Blender's importer keeps one colour space per image: sharing the sRGB
+    // checker made it read the base colour as linear).
+    floor["occlusionTexture"] = json!({"index": dimples, "strength": 1.0});
     let floor = g.material(floor);
     let corners = [
         Vec3::new(-3.0, 0.0, 3.0),
@@ -108,10 +116,12 @@ pub(super) fn features(g: &mut GlbBuilder) {
                 [0, 230, 0, 255]
             }
         }),
-        Some(json!({"magFilter": 9728})),
+        // Mirrored along v, which KHR_texture_transform's scale takes past 1.
+        Some(json!({"magFilter": 9728, "wrapS": 10497, "wrapT": 33648})),
     );
     let mut banded = pbr("banded", [0.95, 0.75, 0.35, 1.0], 1.0, 1.0);
-    banded["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({"index": bands});
+    banded["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({"index": bands,
+        "extensions": {"KHR_texture_transform": {"scale": [1.0, 2.0]}}});
     let banded = g.material(banded);
     let (segments, rings) = (64, 32);
     let uv = sphere_uvs(segments, rings);
@@ -126,13 +136,19 @@ pub(super) fn features(g: &mut GlbBuilder) {
     );
 
     // Plain plastic spheres: the glossy highlight of a rough dielectric.
+    // The rougher one's specular layer tinted by KHR_materials_specular.
     for (k, rough) in [0.3f32, 0.6].into_iter().enumerate() {
-        let m = g.material(pbr(
+        let mut m = pbr(
             &format!("plastic_{rough}"),
             [0.1, 0.35, 0.8, 1.0],
             0.0,
             rough,
-        ));
+        );
+        if k == 1 {
+            m["extensions"] = json!({"KHR_materials_specular":
+                {"specularFactor": 1.0, "specularColorFactor": [1.0, 0.6, 0.3]}});
+        }
+        let m = g.material(m);
         let (p, n, i) = uv_sphere(Vec3::new(0.9 + 0.9 * k as f32, 0.35, 1.0), 0.35, 48, 24);
         g.mesh(&format!("plastic_sphere_{k}"), &p, &n, &i, m);
     }
@@ -211,6 +227,20 @@ pub(super) fn features(g: &mut GlbBuilder) {
     ];
     let uv = |p: Vec3| [(p.x + 2.2) / 2.4, p.y / 1.6];
     textured_quad(g, "screen", corners, Vec3::Z, uv, screen);
+
+    // An alpha-BLEND pane, orange at half coverage, in front of the plastic spheres.
+    let mut pane = pbr("blend_pane", [1.0, 0.55, 0.2, 0.5], 0.0, 1.0);
+    pane["alphaMode"] = json!("BLEND");
+    pane["doubleSided"] = json!(true);
+    let pane = g.material(pane);
+    let corners = [
+        Vec3::new(0.6, 0.0, 1.45),
+        Vec3::new(1.1, 0.0, 1.45),
+        Vec3::new(1.1, 0.45, 1.45),
+        Vec3::new(0.6, 0.45, 1.45),
+    ];
+    let uv = |p: Vec3| [(p.x - 0.6) / 0.5, 1.0 - p.y / 0.45];
+    textured_quad(g, "blend_pane", corners, Vec3::Z, uv, pane);
 
     // A panel whose emissive texture is warm white on its upper half and black below.
     let glow = g.texture(
