@@ -262,9 +262,9 @@ pub(crate) fn perturbed(n: Vec3, geo: Vec3, tangent: Vec4, s: Vec3) -> Vec3 {
 /// bits when a scene is scaled; `tests/invariance.rs`).
 #[inline]
 fn coverage_hash(r: &Ray, tri: u32, b1: f32, b2: f32) -> f32 {
-    // To 2⁻¹⁴ (6·10⁻⁵ of the triangle, 0.003° of direction): far below a pixel's footprint
-    // or the spread of a pixel's rays, far above a scaled scene's rounding (10⁻⁷, which
-    // crosses a cell's edge once in some 600 draws).
+    // To 2⁻¹⁴ (6·10⁻⁵ of the triangle's edges, 0.003° of direction): far below a pixel's
+    // footprint or the spread of a pixel's rays, far above a scaled scene's rounding (10⁻⁷
+    // relative: a draw changes in a few per cent of cases, `tests/invariance.rs`).
     let q = |x: f32| f32::from_bits((((x + 2.0) * (1u32 << 14) as f32) as u32) | 1 << 30);
     let d = Vec3::from(r.direction);
     unit_hash(tri, [q(b1), q(b2), q(d.x), q(d.y), q(d.z), 0.0])

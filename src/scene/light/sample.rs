@@ -222,7 +222,7 @@ impl Lights {
 
     /// Sample a point on a light as seen from `p` for next-event estimation. `facing`: the
     /// normal of the hemisphere the receiver takes light from, or `None` for one lit from
-    /// both sides (rough glass); a uniform environment is drawn cosine-weighted about it
+    /// both sides (rough glass); a uniform environment is drawn uniformly over its hemisphere
     /// ([`super::environment_pdf`]), everything else ignores it.
     pub fn sample_direct(
         &self,
