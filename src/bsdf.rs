@@ -768,7 +768,6 @@ impl Bsdf {
         }
     }
 
-    /// A glossy model's specular layer alone (its diffuse colour zeroed); any other model
     /// The factor a radiance estimate takes on crossing a dielectric from ωo to ωi,
     /// (η_o/η_i)² (Veach 1997, §5.2: radiance over η² is what is conserved; pbrt-v4's
     /// `TransportMode::Radiance`): 1/ior² entering (ωo on the side `n` points to), ior²
@@ -788,6 +787,7 @@ impl Bsdf {
         }
     }
 
+    /// A glossy model's specular layer alone (its diffuse colour zeroed); any other model
     /// as it is.
     pub fn specular_layer(self) -> Bsdf {
         match self {
