@@ -51,7 +51,7 @@ impl Rng {
     }
 }
 
-/// Veach's power heuristic (β = 2; Veach 1997, eq. 9.13) of multiple importance sampling:
+/// Veach's power heuristic (β = 2; Veach 1997, §9.2) of multiple importance sampling:
 /// the weight of the sampler with density `a` against one with density `b`.
 #[inline]
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
