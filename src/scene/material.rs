@@ -446,7 +446,7 @@ impl Scene {
                         None => m.transmission,
                     };
                     let p = (1.0 - metallic) * t;
-                    if p >= 1.0 || (p > 0.0 && glass_draw(hit) < p) {
+                    if p >= 1.0 || (p > 0.0 && self.glass_draw(hit) < p) {
                         return Bsdf::Dielectric {
                             ior: m.ior,
                             tint: self.albedo(hit),
@@ -510,6 +510,26 @@ impl Scene {
         }
     }
 
+    /// A uniform number in [0, 1) for a hit's choice between glass and the opaque model: a
+    /// hash of where on its triangle the ray met it and how far it came in units of the
+    /// triangle's size, each quantised, so that the same hit always draws the same and the
+    /// draw does not depend on the unit of length (its world position and distance, hashed
+    /// before, change their bits when a scene is scaled: `tests/invariance.rs`).
+    #[inline]
+    fn glass_draw(&self, hit: &Hit) -> f32 {
+        let tr = &self.triangles[hit.triangle as usize];
+        let v0 = Vec3::from(tr.v0);
+        let (e1, e2) = (Vec3::from(tr.v1) - v0, Vec3::from(tr.v2) - v0);
+        let (b1, b2) = super::light::barycentrics(hit.position - v0, e1, e2);
+        // To 2⁻¹³ of itself: ten of the mantissa's low bits dropped.
+        let reach = f32::from_bits((hit.t / e1.length().max(e2.length())).to_bits() & !0x3ff);
+        let q = |b: f32| super::trace::quantised(b, super::trace::BARYCENTRIC_CELL);
+        super::trace::unit_hash(
+            hit.triangle ^ 0x7a5c_e1d3,
+            [q(b1), q(b2), reach, 0.0, 0.0, 0.0],
+        )
+    }
+
     /// Radiance emitted from a hit towards `wo` (one-sided along the winding unless double-sided).
     #[inline]
     pub fn emitted(&self, hit: &Hit, wo: Vec3) -> Vec3 {
@@ -523,17 +543,6 @@ impl Scene {
             Vec3::ZERO
         }
     }
-}
-
-/// A uniform number in [0, 1) for a hit's choice between glass and the opaque model: a hash
-/// of where the ray met it and how far it came, so the same hit always draws the same.
-#[inline]
-fn glass_draw(hit: &Hit) -> f32 {
-    let p = hit.position;
-    super::trace::unit_hash(
-        hit.triangle ^ 0x7a5c_e1d3,
-        [p.x, p.y, p.z, hit.t, hit.uv.x, hit.uv.y],
-    )
 }
 
 #[cfg(test)]

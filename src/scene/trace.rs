@@ -262,12 +262,33 @@ pub(crate) fn perturbed(n: Vec3, geo: Vec3, tangent: Vec4, s: Vec3) -> Vec3 {
 /// bits when a scene is scaled; `tests/invariance.rs`).
 #[inline]
 fn coverage_hash(r: &Ray, tri: u32, b1: f32, b2: f32) -> f32 {
-    // To 2⁻¹⁴ (6·10⁻⁵ of the triangle's edges, 0.003° of direction): far below a pixel's
-    // footprint or the spread of a pixel's rays, far above a scaled scene's rounding (10⁻⁷
-    // relative: a draw changes in a few per cent of cases, `tests/invariance.rs`).
-    let q = |x: f32| f32::from_bits((((x + 2.0) * (1u32 << 14) as f32) as u32) | 1 << 30);
     let d = Vec3::from(r.direction);
-    unit_hash(tri, [q(b1), q(b2), q(d.x), q(d.y), q(d.z), 0.0])
+    unit_hash(
+        tri,
+        [
+            quantised(b1, BARYCENTRIC_CELL),
+            quantised(b2, BARYCENTRIC_CELL),
+            quantised(d.x, DIRECTION_CELL),
+            quantised(d.y, DIRECTION_CELL),
+            quantised(d.z, DIRECTION_CELL),
+            0.0,
+        ],
+    )
+}
+
+/// Cells of the per-hit draws that must not depend on the unit of length (BLEND's coverage
+/// here, partial transmission's glass in `Scene::bsdf`), as powers of two: a barycentric
+/// coordinate to 2⁻¹⁰ of its triangle (a hit point's rounding moves it by some 10⁻⁶ on a
+/// small triangle far from the origin, which a scaled scene rounds otherwise: 2⁻¹⁴ cells
+/// changed a partly transmissive sphere's image by relMSE 0.017, `tests/invariance.rs`), a
+/// unit direction's component to 2⁻¹⁴ (0.003°, far below the spread of a pixel's rays).
+pub(crate) const BARYCENTRIC_CELL: u32 = 10;
+pub(crate) const DIRECTION_CELL: u32 = 14;
+
+/// `x` in [−2, 2) rounded down to a cell of 2^−`bits`, as a word for [`unit_hash`].
+#[inline]
+pub(crate) fn quantised(x: f32, bits: u32) -> f32 {
+    f32::from_bits((((x + 2.0) * (1u32 << bits) as f32) as u32) | 1 << 30)
 }
 
 /// A uniform number in [0, 1) from a key and six floats (SplitMix64 over their bits).
