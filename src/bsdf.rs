@@ -135,16 +135,7 @@ impl Bsdf {
                         / (4.0 * cos_o * cos_i);
                 diffuse + spec
             }
-            Bsdf::Dielectric { ior, tint, alpha } if alpha > 0.0 => {
-                let Some(m) = RoughGlass::at(wo, wi, n, ior, alpha) else {
-                    return Vec3::ZERO;
-                };
-                if m.transmits {
-                    tint * m.value
-                } else {
-                    Vec3::splat(m.value)
-                }
-            }
+            Bsdf::Dielectric { alpha, .. } if alpha > 0.0 => self.rough_glass(wo, wi, n).0,
             Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => Vec3::ZERO,
         }
     }
@@ -181,11 +172,24 @@ impl Bsdf {
     /// [`Bsdf::pdf`] without the Fresnel choice, since the eye passes follow both lobes about
     /// one microfacet normal ([`glass_lobes`]). Zero for every other model and smooth glass.
     pub fn glass_lobe_pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
-        match *self {
-            Bsdf::Dielectric { ior, alpha, .. } if alpha > 0.0 => {
-                RoughGlass::at(wo, wi, n, ior, alpha).map_or(0.0, |m| m.lobe_pdf)
-            }
-            _ => 0.0,
+        self.rough_glass(wo, wi, n).1
+    }
+
+    /// Rough glass's [`Bsdf::eval`] and [`Bsdf::glass_lobe_pdf`] from one evaluation of
+    /// Walter et al.'s terms (the eye passes' light samples at rough glass need both); zero
+    /// for every other model and smooth glass.
+    #[inline]
+    pub fn rough_glass(&self, wo: Vec3, wi: Vec3, n: Vec3) -> (Vec3, f32) {
+        let Bsdf::Dielectric { ior, tint, alpha } = *self else {
+            return (Vec3::ZERO, 0.0);
+        };
+        if alpha <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        match RoughGlass::at(wo, wi, n, ior, alpha) {
+            Some(m) if m.transmits => (tint * m.value, m.lobe_pdf),
+            Some(m) => (Vec3::splat(m.value), m.lobe_pdf),
+            None => (Vec3::ZERO, 0.0),
         }
     }
 

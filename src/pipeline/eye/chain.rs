@@ -15,7 +15,7 @@ use glam::{Vec2, Vec3};
 /// Branches whose weight falls below this are dropped (they cannot change a pixel visibly).
 pub(super) const MIN_BRANCH_WEIGHT: f32 = 1e-3;
 /// Pending specular branches per camera ray.
-const BRANCH_STACK: usize = 16;
+pub(super) const BRANCH_STACK: usize = 16;
 
 /// A branch of an eye path: origin, direction, weight, depth (specular and traced glossy
 /// bounces so far), length so far, the triangle it leaves, and whether it leaves a traced lobe.
@@ -54,32 +54,22 @@ pub(super) struct RawSample {
 }
 
 /// Follow one camera ray through specular chains and traced glossy lobes; push eye samples,
-/// return emitted radiance.
+/// return emitted radiance. `stack` is the caller's scratch for pending branches (reused
+/// from ray to ray: nothing is allocated or initialised per ray).
 pub(super) fn trace_chain(
     scene: &Scene,
     start: Branch,
     pixel: u32,
     s: &EyeSettings,
     rng: &mut Rng,
+    stack: &mut Vec<Branch>,
     out: &mut Vec<RawSample>,
 ) -> Vec3 {
     let max_depth = s.max_specular_depth;
-    let mut stack = [Branch {
-        origin: Vec3::ZERO,
-        dir: Vec3::ZERO,
-        weight: Vec3::ZERO,
-        depth: 0,
-        travelled: 0.0,
-        leaving: u32::MAX,
-        from_lobe: false,
-        lobe_pdf: 0.0,
-        vertex: Vec3::ZERO,
-    }; BRANCH_STACK];
-    stack[0] = start;
-    let mut top = 1;
+    stack.clear();
+    stack.push(start);
     let mut emitted = Vec3::ZERO;
-    while top > 0 {
-        top -= 1;
+    while let Some(branch) = stack.pop() {
         let Branch {
             origin: o,
             dir: d,
@@ -90,7 +80,7 @@ pub(super) fn trace_chain(
             from_lobe,
             lobe_pdf,
             vertex,
-        } = stack[top];
+        } = branch;
         let Some(hit) = scene.intersect_except(o, d, f32::INFINITY, leaving) else {
             // Escaped: the environment seen directly or through the chain (off a traced lobe
             // it is NEE's at the lobe's eye sample, as emission below; off rough glass it is
@@ -162,10 +152,10 @@ pub(super) fn trace_chain(
                 && s.follow_lobes
                 && let Some((d, lobe_w)) = sample_traced_lobe(bsdf, wo, n, ng, s.lobe_limit, rng)
                 && (w * lobe_w).max_element() >= MIN_BRANCH_WEIGHT
-                && top < BRANCH_STACK
+                && stack.len() < BRANCH_STACK
             {
                 out.last_mut().expect("just pushed").sample.lobe_traced = true;
-                stack[top] = Branch {
+                stack.push(Branch {
                     origin: scene.offset(&hit, d),
                     dir: d,
                     weight: w * lobe_w,
@@ -175,8 +165,7 @@ pub(super) fn trace_chain(
                     from_lobe: true,
                     lobe_pdf: 0.0,
                     vertex: hit.position,
-                };
-                top += 1;
+                });
             } else if depth < max_depth && traces_lobe(bsdf, s.lobe_limit) {
                 // The lobe is traced, but its sampled direction left through the surface or
                 // carries too little: it adds nothing (f = 0 below the surface).
@@ -186,12 +175,12 @@ pub(super) fn trace_chain(
         }
         // A branch that leaves through the geometric surface the wrong way (a shading normal
         // can send it there) is dropped, as photons and the path tracer drop it.
-        let mut push = |d: Vec3, w: Vec3, transmit: bool, lobe_pdf: f32, top: &mut usize| {
+        let mut push = |d: Vec3, w: Vec3, transmit: bool, lobe_pdf: f32| {
             if w.max_element() >= MIN_BRANCH_WEIGHT
-                && *top < BRANCH_STACK
+                && stack.len() < BRANCH_STACK
                 && Scene::leaves_correctly(&hit, wo, d, transmit)
             {
-                stack[*top] = Branch {
+                stack.push(Branch {
                     origin: scene.offset(&hit, d),
                     dir: d,
                     weight: w,
@@ -201,8 +190,7 @@ pub(super) fn trace_chain(
                     from_lobe: false,
                     lobe_pdf,
                     vertex: hit.position,
-                };
-                *top += 1;
+                });
             }
         };
         match bsdf {
@@ -217,7 +205,7 @@ pub(super) fn trace_chain(
                 };
                 let r = reflect(wo, n);
                 // The conductor's Fresnel, as `Bsdf::sample` gives photons and the path tracer.
-                push(r, w * schlick(color, wo.dot(n)), false, 0.0, &mut top);
+                push(r, w * schlick(color, wo.dot(n)), false, 0.0);
             }
             Bsdf::Dielectric { ior, tint, alpha } => {
                 // Both lobes are followed about one microfacet normal (drawn for rough glass
@@ -238,14 +226,14 @@ pub(super) fn trace_chain(
                 // The density of each rough branch's direction, for the emission it meets.
                 let lobe_pdf = |d: Vec3| bsdf.glass_lobe_pdf(wo, d, hit.normal);
                 if let Some((r, masking)) = lobes.reflected {
-                    push(r, w * (f * masking), false, lobe_pdf(r), &mut top);
+                    push(r, w * (f * masking), false, lobe_pdf(r));
                 }
                 if let Some((t, masking)) = lobes.refracted {
                     // Radiance crossing into glass falls by η² (Bsdf::radiance_scale): an
                     // eye sample inside a volume sees light that photons delivered as flux.
                     let scale = bsdf.radiance_scale(wo, t, hit.normal);
                     let weight = w * tint * ((1.0 - f) * masking * scale);
-                    push(t, weight, true, lobe_pdf(t), &mut top);
+                    push(t, weight, true, lobe_pdf(t));
                 }
             }
         }
@@ -295,14 +283,11 @@ fn rough_glass_light(
         if !ls.value.is_finite() || !Scene::leaves_correctly(hit, wo, ls.wi, through) {
             continue;
         }
-        let f = bsdf.eval(wo, ls.wi, n);
+        let (f, lobe_pdf) = bsdf.rough_glass(wo, ls.wi, n);
         if f == Vec3::ZERO || !scene.light_visible(scene.offset(hit, ls.wi), &ls) {
             continue;
         }
-        let m = power_heuristic(
-            light_samples as f32 * ls.pdf,
-            bsdf.glass_lobe_pdf(wo, ls.wi, n),
-        );
+        let m = power_heuristic(light_samples as f32 * ls.pdf, lobe_pdf);
         let cos = ls.wi.dot(n).abs();
         sum += f * ls.value * (cos * bsdf.radiance_scale(wo, ls.wi, n) * m);
     }

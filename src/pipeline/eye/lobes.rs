@@ -2,7 +2,7 @@
 //! them per photon batch), from a random stream of their own.
 
 use super::bands::{assign_targets, collect_bands};
-use super::chain::{Branch, MIN_BRANCH_WEIGHT, sample_traced_lobe, trace_chain};
+use super::chain::{BRANCH_STACK, Branch, MIN_BRANCH_WEIGHT, sample_traced_lobe, trace_chain};
 use super::{EyePass, EyeSamples, EyeSettings, SplatTargets};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
@@ -42,6 +42,7 @@ pub fn trace_lobes(
         let mut out = Vec::new();
         let mut emitted = vec![Vec3::ZERO; s.width as usize];
         let mut targets = SplatTargets::default();
+        let mut stack = Vec::with_capacity(BRANCH_STACK);
         let hi = eye.pixel.partition_point(|&p| p < (y + 1) * s.width);
         let mut i = eye.pixel.partition_point(|&p| p < y * s.width);
         while i < hi {
@@ -89,7 +90,7 @@ pub fn trace_lobes(
                     };
                     if w.max_element() >= MIN_BRANCH_WEIGHT {
                         emitted[(pixel - y * s.width) as usize] +=
-                            trace_chain(scene, start, pixel, &s, &mut rng, &mut out);
+                            trace_chain(scene, start, pixel, &s, &mut rng, &mut stack, &mut out);
                     }
                 }
             }

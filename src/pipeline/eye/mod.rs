@@ -24,7 +24,7 @@ pub use samples::{EYE_SAMPLE_BYTES, EyeSample, EyeSamples, SplatTargets};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 use bands::{assign_targets, collect_bands};
-use chain::{Branch, trace_chain};
+use chain::{BRANCH_STACK, Branch, trace_chain};
 use glam::{Vec2, Vec3};
 
 /// Settings of the eye pass.
@@ -92,6 +92,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
         let mut out = Vec::with_capacity((s.width * s.spp) as usize);
         let mut emitted = vec![Vec3::ZERO; s.width as usize];
         let mut targets = SplatTargets::default();
+        let mut stack = Vec::with_capacity(BRANCH_STACK);
         for x in 0..s.width {
             let pixel = y * s.width + x;
             let first = out.len();
@@ -118,7 +119,8 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                     lobe_pdf: 0.0,
                     vertex: camera.position,
                 };
-                emitted[x as usize] += trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut out);
+                emitted[x as usize] +=
+                    trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut stack, &mut out);
             }
             assign_targets(
                 &mut out[first..],
