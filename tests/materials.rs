@@ -788,6 +788,15 @@ fn slab_over_lit_floor(
     (rs, path_traced(&scene, &settings, 256).mean())
 }
 
+/// Solid glass of base colour `color` and `roughness` (KHR_materials_transmission with a
+/// KHR_materials_volume of thicknessFactor `thickness`, no absorption).
+fn rough_glass(color: [f32; 3], roughness: f32, thickness: f32) -> Value {
+    json!({"pbrMetallicRoughness": {"baseColorFactor": [color[0], color[1], color[2], 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": roughness},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_volume": {"thicknessFactor": thickness}}})
+}
+
 /// Smooth glass (IOR 1.5) with KHR_materials_volume: `thickness` its thicknessFactor, white
 /// light turning into `color` over 1 m.
 fn absorbing_glass(thickness: f32, color: [f32; 3]) -> Value {
@@ -981,12 +990,7 @@ fn a_partly_transmissive_pane_renders_as_the_path_tracer_does() {
 /// and read 1.36× rs at roughness 0.5.
 #[test]
 fn rough_glass_renders_as_the_path_tracer_does() {
-    let glass = |roughness: f32| {
-        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.6, 0.3, 1.0],
-                "metallicFactor": 0.0, "roughnessFactor": roughness},
-            "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
-                "KHR_materials_volume": {"thicknessFactor": 0.5}}})
-    };
+    let glass = |roughness: f32| rough_glass([0.9, 0.6, 0.3], roughness, 0.5);
     let view = (Vec3::new(0.0, 2.5, 3.0), Vec3::new(0.0, 0.3, 0.0), 1.0);
     let slab = (Vec3::new(-1.0, 0.9, -1.0), Vec3::new(1.0, 1.4, 1.0));
     for roughness in [0.5, 1.0] {
@@ -1010,12 +1014,7 @@ fn rough_glass_renders_as_the_path_tracer_does() {
 /// for a 5% test.
 #[test]
 fn a_light_behind_frosted_glass_is_seen_through_it() {
-    let glass = |roughness: f32| {
-        json!({"pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0],
-                "metallicFactor": 0.0, "roughnessFactor": roughness},
-            "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
-                "KHR_materials_volume": {"thicknessFactor": 0.05}}})
-    };
+    let glass = |roughness: f32| rough_glass([1.0; 3], roughness, 0.05);
     let scene = |roughness: f32, point: bool| {
         let mut g = GlbBuilder::default();
         let m = white(&mut g);
@@ -1032,15 +1031,8 @@ fn a_light_behind_frosted_glass_is_seen_through_it() {
         } else {
             let light = g.material(json!({"emissiveFactor": [1.0, 1.0, 1.0],
                 "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}}}));
-            let (y, h) = (0.6, 0.15);
-            let p = [
-                Vec3::new(-h, y, -h),
-                Vec3::new(-h, y, h),
-                Vec3::new(h, y, h),
-                Vec3::new(h, y, -h),
-            ];
-            // Counter-clockwise seen from above (front face up).
-            g.mesh("panel", &p, &[Vec3::Y; 4], &[0, 1, 2, 0, 2, 3], light);
+            // A 0.3 m square at 0.6 m, its front face up.
+            quad(&mut g, 0.6, 0.15, false, light, &[]);
         }
         g.camera("above", Vec3::new(0.0, 3.0, 0.01), Vec3::ZERO, 0.6);
         Arc::new(Scene::from_glb_bytes(&g.to_glb(), "frosted").expect("loads"))
