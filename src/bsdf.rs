@@ -421,9 +421,10 @@ pub fn phong_equivalent(alpha: f32) -> f32 {
     (2.0 / (a * a) - 2.0).clamp(1.0, 1e4)
 }
 
-/// Glass's GGX α for a glTF roughness: roughness² (glTF 2.0 appendix B.3.2), and 0 (smooth, two Dirac deltas) where
-/// that is below [`ALPHA_MIN`] (roughness below 0.032), whose lobe is narrower than any
-/// pixel's footprint and which the eye passes then split deterministically, or where the
+/// Glass's GGX α for a glTF roughness: roughness² (glTF 2.0 appendix B.3.2), and 0 (smooth,
+/// two Dirac deltas) where that is below [`ALPHA_MIN`] (roughness below 0.032), whose lobe
+/// is narrower than any pixel's footprint and which the eye passes then split
+/// deterministically, or where the
 /// IOR is 1: light passes straight through whatever the roughness (the refraction's half
 /// vector ωo + ωi vanishes there; pbrt-v4's dielectric is smooth at η = 1 too).
 pub fn glass_alpha(roughness: f32, ior: f32) -> f32 {
