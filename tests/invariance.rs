@@ -576,26 +576,45 @@ fn photons_follow_shading_normals_as_the_path_tracer_does() {
 /// with BLEND's coverage hashed from the ray's origin, 0.039 at 100×, deviations §47).
 #[test]
 fn the_material_features_do_not_depend_on_the_unit_of_length() {
-    let base = BuiltinScene::Features.to_glb();
-    let settings = RenderSettings {
+    let (_, scaled) = rendered_at_three_scales(&BuiltinScene::Features.to_glb());
+    for (name, m, m0, d) in scaled {
+        assert!((m / m0 - 1.0).abs() < 0.01, "{name}: mean {m} against {m0}");
+        assert!(d < 0.01, "{name}: relMSE {d} against the original's image");
+    }
+}
+
+/// The settings of the unit-of-length tests below: rs at 48×48, 2 eye samples, 20,000
+/// photons, seed 3.
+fn scale_test_settings() -> RenderSettings {
+    RenderSettings {
         width: 48,
         height: 48,
         spp: 2,
         photons: 20_000,
         seed: 3,
         ..RenderSettings::default()
-    };
-    let original = Arc::new(Scene::from_glb_bytes(&base, "features").unwrap());
+    }
+}
+
+/// rs's image of the scene in `base` at its own size, and for its copies scaled by 100 and
+/// by 0.01 (camera included): their names, means, the original's mean, and their relMSE
+/// against the original's image.
+fn rendered_at_three_scales(base: &[u8]) -> (Film, Vec<(&'static str, f32, f32, f64)>) {
+    let settings = scale_test_settings();
+    let original = Arc::new(Scene::from_glb_bytes(base, "original").unwrap());
     let film = render(&original, MethodKind::Rs, &settings, 0);
     let m0 = mean(&film);
-    for (name, s) in [("scaled by 100", 100.0), ("scaled by 0.01", 0.01)] {
-        let scene = Arc::new(Scene::from_glb_bytes(&glb::scaled(&base, s), name).unwrap());
-        let f = render(&scene, MethodKind::Rs, &settings, 0);
-        let (m, d) = (mean(&f), rel_mse(&f.rgb, &film.rgb));
-        eprintln!("{name}: mean {m:.5} vs {m0:.5}, relMSE against the original {d:.6}");
-        assert!((m / m0 - 1.0).abs() < 0.01, "{name}: mean {m} against {m0}");
-        assert!(d < 0.01, "{name}: relMSE {d} against the original's image");
-    }
+    let scaled = [("scaled by 100", 100.0), ("scaled by 0.01", 0.01)]
+        .into_iter()
+        .map(|(name, s)| {
+            let scene = Arc::new(Scene::from_glb_bytes(&glb::scaled(base, s), name).unwrap());
+            let f = render(&scene, MethodKind::Rs, &settings, 0);
+            let (m, d) = (mean(&f), rel_mse(&f.rgb, &film.rgb));
+            eprintln!("{name}: mean {m:.5} vs {m0:.5}, relMSE against the original {d:.6}");
+            (name, m, m0, d)
+        })
+        .collect();
+    (film, scaled)
 }
 
 /// A partly transmissive sphere (KHR_materials_transmission 0.5 with a volume: each hit
@@ -626,33 +645,18 @@ fn partial_transmission_does_not_depend_on_the_unit_of_length() {
         0.9,
     );
     let base = g.to_glb();
-    let settings = RenderSettings {
-        width: 48,
-        height: 48,
-        spp: 2,
-        photons: 20_000,
-        seed: 3,
-        ..RenderSettings::default()
-    };
+    let (film, scaled) = rendered_at_three_scales(&base);
     let original = Arc::new(Scene::from_glb_bytes(&base, "partial").unwrap());
-    let film = render(&original, MethodKind::Rs, &settings, 0);
-    let m0 = mean(&film);
-    let other_seed = render(
-        &original,
-        MethodKind::Rs,
-        &RenderSettings {
-            seed: 4,
-            ..settings.clone()
-        },
-        0,
+    let other_seed = RenderSettings {
+        seed: 4,
+        ..scale_test_settings()
+    };
+    let noise = rel_mse(
+        &render(&original, MethodKind::Rs, &other_seed, 0).rgb,
+        &film.rgb,
     );
-    let noise = rel_mse(&other_seed.rgb, &film.rgb);
     eprintln!("another seed: relMSE {noise:.6}");
-    for (name, s) in [("scaled by 100", 100.0), ("scaled by 0.01", 0.01)] {
-        let scene = Arc::new(Scene::from_glb_bytes(&glb::scaled(&base, s), name).unwrap());
-        let f = render(&scene, MethodKind::Rs, &settings, 0);
-        let (m, d) = (mean(&f), rel_mse(&f.rgb, &film.rgb));
-        eprintln!("{name}: mean {m:.5} vs {m0:.5}, relMSE against the original {d:.6}");
+    for (name, m, m0, d) in scaled {
         assert!((m / m0 - 1.0).abs() < 0.01, "{name}: mean {m} against {m0}");
         assert!(
             d < 0.1 * noise,
