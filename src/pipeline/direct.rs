@@ -9,9 +9,9 @@
 
 use crate::bsdf::Bsdf;
 use crate::pipeline::eye::EyeSamples;
-use crate::sampling::{Rng, power_heuristic};
+use crate::sampling::{PixelPoints, power_heuristic};
 use crate::scene::{Hit, Scene};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 /// The MIS weight (power heuristic, against light sampling) of emission at `hit`, found along
@@ -78,21 +78,20 @@ pub fn traced_lobe_direct_light(
     })
 }
 
-/// The random stream of each eye sample: its pixel and its rank among that pixel's samples
-/// (the samples are in pixel order), so that one pixel's count of samples (a traced lobe that
-/// leaves its surface at one scale and not at another, by rounding) never shifts the streams
-/// of the pixels after it.
-fn sample_streams(eye: &EyeSamples) -> Vec<u64> {
-    let mut rank = 0u64;
+/// Each eye sample's rank among its pixel's samples (the samples are in pixel order): with the
+/// pixel, it picks the sample's points of the pixel's stratified set ([`PixelPoints`]), so that
+/// one pixel's count of samples (a traced lobe that leaves its surface at one scale and not at
+/// another, by rounding) never shifts the points of the pixels after it.
+fn sample_ranks(eye: &EyeSamples) -> Vec<u32> {
+    let mut rank = 0u32;
     (0..eye.len())
         .map(|i| {
-            let pixel = eye.pixel[i];
-            rank = if i > 0 && eye.pixel[i - 1] == pixel {
+            rank = if i > 0 && eye.pixel[i - 1] == eye.pixel[i] {
                 rank + 1
             } else {
                 0
             };
-            ((pixel as u64) << 20) | rank.min((1 << 20) - 1)
+            rank
         })
         .collect()
 }
@@ -113,11 +112,11 @@ fn direct_light_through(
     let few_emitters = (emitters.len() <= EMITTERS_TESTED_DIRECTLY).then_some(emitters.as_slice());
     // Rays that meet no emitter may still escape to the environment.
     let has_environment = scene.lights.has_environment();
-    let streams = sample_streams(eye);
+    let ranks = sample_ranks(eye);
     let radiance: Vec<Vec3> = (0..eye.len())
         .into_par_iter()
         .map(|i| {
-            let mut rng = Rng::new(seed, 0x2000_0000_0000 + streams[i]);
+            let points = PixelPoints::new(seed, eye.pixel[i], ranks[i], samples);
             let p = eye.position[i];
             let n = eye.normal[i].get();
             let ng = eye.geo_normal[i].get();
@@ -126,9 +125,11 @@ fn direct_light_through(
             };
             let wo = eye.wo[i].get();
             let mut sum = Vec3::ZERO;
-            for _ in 0..samples {
-                let u = rng.next_f32();
-                let Some(ls) = scene.lights.sample_direct(p, Some(n), u, rng.next_2d()) else {
+            for k in 0..samples {
+                // The light's 2D sample in the set's first two dimensions, whose Sobol'
+                // points are stratified in 2D; the choice among lights in the third.
+                let [x, y, u, _] = points.point(k, 0);
+                let Some(ls) = scene.lights.sample_direct(p, Some(n), u, Vec2::new(x, y)) else {
                     continue;
                 };
                 let cos = n.dot(ls.wi);
@@ -149,8 +150,9 @@ fn direct_light_through(
             }
             // The BSDF-sampled half of the estimate: an emitter met along a sampled direction,
             // weighted against the light sampler's density for it.
-            for _ in 0..samples {
-                let Some(s) = bsdf.sample(wo, n, rng.next_2d(), rng.next_f32()) else {
+            for k in 0..samples {
+                let [x, y, lobe, _] = points.point(k, 1);
+                let Some(s) = bsdf.sample(wo, n, Vec2::new(x, y), lobe) else {
                     continue;
                 };
                 if s.specular || s.pdf <= 0.0 || ng.dot(s.wi) <= 0.0 {

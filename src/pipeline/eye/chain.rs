@@ -8,7 +8,7 @@ use crate::bsdf::{
     Bsdf, ggx_g1, ggx_g2, glass_lobes, phong_equivalent, reflect, sample_ggx_visible, schlick,
     schlick_to,
 };
-use crate::sampling::{Rng, power_heuristic};
+use crate::sampling::{PixelPoints, Rng, power_heuristic};
 use crate::scene::{Hit, Scene};
 use glam::{Vec2, Vec3};
 
@@ -54,14 +54,15 @@ pub(super) struct RawSample {
 }
 
 /// Follow one camera ray through specular chains and traced glossy lobes; push eye samples,
-/// return emitted radiance. `stack` is the caller's scratch for pending branches (reused
+/// return emitted radiance. Random numbers come from `rng`, and rough glass's light samples
+/// from the pixel's stratified `points`. `stack` is the caller's scratch for pending branches (reused
 /// from ray to ray: nothing is allocated or initialised per ray).
 pub(super) fn trace_chain(
     scene: &Scene,
     start: Branch,
     pixel: u32,
     s: &EyeSettings,
-    rng: &mut Rng,
+    (rng, points): (&mut Rng, PixelPoints),
     stack: &mut Vec<Branch>,
     out: &mut Vec<RawSample>,
 ) -> Vec3 {
@@ -221,7 +222,8 @@ pub(super) fn trace_chain(
                 let lobes = glass_lobes(wo, hit.normal, ior, alpha, u);
                 let f = lobes.fresnel;
                 if alpha > 0.0 {
-                    emitted += w * rough_glass_light(scene, &hit, bsdf, wo, s.light_samples, rng);
+                    let draws = (&points, depth);
+                    emitted += w * rough_glass_light(scene, &hit, bsdf, wo, s.light_samples, draws);
                 }
                 // The density of each rough branch's direction, for the emission it meets.
                 let lobe_pdf = |d: Vec3| bsdf.glass_lobe_pdf(wo, d, hit.normal);
@@ -254,8 +256,13 @@ fn branch_weight(lobe_pdf: f32, light_samples: u32, light_pdf: impl FnOnce() -> 
     }
 }
 
+/// The first of [`PixelPoints`]' dimension sets that rough glass's light samples draw from
+/// (sets 0 and 1 are NEE's at eye samples, [`crate::pipeline::direct`]).
+const GLASS_LIGHT_SETS: u32 = 2;
+
 /// Light seen through and off rough glass at `hit`, by `light_samples` light samples from
-/// both sides (next-event estimation, as the path tracer's at rough glass): the radiance
+/// both sides (next-event estimation, as the path tracer's at rough glass), drawn from the
+/// pixel's stratified `points` (docs/deviations.md §59) at the vertex's chain `depth`: the radiance
 /// towards ωo before the branch's weight, each sample weighted against the branch of its lobe
 /// by [`branch_weight`]'s heuristic (n·p_light against the lobe's density), so that the two
 /// branches and the light samples together count every light once. Point, spot and
@@ -266,15 +273,17 @@ fn rough_glass_light(
     bsdf: Bsdf,
     wo: Vec3,
     light_samples: u32,
-    rng: &mut Rng,
+    (points, depth): (&PixelPoints, u32),
 ) -> Vec3 {
     let n = hit.normal;
     let mut sum = Vec3::ZERO;
-    for _ in 0..light_samples {
-        let u = rng.next_f32();
+    // The pixel's stratified points, a set per chain depth (vertices at one depth share it).
+    let set = GLASS_LIGHT_SETS + depth;
+    for k in 0..light_samples {
+        let [x, y, u, _] = points.point(k, set);
         let Some(ls) = scene
             .lights
-            .sample_direct(hit.position, None, u, rng.next_2d())
+            .sample_direct(hit.position, None, u, Vec2::new(x, y))
         else {
             continue;
         };

@@ -4,7 +4,7 @@
 use super::bands::{assign_targets, collect_bands};
 use super::chain::{BRANCH_STACK, Branch, MIN_BRANCH_WEIGHT, sample_traced_lobe, trace_chain};
 use super::{EyePass, EyeSamples, EyeSettings, SplatTargets};
-use crate::sampling::Rng;
+use crate::sampling::{PixelPoints, Rng};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
 
@@ -89,8 +89,16 @@ pub fn trace_lobes(
                         vertex: p,
                     };
                     if w.max_element() >= MIN_BRANCH_WEIGHT {
-                        emitted[(pixel - y * s.width) as usize] +=
-                            trace_chain(scene, start, pixel, &s, &mut rng, &mut stack, &mut out);
+                        let points = PixelPoints::new(lobe_seed, pixel, j as u32, s.light_samples);
+                        emitted[(pixel - y * s.width) as usize] += trace_chain(
+                            scene,
+                            start,
+                            pixel,
+                            &s,
+                            (&mut rng, points),
+                            &mut stack,
+                            &mut out,
+                        );
                     }
                 }
             }

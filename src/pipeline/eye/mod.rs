@@ -21,7 +21,7 @@ mod tests;
 pub use lobes::trace_lobes;
 pub use samples::{EYE_SAMPLE_BYTES, EyeSample, EyeSamples, SplatTargets};
 
-use crate::sampling::Rng;
+use crate::sampling::{PixelPoints, Rng};
 use crate::scene::{Camera, Scene};
 use bands::{assign_targets, collect_bands};
 use chain::{BRANCH_STACK, Branch, trace_chain};
@@ -119,8 +119,16 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                     lobe_pdf: 0.0,
                     vertex: camera.position,
                 };
-                emitted[x as usize] +=
-                    trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut stack, &mut out);
+                let points = PixelPoints::new(s.seed, pixel, k, s.light_samples);
+                emitted[x as usize] += trace_chain(
+                    scene,
+                    start,
+                    pixel,
+                    s,
+                    (&mut lobe_rng, points),
+                    &mut stack,
+                    &mut out,
+                );
             }
             assign_targets(
                 &mut out[first..],
