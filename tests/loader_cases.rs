@@ -616,3 +616,157 @@ fn malformed_files_are_one_line() {
     refused(b"{\"asset\": ", "not valid glTF");
     refused(b"[1, 2]", "not valid glTF");
 }
+
+/// A quad of two triangles stored as gltfpack stores it with EXT_meshopt_compression:
+/// positions by the vertex codec, normals as octahedral bytes, texture coordinates by the
+/// exponential filter, indices by the index codec, all in buffer 0, and the views they
+/// stand in for on a fallback buffer without data. `edit` changes the JSON.
+fn meshopt_quad(edit: impl FnOnce(&mut Value)) -> Vec<u8> {
+    let positions: [[f32; 3]; 4] = [[0., 0., 0.], [2., 0., 0.], [2., 0., 2.], [0., 0., 2.]];
+    let normals: Vec<[f32; 4]> = [
+        [0.0f32, 1.0, 0.3],
+        [0.2, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [-0.5, 0.8, 0.1],
+    ]
+    .iter()
+    .map(|n| {
+        let n = Vec3::from(*n).normalize();
+        [n.x, n.y, n.z, 0.0]
+    })
+    .collect();
+    let uvs: [[f32; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.5], [0.0, 1.5]];
+    let mut bin = Vec::new();
+    let p = meshopt::encode_vertex_buffer(&positions).unwrap();
+    let p_at = push(&mut bin, &p);
+    let n = meshopt::encode_vertex_buffer(&meshopt::encode_filter_oct::<i8>(&normals, 8)).unwrap();
+    let n_at = push(&mut bin, &n);
+    let uv_exp = meshopt::encode_filter_exp(&uvs, 15, meshopt::EncodeExpMode::Separate);
+    let t = meshopt::encode_vertex_buffer(&uv_exp).unwrap();
+    let t_at = push(&mut bin, &t);
+    let i = meshopt::encode_index_buffer(&[0, 1, 2, 0, 2, 3], 4).unwrap();
+    let i_at = push(&mut bin, &i);
+    let ext = |at: usize, len: usize, stride: usize, count: usize, mode: &str, filter: &str| {
+        json!({"EXT_meshopt_compression": {"buffer": 0, "byteOffset": at, "byteLength": len,
+            "byteStride": stride, "count": count, "mode": mode, "filter": filter}})
+    };
+    glb(
+        &bin,
+        json!([
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}
+        ]),
+        json!([
+            {"buffer": 1, "byteOffset": 0, "byteLength": 48, "byteStride": 12,
+                "extensions": ext(p_at, p.len(), 12, 4, "ATTRIBUTES", "NONE")},
+            {"buffer": 1, "byteOffset": 48, "byteLength": 16, "byteStride": 4,
+                "extensions": ext(n_at, n.len(), 4, 4, "ATTRIBUTES", "OCTAHEDRAL")},
+            {"buffer": 1, "byteOffset": 64, "byteLength": 32, "byteStride": 8,
+                "extensions": ext(t_at, t.len(), 8, 4, "ATTRIBUTES", "EXPONENTIAL")},
+            {"buffer": 1, "byteOffset": 96, "byteLength": 12,
+                "extensions": ext(i_at, i.len(), 2, 6, "TRIANGLES", "NONE")}
+        ]),
+        json!({"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3,
+            "material": 0}),
+        |root| {
+            root["buffers"] = json!([{"byteLength": bin.len()},
+                {"byteLength": 108, "extensions": {"EXT_meshopt_compression": {"fallback": true}}}]);
+            root["extensionsUsed"] = json!(["EXT_meshopt_compression", "KHR_mesh_quantization"]);
+            root["extensionsRequired"] =
+                json!(["EXT_meshopt_compression", "KHR_mesh_quantization"]);
+            edit(root);
+        },
+    )
+}
+
+/// EXT_meshopt_compression is decoded: the quad's triangles, normals (8-bit octahedral,
+/// within 0.02) and texture coordinates (15-bit exponential, within 1e-4) are the ones that
+/// were encoded, and the fallback buffer, which has no data, is never read.
+#[test]
+fn a_meshopt_compressed_mesh_loads_as_it_was_encoded() {
+    let scene = loads_and_renders(&meshopt_quad(|_| {}));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(scene.triangles.len(), 2);
+    let corner = [
+        Vec3::ZERO,
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(2.0, 0.0, 2.0),
+        Vec3::new(0.0, 0.0, 2.0),
+    ];
+    let uv = [
+        Vec2::ZERO,
+        Vec2::new(1.0, 0.0),
+        Vec2::new(1.0, 1.5),
+        Vec2::new(0.0, 1.5),
+    ];
+    let normal = [
+        Vec3::new(0.0, 1.0, 0.3),
+        Vec3::new(0.2, 1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(-0.5, 0.8, 0.1),
+    ]
+    .map(Vec3::normalize);
+    for (t, ids) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
+        let v = vertices(&scene, t);
+        // The loader may wind a triangle either way; each corner must be one of the quad's.
+        for (k, &id) in ids.iter().enumerate() {
+            let at = v.iter().position(|p| close(*p, corner[id]));
+            let at = at.unwrap_or_else(|| panic!("triangle {t} lacks corner {id}: {v:?}"));
+            let s = &scene.shading[t];
+            assert!(
+                (s.normals[at] - normal[id]).length() < 0.02,
+                "triangle {t} corner {k}: normal {} against {}",
+                s.normals[at],
+                normal[id]
+            );
+            assert!(
+                (s.uvs[at] - uv[id]).length() < 1e-4,
+                "triangle {t} corner {k}: uv {} against {}",
+                s.uvs[at],
+                uv[id]
+            );
+        }
+    }
+}
+
+/// A malformed EXT_meshopt_compression is one line naming what is wrong; nothing panics or
+/// allocates what a count asks for.
+#[test]
+fn malformed_meshopt_compression_is_one_line() {
+    fn ext(r: &mut Value, view: usize) -> &mut Value {
+        &mut r["bufferViews"][view]["extensions"]["EXT_meshopt_compression"]
+    }
+    refused(
+        &meshopt_quad(|r| ext(r, 0)["mode"] = json!("VERTICES")),
+        "unknown mode",
+    );
+    refused(
+        &meshopt_quad(|r| ext(r, 1)["byteStride"] = json!(12)),
+        "byteStride 12 is not allowed",
+    );
+    refused(
+        &meshopt_quad(|r| ext(r, 0)["byteOffset"] = json!(1 << 20)),
+        "runs past the end",
+    );
+    refused(
+        &meshopt_quad(|r| ext(r, 0)["count"] = json!(1u64 << 40)),
+        "more than raysplat reads",
+    );
+    // The index data read by the vertex codec: not a vertex stream.
+    refused(
+        &meshopt_quad(|r| {
+            let indices = ext(r, 3).clone();
+            *ext(r, 0) = indices;
+            ext(r, 0)["mode"] = json!("ATTRIBUTES");
+            ext(r, 0)["byteStride"] = json!(12);
+            ext(r, 0)["count"] = json!(4);
+        }),
+        "cannot be decoded",
+    );
+    refused(
+        &meshopt_quad(|r| ext(r, 2)["count"] = json!("four")),
+        "not a count",
+    );
+}

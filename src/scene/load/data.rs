@@ -5,11 +5,14 @@
 //! reads it.
 
 use super::document::get;
+use super::meshopt::{self, Compressed};
 use gltf::json::{
     self,
     accessor::{ComponentType, Type},
     validation::Checked,
 };
+use serde_json::Value;
+use std::cell::OnceCell;
 use std::path::Path;
 
 /// Most elements an accessor may have when the file holds no data for them (an accessor
@@ -59,12 +62,21 @@ impl DataError {
 pub(super) struct Buffers {
     data: Vec<Result<Vec<u8>, DataError>>,
     budget: std::cell::Cell<usize>,
+    /// Each buffer view's EXT_meshopt_compression, when it has one (or why it is malformed).
+    compressed: Vec<Option<Result<Compressed, String>>>,
+    /// Compressed views decoded on first use (unused ones, such as animation data, never are).
+    decoded: Vec<OnceCell<Result<Vec<u8>, DataError>>>,
 }
 
 impl Buffers {
-    /// Load every buffer of `root`: from a data URI, a file next to the glTF (`base`), or the
-    /// GLB's BIN chunk (`blob`, buffer 0 without a uri).
-    pub(super) fn load(root: &json::Root, base: Option<&Path>, mut blob: Option<Vec<u8>>) -> Self {
+    /// Load every buffer of `root` (`raw` its JSON): from a data URI, a file next to the glTF
+    /// (`base`), or the GLB's BIN chunk (`blob`, buffer 0 without a uri).
+    pub(super) fn load(
+        root: &json::Root,
+        raw: &Value,
+        base: Option<&Path>,
+        mut blob: Option<Vec<u8>>,
+    ) -> Self {
         let buffers = root
             .buffers
             .iter()
@@ -93,10 +105,49 @@ impl Buffers {
                 Ok(data)
             })
             .collect();
+        let compressed = (0..root.buffer_views.len())
+            .map(|i| meshopt::compressed(&raw["bufferViews"][i], i).transpose())
+            .collect();
         Self {
             data: buffers,
             budget: std::cell::Cell::new(MAX_ELEMENTS_READ),
+            compressed,
+            decoded: (0..root.buffer_views.len())
+                .map(|_| OnceCell::new())
+                .collect(),
         }
+    }
+
+    /// Buffer view `index`'s bytes decoded from its EXT_meshopt_compression (decoded once),
+    /// or `None` when the view is not compressed.
+    fn decoded(&self, index: usize) -> Option<Result<&[u8], DataError>> {
+        let compressed = self.compressed.get(index)?.as_ref()?;
+        let decoded = self.decoded[index].get_or_init(|| {
+            let c = compressed.as_ref().map_err(|e| DataError::Invalid(e.clone()))?;
+            let data = self.get(c.buffer, &format!("buffer view {index}'s compressed data"))?;
+            let bytes = c
+                .offset
+                .checked_add(c.length)
+                .and_then(|end| data.get(c.offset..end))
+                .ok_or_else(|| {
+                    format!(
+                        "buffer view {index}'s compressed data (offset {}, length {}) runs past the end of buffer {} ({} bytes)",
+                        c.offset,
+                        c.length,
+                        c.buffer,
+                        data.len()
+                    )
+                })?;
+            // (Its size is bounded by `decode` before anything is allocated.)
+            let decoded = c.decode(bytes, index)?;
+            self.spend(c.count)?;
+            Ok(decoded)
+        });
+        Some(match decoded {
+            Ok(bytes) => Ok(bytes),
+            Err(DataError::Invalid(e)) => Err(DataError::Invalid(e.clone())),
+            Err(DataError::Unavailable(e)) => Err(DataError::Unavailable(e.clone())),
+        })
     }
 
     /// Takes `count` elements from the load's budget, or says the file asks for too many.
@@ -158,6 +209,9 @@ pub(super) fn view_bytes<'a>(
     what: &str,
 ) -> Result<(&'a [u8], Option<usize>), DataError> {
     let view = get(&root.buffer_views, index, what)?;
+    if let Some(decoded) = buffers.decoded(index) {
+        return Ok((decoded?, view.byte_stride.map(|s| s.0)));
+    }
     let b = view.buffer.value();
     let data = buffers.get(b, &format!("buffer view {index}"))?;
     let offset = view.byte_offset.map_or(0, |o| o.0);
@@ -380,7 +434,7 @@ mod tests {
 
     #[test]
     fn one_load_reads_at_most_its_budget_of_elements() {
-        let buffers = Buffers::load(&json::Root::default(), None, None);
+        let buffers = Buffers::load(&json::Root::default(), &Value::Null, None, None);
         assert!(buffers.spend(MAX_ELEMENTS_READ - 1).is_ok());
         assert!(buffers.spend(1).is_ok());
         let e = buffers.spend(1).unwrap_err();

@@ -12,6 +12,7 @@ mod convert;
 mod data;
 mod document;
 mod mesh;
+mod meshopt;
 
 use convert::{TextureLoader, convert_light, convert_material, unrendered};
 use data::Buffers;
@@ -24,12 +25,13 @@ use gltf::json::{self, validation::Checked};
 use std::path::Path;
 
 /// Extensions that change what the geometry is: a file that requires one cannot be shown.
-const UNSUPPORTED_GEOMETRY: [&str; 2] = ["KHR_draco_mesh_compression", "EXT_meshopt_compression"];
+const UNSUPPORTED_GEOMETRY: [&str; 1] = ["KHR_draco_mesh_compression"];
 
 /// Extensions the loader reads or may ignore without misreading the geometry (any other that a
 /// file requires is a warning).
-const SUPPORTED: [&str; 9] = [
+const SUPPORTED: [&str; 10] = [
     "KHR_mesh_quantization",
+    meshopt::EXTENSION,
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
@@ -82,7 +84,7 @@ fn convert_file(bytes: &[u8], base: Option<&Path>, name: String) -> Result<Scene
             ));
         }
     }
-    let buffers = Buffers::load(&root, base, blob);
+    let buffers = Buffers::load(&root, &raw, base, blob);
     let mut textures = TextureLoader {
         root: &root,
         raw: &raw,
