@@ -770,3 +770,155 @@ fn malformed_meshopt_compression_is_one_line() {
         "not a count",
     );
 }
+
+/// A quad of two triangles as one Draco stream (KHR_draco_mesh_compression), encoded in the
+/// test: positions at 14 bits, texture coordinates at 12, COLOR_0 as unsigned bytes read
+/// through a normalized accessor; the accessors have no data of their own. `edit` changes the
+/// JSON.
+fn draco_quad(edit: impl FnOnce(&mut Value)) -> Vec<u8> {
+    use draco_core::{
+        DataType, EncoderBuffer, EncoderOptions, FaceIndex, GeometryAttributeType, Mesh,
+        MeshEncoder, PointAttribute,
+    };
+    let mut mesh = Mesh::new();
+    let attribute = |kind, width: usize, ty, values: &[u8]| {
+        let mut a = PointAttribute::new();
+        a.init(kind, width as u8, ty, false, 4);
+        a.buffer_mut().write(0, values);
+        a
+    };
+    let corners: Vec<f32> = DRACO_CORNERS.iter().flat_map(|c| c.to_array()).collect();
+    let uvs: Vec<f32> = DRACO_UVS.iter().flat_map(|c| c.to_array()).collect();
+    mesh.add_attribute(attribute(
+        GeometryAttributeType::Position,
+        3,
+        DataType::Float32,
+        &f32s(&corners),
+    ));
+    mesh.add_attribute(attribute(
+        GeometryAttributeType::TexCoord,
+        2,
+        DataType::Float32,
+        &f32s(&uvs),
+    ));
+    mesh.add_attribute(attribute(
+        GeometryAttributeType::Color,
+        4,
+        DataType::Uint8,
+        &DRACO_COLORS.concat(),
+    ));
+    mesh.set_num_faces(2);
+    mesh.set_face(FaceIndex(0), [0u32.into(), 1u32.into(), 2u32.into()]);
+    mesh.set_face(FaceIndex(1), [0u32.into(), 2u32.into(), 3u32.into()]);
+    let mut options = EncoderOptions::new();
+    options.set_attribute_int(0, "quantization_bits", 14);
+    options.set_attribute_int(1, "quantization_bits", 12);
+    let mut encoder = MeshEncoder::new();
+    encoder.set_mesh(mesh);
+    let mut stream = EncoderBuffer::new();
+    encoder
+        .encode(&options, &mut stream)
+        .expect("the test's mesh encodes");
+    let stream = stream.data().to_vec();
+    glb(
+        &stream,
+        json!([
+            {"componentType": 5126, "count": 4, "type": "VEC3",
+                "min": [0.0, 0.0, 0.0], "max": [2.0, 0.0, 2.0]},
+            {"componentType": 5126, "count": 4, "type": "VEC2"},
+            {"componentType": 5121, "normalized": true, "count": 4, "type": "VEC4"},
+            {"componentType": 5123, "count": 6, "type": "SCALAR"}
+        ]),
+        json!([{"buffer": 0, "byteLength": stream.len()}]),
+        json!({"attributes": {"POSITION": 0, "TEXCOORD_0": 1, "COLOR_0": 2}, "indices": 3,
+            "material": 0, "extensions": {"KHR_draco_mesh_compression": {"bufferView": 0,
+            "attributes": {"POSITION": 0, "TEXCOORD_0": 1, "COLOR_0": 2}}}}),
+        |root| {
+            root["extensionsUsed"] = json!(["KHR_draco_mesh_compression"]);
+            root["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+            edit(root);
+        },
+    )
+}
+
+const DRACO_CORNERS: [Vec3; 4] = [
+    Vec3::new(0.0, 0.0, 0.0),
+    Vec3::new(2.0, 0.0, 0.0),
+    Vec3::new(2.0, 0.0, 2.0),
+    Vec3::new(0.0, 0.0, 2.0),
+];
+const DRACO_UVS: [Vec2; 4] = [
+    Vec2::new(0.0, 0.0),
+    Vec2::new(1.0, 0.0),
+    Vec2::new(1.0, 1.0),
+    Vec2::new(0.0, 1.0),
+];
+const DRACO_COLORS: [[u8; 4]; 4] = [
+    [255, 0, 0, 255],
+    [0, 255, 0, 255],
+    [0, 0, 255, 255],
+    [255, 255, 255, 255],
+];
+
+/// KHR_draco_mesh_compression is decoded: both triangles come back with the quad's corners
+/// (within the 14-bit quantisation), texture coordinates (12 bits) and vertex colours (bytes
+/// read as the normalized accessor says: 255 is 1), whatever order Draco gives the points.
+#[test]
+fn a_draco_compressed_mesh_loads_as_it_was_encoded() {
+    let scene = loads_and_renders(&draco_quad(|_| {}));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(scene.triangles.len(), 2);
+    let mut seen = [false; 4];
+    for t in 0..2 {
+        let s = &scene.shading[t];
+        assert_ne!(s.extra, raysplat::scene::NO_EXTRA, "COLOR_0 was not read");
+        let extra = &scene.extras[s.extra as usize];
+        for (k, p) in vertices(&scene, t).iter().enumerate() {
+            let id = DRACO_CORNERS
+                .iter()
+                .position(|c| (*c - *p).length() < 2.0 / 8192.0)
+                .unwrap_or_else(|| panic!("triangle {t} corner {k} at {p} is none of the quad's"));
+            seen[id] = true;
+            assert!(
+                (s.uvs[k] - DRACO_UVS[id]).length() < 1.0 / 2048.0,
+                "uv {}",
+                s.uvs[k]
+            );
+            let [r, g, b, _] = DRACO_COLORS[id].map(|c| c as f32 / 255.0);
+            let colour = Vec3::new(r, g, b);
+            assert!(
+                (extra.color[k].truncate() - colour).length() < 1e-5 && extra.color[k].w == 1.0,
+                "triangle {t} corner {k}: colour {} against {colour}",
+                extra.color[k]
+            );
+        }
+    }
+    assert_eq!(seen, [true; 4], "every corner of the quad is drawn");
+}
+
+/// A malformed Draco primitive is one line; nothing panics.
+#[test]
+fn malformed_draco_compression_is_one_line() {
+    fn ext(r: &mut Value) -> &mut Value {
+        &mut r["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]
+    }
+    refused(
+        &draco_quad(|r| {
+            ext(r).as_object_mut().unwrap().remove("bufferView");
+        }),
+        "has no bufferView",
+    );
+    refused(
+        &draco_quad(|r| ext(r)["attributes"]["POSITION"] = json!(7)),
+        "which the stream lacks",
+    );
+    refused(
+        &draco_quad(|r| ext(r)["bufferView"] = json!(4)),
+        "buffer view 4",
+    );
+    // The stream cut short.
+    refused(
+        &draco_quad(|r| r["bufferViews"][0]["byteLength"] = json!(20)),
+        "cannot be decoded",
+    );
+}

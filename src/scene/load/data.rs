@@ -312,6 +312,18 @@ pub(super) fn read_floats(
     Ok((values, width))
 }
 
+/// Accessor `index`'s components per element and `normalized` flag (how a decoder's values
+/// are read when the accessor has no data of its own, KHR_draco_mesh_compression).
+pub(super) fn accessor_shape(
+    root: &json::Root,
+    index: usize,
+    what: &str,
+) -> Result<(usize, bool), DataError> {
+    let acc = get(&root.accessors, index, what)?;
+    let (_, width) = layout(acc, index)?;
+    Ok((width, acc.normalized))
+}
+
 /// Index accessor `index` (unsigned byte, short or int scalars).
 pub(super) fn read_indices(
     root: &json::Root,

@@ -1,8 +1,9 @@
 //! glTF mesh primitives turned into triangles: attributes read through `data` (bounds-checked,
 //! any component type), indices checked against the vertex count, positions for NaN/Inf.
 
-use super::data::{Buffers, DataError, read_floats, read_indices};
+use super::data::{Buffers, DataError, accessor_shape, read_floats, read_indices, view_bytes};
 use super::document::get;
+use super::draco;
 use crate::scene::{NO_EXTRA, SceneParts, TriExtra, TriShading, tri};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::json::{
@@ -24,9 +25,11 @@ pub(super) struct LoadStats {
     pub(super) unavailable: Vec<String>,
 }
 
-/// What every mesh reads: the file, its buffers and the default material's index.
+/// What every mesh reads: the file (typed, and raw for extension data), its buffers and the
+/// default material's index.
 pub(super) struct MeshInput<'a> {
     pub(super) root: &'a json::Root,
+    pub(super) raw: &'a serde_json::Value,
     pub(super) buffers: &'a Buffers,
     pub(super) default_material: u32,
 }
@@ -47,7 +50,8 @@ pub(super) fn add_mesh(
         flip: world.determinant() < 0.0,
     };
     for (p, prim) in input.root.meshes[index].primitives.iter().enumerate() {
-        match add_primitive(input, p, prim, &placement, parts, stats) {
+        let raw = &input.raw["meshes"][index]["primitives"][p];
+        match add_primitive(input, p, (prim, raw), &placement, parts, stats) {
             Ok(()) => {}
             Err(DataError::Unavailable(why)) => stats
                 .unavailable
@@ -67,7 +71,7 @@ struct Placement {
 fn add_primitive(
     input: &MeshInput,
     p: usize,
-    prim: &json::mesh::Primitive,
+    (prim, raw): (&json::mesh::Primitive, &serde_json::Value),
     placement: &Placement,
     parts: &mut SceneParts,
     stats: &mut LoadStats,
@@ -79,12 +83,31 @@ fn add_primitive(
         flip,
     } = *placement;
     let what = |attr: &str| format!("primitive {p} {attr}");
-    let mode = match prim.mode {
+    let mut mode = match prim.mode {
         Checked::Valid(m @ (Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)) => m,
         _ => {
             stats.skipped_primitives += 1;
             return Ok(());
         }
+    };
+    // A Draco stream holds the primitive's attributes and its faces (as triangles).
+    let decoded = match draco::compressed(raw, &format!("primitive {p}"))? {
+        Some(c) => {
+            let (bytes, _) = view_bytes(root, input.buffers, c.view, &what(draco::EXTENSION))?;
+            mode = Mode::Triangles;
+            Some(c.decode(bytes, &format!("primitive {p}"))?)
+        }
+        None => None,
+    };
+    // An attribute's values: from the Draco stream when it carries them, else its accessor.
+    let floats = |a: usize, name: &str| -> Result<(Vec<f32>, usize), DataError> {
+        if let Some(d) = &decoded {
+            let (width, normalized) = accessor_shape(root, a, &what(name))?;
+            if let Some(values) = d.floats(name, width, normalized) {
+                return Ok((values?, width));
+            }
+        }
+        read_floats(root, input.buffers, a, &what(name))
     };
     let material = match prim.material {
         Some(m) => {
@@ -99,14 +122,14 @@ fn add_primitive(
         stats.without_positions += 1;
         return Ok(());
     };
-    let (raw, width) = read_floats(root, input.buffers, position, &what("POSITION"))?;
+    let (values, width) = floats(position, "POSITION")?;
     if width != 3 {
         return Err(format!(
             "primitive {p} POSITION accessor {position} has {width} components, not 3"
         )
         .into());
     }
-    let positions: Vec<Vec3> = raw
+    let positions: Vec<Vec3> = values
         .chunks_exact(3)
         .map(|c| world.transform_point3(Vec3::from_slice(c)))
         .collect();
@@ -116,7 +139,7 @@ fn add_primitive(
     let normals: Option<Vec<Vec3>> = match attribute(Semantic::Normals) {
         None => None,
         Some(a) => {
-            let (raw, width) = read_floats(root, input.buffers, a, &what("NORMAL"))?;
+            let (raw, width) = floats(a, "NORMAL")?;
             if width != 3 || raw.len() != 3 * positions.len() {
                 return Err(format!(
                     "primitive {p} has {} normals of {width} components for {} positions",
@@ -140,7 +163,7 @@ fn add_primitive(
         let Some(a) = attribute(s) else {
             return Ok(None);
         };
-        let (raw, width) = read_floats(root, input.buffers, a, &what(name))?;
+        let (raw, width) = floats(a, name)?;
         if !widths.contains(&width) || raw.len() != width * positions.len() {
             return Err(format!(
                 "primitive {p} {name} accessor {a} has {} elements of {width} components for {} positions",
@@ -186,9 +209,10 @@ fn add_primitive(
                 .collect()
         }),
     };
-    let indices: Vec<u32> = match prim.indices {
-        Some(a) => read_indices(root, input.buffers, a.value(), &what("indices"))?,
-        None => (0..positions.len() as u32).collect(),
+    let indices: Vec<u32> = match (decoded, prim.indices) {
+        (Some(d), _) => d.indices,
+        (None, Some(a)) => read_indices(root, input.buffers, a.value(), &what("indices"))?,
+        (None, None) => (0..positions.len() as u32).collect(),
     };
     if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
         return Err(format!(

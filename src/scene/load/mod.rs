@@ -11,6 +11,7 @@
 mod convert;
 mod data;
 mod document;
+mod draco;
 mod mesh;
 mod meshopt;
 
@@ -24,14 +25,12 @@ use glam::{Mat4, Quat, Vec3};
 use gltf::json::{self, validation::Checked};
 use std::path::Path;
 
-/// Extensions that change what the geometry is: a file that requires one cannot be shown.
-const UNSUPPORTED_GEOMETRY: [&str; 1] = ["KHR_draco_mesh_compression"];
-
 /// Extensions the loader reads or may ignore without misreading the geometry (any other that a
 /// file requires is a warning).
-const SUPPORTED: [&str; 10] = [
+const SUPPORTED: [&str; 11] = [
     "KHR_mesh_quantization",
     meshopt::EXTENSION,
+    draco::EXTENSION,
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
@@ -73,11 +72,6 @@ fn convert_file(bytes: &[u8], base: Option<&Path>, name: String) -> Result<Scene
     let document::Parsed { root, raw, blob } = document::parse(bytes)?;
     let mut warnings = Vec::new();
     for ext in &root.extensions_required {
-        if UNSUPPORTED_GEOMETRY.contains(&ext.as_str()) {
-            return Err(format!(
-                "the file requires {ext}, which raysplat does not support"
-            ));
-        }
         if !SUPPORTED.contains(&ext.as_str()) {
             warnings.push(format!(
                 "the file requires {ext}, which raysplat does not support: it may look different"
@@ -147,6 +141,7 @@ fn convert_file(bytes: &[u8], base: Option<&Path>, name: String) -> Result<Scene
     };
     let input = MeshInput {
         root: &root,
+        raw: &raw,
         buffers: &buffers,
         default_material,
     };
