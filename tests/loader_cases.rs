@@ -617,62 +617,135 @@ fn malformed_files_are_one_line() {
     refused(b"[1, 2]", "not valid glTF");
 }
 
-/// A quad of two triangles stored as gltfpack stores it with EXT_meshopt_compression:
-/// positions by the vertex codec, normals as octahedral bytes, texture coordinates by the
-/// exponential filter, indices by the index codec, all in buffer 0, and the views they
-/// stand in for on a fallback buffer without data. `edit` changes the JSON.
-fn meshopt_quad(edit: impl FnOnce(&mut Value)) -> Vec<u8> {
-    let positions: [[f32; 3]; 4] = [[0., 0., 0.], [2., 0., 0.], [2., 0., 2.], [0., 0., 2.]];
-    let normals: Vec<[f32; 4]> = [
-        [0.0f32, 1.0, 0.3],
-        [0.2, 1.0, 0.0],
-        [0.0, 1.0, 0.0],
-        [-0.5, 0.8, 0.1],
-    ]
-    .iter()
-    .map(|n| {
-        let n = Vec3::from(*n).normalize();
-        [n.x, n.y, n.z, 0.0]
-    })
-    .collect();
-    let uvs: [[f32; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.5], [0.0, 1.5]];
+/// The quad both compressed-mesh cases encode: its corners, texture coordinates and (before
+/// normalising) normals, drawn as the triangles 0 1 2 and 0 2 3.
+const QUAD_CORNERS: [Vec3; 4] = [
+    Vec3::new(0.0, 0.0, 0.0),
+    Vec3::new(2.0, 0.0, 0.0),
+    Vec3::new(2.0, 0.0, 2.0),
+    Vec3::new(0.0, 0.0, 2.0),
+];
+const QUAD_UVS: [Vec2; 4] = [
+    Vec2::new(0.0, 0.0),
+    Vec2::new(1.0, 0.0),
+    Vec2::new(1.0, 1.5),
+    Vec2::new(0.0, 1.5),
+];
+const QUAD_NORMALS: [Vec3; 4] = [
+    Vec3::new(0.0, 1.0, 0.3),
+    Vec3::new(0.2, 1.0, 0.0),
+    Vec3::new(0.0, 1.0, 0.0),
+    Vec3::new(-0.5, 0.8, 0.1),
+];
+const QUAD_TRIANGLES: [u32; 6] = [0, 1, 2, 0, 2, 3];
+
+/// The quad's corner, texture coordinate and (`Some`, within its tolerance) normal at each
+/// corner of both triangles of `scene`, whatever order the loader gives them; every corner
+/// of the quad is drawn.
+fn assert_is_the_quad(scene: &Scene, uv_tolerance: f32, normals: Option<f32>) {
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(scene.triangles.len(), 2);
+    let mut seen = [false; 4];
+    for t in 0..2 {
+        let s = &scene.shading[t];
+        for (k, p) in vertices(scene, t).iter().enumerate() {
+            let id = QUAD_CORNERS
+                .iter()
+                .position(|c| (*c - *p).length() < 2.0 / 8192.0)
+                .unwrap_or_else(|| panic!("triangle {t} corner {k} at {p} is none of the quad's"));
+            seen[id] = true;
+            let uv = QUAD_UVS[id];
+            assert!(
+                (s.uvs[k] - uv).length() < uv_tolerance,
+                "uv {} against {uv}",
+                s.uvs[k]
+            );
+            if let Some(tolerance) = normals {
+                let n = QUAD_NORMALS[id].normalize();
+                let got = s.normals[k];
+                assert!((got - n).length() < tolerance, "normal {got} against {n}");
+            }
+        }
+    }
+    assert_eq!(seen, [true; 4], "every corner of the quad is drawn");
+}
+
+/// The quad stored as gltfpack stores it with EXT_meshopt_compression: positions by the
+/// vertex codec, octahedral normals (bytes, or `wide` 16-bit), texture coordinates by the
+/// exponential filter, indices by the index codec (or `wide` 32-bit ones by the
+/// index-sequence codec), all in buffer 0, and the views they stand in for on a fallback
+/// buffer without data. `edit` changes the JSON.
+fn meshopt_quad(wide: bool, edit: impl FnOnce(&mut Value)) -> Vec<u8> {
+    let normals: Vec<[f32; 4]> = QUAD_NORMALS
+        .iter()
+        .map(|n| n.normalize().extend(0.0).to_array())
+        .collect();
     let mut bin = Vec::new();
-    let p = meshopt::encode_vertex_buffer(&positions).unwrap();
-    let p_at = push(&mut bin, &p);
-    let n = meshopt::encode_vertex_buffer(&meshopt::encode_filter_oct::<i8>(&normals, 8)).unwrap();
-    let n_at = push(&mut bin, &n);
-    let uv_exp = meshopt::encode_filter_exp(&uvs, 15, meshopt::EncodeExpMode::Separate);
-    let t = meshopt::encode_vertex_buffer(&uv_exp).unwrap();
-    let t_at = push(&mut bin, &t);
-    let i = meshopt::encode_index_buffer(&[0, 1, 2, 0, 2, 3], 4).unwrap();
-    let i_at = push(&mut bin, &i);
-    let ext = |at: usize, len: usize, stride: usize, count: usize, mode: &str, filter: &str| {
-        json!({"EXT_meshopt_compression": {"buffer": 0, "byteOffset": at, "byteLength": len,
-            "byteStride": stride, "count": count, "mode": mode, "filter": filter}})
+    let mut encoded = |bytes: Vec<u8>| (push(&mut bin, &bytes), bytes.len());
+    let p = encoded(meshopt::encode_vertex_buffer(&QUAD_CORNERS.map(|c| c.to_array())).unwrap());
+    let (n, n_stride, n_type) = if wide {
+        let oct = meshopt::encode_filter_oct::<i16>(&normals, 16);
+        (
+            encoded(meshopt::encode_vertex_buffer(&oct).unwrap()),
+            8,
+            5122,
+        )
+    } else {
+        let oct = meshopt::encode_filter_oct::<i8>(&normals, 8);
+        (
+            encoded(meshopt::encode_vertex_buffer(&oct).unwrap()),
+            4,
+            5120,
+        )
     };
+    let uvs = QUAD_UVS.map(|c| c.to_array());
+    let uv_exp = meshopt::encode_filter_exp(&uvs, 15, meshopt::EncodeExpMode::Separate);
+    let t = encoded(meshopt::encode_vertex_buffer(&uv_exp).unwrap());
+    let (i, i_stride, i_type, i_mode) = if wide {
+        let seq = meshopt::encode_index_sequence(&QUAD_TRIANGLES, 4).unwrap();
+        (encoded(seq), 4, 5125, "INDICES")
+    } else {
+        let tri = meshopt::encode_index_buffer(&QUAD_TRIANGLES, 4).unwrap();
+        (encoded(tri), 2, 5123, "TRIANGLES")
+    };
+    // Each view: its compressed bytes, stride, count, mode and filter; the fallback buffer
+    // lays the decoded views end to end.
+    let views = [
+        (p, 12, 4, "ATTRIBUTES", "NONE"),
+        (n, n_stride, 4, "ATTRIBUTES", "OCTAHEDRAL"),
+        (t, 8, 4, "ATTRIBUTES", "EXPONENTIAL"),
+        (i, i_stride, 6, i_mode, "NONE"),
+    ];
+    let mut fallback = 0;
+    let views: Vec<Value> = views
+        .iter()
+        .map(|&((at, len), stride, count, mode, filter)| {
+            let mut view = json!({"buffer": 1, "byteOffset": fallback,
+                "byteLength": stride * count,
+                "extensions": {"EXT_meshopt_compression": {"buffer": 0, "byteOffset": at,
+                    "byteLength": len, "byteStride": stride, "count": count, "mode": mode,
+                    "filter": filter}}});
+            if mode == "ATTRIBUTES" {
+                view["byteStride"] = json!(stride);
+            }
+            fallback += stride * count;
+            view
+        })
+        .collect();
     glb(
         &bin,
         json!([
             {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3"},
-            {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3"},
+            {"bufferView": 1, "componentType": n_type, "normalized": true, "count": 4, "type": "VEC3"},
             {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
-            {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}
+            {"bufferView": 3, "componentType": i_type, "count": 6, "type": "SCALAR"}
         ]),
-        json!([
-            {"buffer": 1, "byteOffset": 0, "byteLength": 48, "byteStride": 12,
-                "extensions": ext(p_at, p.len(), 12, 4, "ATTRIBUTES", "NONE")},
-            {"buffer": 1, "byteOffset": 48, "byteLength": 16, "byteStride": 4,
-                "extensions": ext(n_at, n.len(), 4, 4, "ATTRIBUTES", "OCTAHEDRAL")},
-            {"buffer": 1, "byteOffset": 64, "byteLength": 32, "byteStride": 8,
-                "extensions": ext(t_at, t.len(), 8, 4, "ATTRIBUTES", "EXPONENTIAL")},
-            {"buffer": 1, "byteOffset": 96, "byteLength": 12,
-                "extensions": ext(i_at, i.len(), 2, 6, "TRIANGLES", "NONE")}
-        ]),
+        json!(views),
         json!({"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3,
             "material": 0}),
         |root| {
-            root["buffers"] = json!([{"byteLength": bin.len()},
-                {"byteLength": 108, "extensions": {"EXT_meshopt_compression": {"fallback": true}}}]);
+            root["buffers"] = json!([{"byteLength": bin.len()}, {"byteLength": fallback,
+                "extensions": {"EXT_meshopt_compression": {"fallback": true}}}]);
             root["extensionsUsed"] = json!(["EXT_meshopt_compression", "KHR_mesh_quantization"]);
             root["extensionsRequired"] =
                 json!(["EXT_meshopt_compression", "KHR_mesh_quantization"]);
@@ -681,54 +754,30 @@ fn meshopt_quad(edit: impl FnOnce(&mut Value)) -> Vec<u8> {
     )
 }
 
-/// EXT_meshopt_compression is decoded: the quad's triangles, normals (8-bit octahedral,
-/// within 0.02) and texture coordinates (15-bit exponential, within 1e-4) are the ones that
-/// were encoded, and the fallback buffer, which has no data, is never read.
+/// EXT_meshopt_compression is decoded: the quad's triangles, normals (8-bit octahedral
+/// within 0.02, 16-bit within 0.001) and texture coordinates (15-bit exponential, within
+/// 1e-4) are the ones that were encoded, through the index codec and (16-bit normals, 32-bit
+/// indices) the index-sequence codec, and the fallback buffer, which has no data, is never
+/// read. The attribute views' stride is the extension's: without the fallback view's own
+/// `byteStride` they read the same.
 #[test]
 fn a_meshopt_compressed_mesh_loads_as_it_was_encoded() {
-    let scene = loads_and_renders(&meshopt_quad(|_| {}));
-    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
-    assert_eq!(scene.triangles.len(), 2);
-    let corner = [
-        Vec3::ZERO,
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(2.0, 0.0, 2.0),
-        Vec3::new(0.0, 0.0, 2.0),
-    ];
-    let uv = [
-        Vec2::ZERO,
-        Vec2::new(1.0, 0.0),
-        Vec2::new(1.0, 1.5),
-        Vec2::new(0.0, 1.5),
-    ];
-    let normal = [
-        Vec3::new(0.0, 1.0, 0.3),
-        Vec3::new(0.2, 1.0, 0.0),
-        Vec3::new(0.0, 1.0, 0.0),
-        Vec3::new(-0.5, 0.8, 0.1),
-    ]
-    .map(Vec3::normalize);
-    for (t, ids) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
-        let v = vertices(&scene, t);
-        // The loader may wind a triangle either way; each corner must be one of the quad's.
-        for (k, &id) in ids.iter().enumerate() {
-            let at = v.iter().position(|p| close(*p, corner[id]));
-            let at = at.unwrap_or_else(|| panic!("triangle {t} lacks corner {id}: {v:?}"));
-            let s = &scene.shading[t];
-            assert!(
-                (s.normals[at] - normal[id]).length() < 0.02,
-                "triangle {t} corner {k}: normal {} against {}",
-                s.normals[at],
-                normal[id]
-            );
-            assert!(
-                (s.uvs[at] - uv[id]).length() < 1e-4,
-                "triangle {t} corner {k}: uv {} against {}",
-                s.uvs[at],
-                uv[id]
-            );
+    assert_is_the_quad(
+        &loads_and_renders(&meshopt_quad(false, |_| {})),
+        1e-4,
+        Some(0.02),
+    );
+    assert_is_the_quad(
+        &loads_and_renders(&meshopt_quad(true, |_| {})),
+        1e-4,
+        Some(0.001),
+    );
+    let without_strides = meshopt_quad(false, |r| {
+        for v in r["bufferViews"].as_array_mut().unwrap() {
+            v.as_object_mut().unwrap().remove("byteStride");
         }
-    }
+    });
+    assert_is_the_quad(&loads_and_renders(&without_strides), 1e-4, Some(0.02));
 }
 
 /// A malformed EXT_meshopt_compression is one line naming what is wrong; nothing panics or
@@ -739,24 +788,29 @@ fn malformed_meshopt_compression_is_one_line() {
         &mut r["bufferViews"][view]["extensions"]["EXT_meshopt_compression"]
     }
     refused(
-        &meshopt_quad(|r| ext(r, 0)["mode"] = json!("VERTICES")),
+        &meshopt_quad(false, |r| ext(r, 0)["mode"] = json!("VERTICES")),
         "unknown mode",
     );
     refused(
-        &meshopt_quad(|r| ext(r, 1)["byteStride"] = json!(12)),
+        &meshopt_quad(false, |r| ext(r, 1)["byteStride"] = json!(12)),
         "byteStride 12 is not allowed",
     );
     refused(
-        &meshopt_quad(|r| ext(r, 0)["byteOffset"] = json!(1 << 20)),
+        &meshopt_quad(false, |r| ext(r, 0)["byteOffset"] = json!(1 << 20)),
         "runs past the end",
     );
     refused(
-        &meshopt_quad(|r| ext(r, 0)["count"] = json!(1u64 << 40)),
+        &meshopt_quad(false, |r| ext(r, 0)["count"] = json!(1u64 << 40)),
+        "more than raysplat reads",
+    );
+    // A count whose size in bytes does not fit 64 bits.
+    refused(
+        &meshopt_quad(false, |r| ext(r, 0)["count"] = json!(1u64 << 62)),
         "more than raysplat reads",
     );
     // The index data read by the vertex codec: not a vertex stream.
     refused(
-        &meshopt_quad(|r| {
+        &meshopt_quad(false, |r| {
             let indices = ext(r, 3).clone();
             *ext(r, 0) = indices;
             ext(r, 0)["mode"] = json!("ATTRIBUTES");
@@ -766,7 +820,7 @@ fn malformed_meshopt_compression_is_one_line() {
         "cannot be decoded",
     );
     refused(
-        &meshopt_quad(|r| ext(r, 2)["count"] = json!("four")),
+        &meshopt_quad(false, |r| ext(r, 2)["count"] = json!("four")),
         "not a count",
     );
 }
@@ -787,8 +841,8 @@ fn draco_quad(edit: impl FnOnce(&mut Value)) -> Vec<u8> {
         a.buffer_mut().write(0, values);
         a
     };
-    let corners: Vec<f32> = DRACO_CORNERS.iter().flat_map(|c| c.to_array()).collect();
-    let uvs: Vec<f32> = DRACO_UVS.iter().flat_map(|c| c.to_array()).collect();
+    let corners: Vec<f32> = QUAD_CORNERS.iter().flat_map(|c| c.to_array()).collect();
+    let uvs: Vec<f32> = QUAD_UVS.iter().flat_map(|c| c.to_array()).collect();
     mesh.add_attribute(attribute(
         GeometryAttributeType::Position,
         3,
@@ -841,18 +895,6 @@ fn draco_quad(edit: impl FnOnce(&mut Value)) -> Vec<u8> {
     )
 }
 
-const DRACO_CORNERS: [Vec3; 4] = [
-    Vec3::new(0.0, 0.0, 0.0),
-    Vec3::new(2.0, 0.0, 0.0),
-    Vec3::new(2.0, 0.0, 2.0),
-    Vec3::new(0.0, 0.0, 2.0),
-];
-const DRACO_UVS: [Vec2; 4] = [
-    Vec2::new(0.0, 0.0),
-    Vec2::new(1.0, 0.0),
-    Vec2::new(1.0, 1.0),
-    Vec2::new(0.0, 1.0),
-];
 const DRACO_COLORS: [[u8; 4]; 4] = [
     [255, 0, 0, 255],
     [0, 255, 0, 255],
@@ -866,25 +908,17 @@ const DRACO_COLORS: [[u8; 4]; 4] = [
 #[test]
 fn a_draco_compressed_mesh_loads_as_it_was_encoded() {
     let scene = loads_and_renders(&draco_quad(|_| {}));
-    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
-    assert_eq!(scene.triangles.len(), 2);
-    let mut seen = [false; 4];
+    assert_is_the_quad(&scene, 1.0 / 2048.0, None);
     for t in 0..2 {
         let s = &scene.shading[t];
         assert_ne!(s.extra, raysplat::scene::NO_EXTRA, "COLOR_0 was not read");
         let extra = &scene.extras[s.extra as usize];
         for (k, p) in vertices(&scene, t).iter().enumerate() {
-            let id = DRACO_CORNERS
+            let id = QUAD_CORNERS
                 .iter()
-                .position(|c| (*c - *p).length() < 2.0 / 8192.0)
-                .unwrap_or_else(|| panic!("triangle {t} corner {k} at {p} is none of the quad's"));
-            seen[id] = true;
-            assert!(
-                (s.uvs[k] - DRACO_UVS[id]).length() < 1.0 / 2048.0,
-                "uv {}",
-                s.uvs[k]
-            );
-            let [r, g, b, _] = DRACO_COLORS[id].map(|c| c as f32 / 255.0);
+                .position(|c| (*c - *p).length() < 2.0 / 8192.0);
+            let [r, g, b, _] =
+                DRACO_COLORS[id.expect("a corner of the quad")].map(|c| c as f32 / 255.0);
             let colour = Vec3::new(r, g, b);
             assert!(
                 (extra.color[k].truncate() - colour).length() < 1e-5 && extra.color[k].w == 1.0,
@@ -893,7 +927,6 @@ fn a_draco_compressed_mesh_loads_as_it_was_encoded() {
             );
         }
     }
-    assert_eq!(seen, [true; 4], "every corner of the quad is drawn");
 }
 
 /// A malformed Draco primitive is one line; nothing panics.
@@ -910,11 +943,11 @@ fn malformed_draco_compression_is_one_line() {
     );
     refused(
         &draco_quad(|r| ext(r)["attributes"]["POSITION"] = json!(7)),
-        "which the stream lacks",
+        "is not in the stream",
     );
     refused(
         &draco_quad(|r| ext(r)["bufferView"] = json!(4)),
-        "buffer view 4",
+        "KHR_draco_mesh_compression refers to buffer view 4",
     );
     // The stream cut short.
     refused(

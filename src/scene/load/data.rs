@@ -25,8 +25,11 @@ const MAX_UNBACKED_ELEMENTS: usize = 1 << 25;
 /// nodes instance one large mesh, or many primitives read one large accessor.
 const MAX_ELEMENTS_READ: usize = 1 << 28;
 
+/// Most bytes one load decodes from EXT_meshopt_compression's views in all (1 GiB).
+const MAX_DECODED_BYTES: u64 = 1 << 30;
+
 /// Why data could not be read.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(super) enum DataError {
     /// The file is malformed (an index, range or type that cannot be): the load fails.
     Invalid(String),
@@ -57,15 +60,23 @@ impl DataError {
     }
 }
 
+/// A compressed view: its EXT_meshopt_compression (or why it is malformed) and its bytes,
+/// decoded on first use (or why they cannot be had).
+type CompressedView = (
+    Result<Compressed, String>,
+    OnceCell<Result<Vec<u8>, DataError>>,
+);
+
 /// The file's buffers, each loaded or the reason it could not be, and how many more accessor
 /// elements this load may read.
 pub(super) struct Buffers {
     data: Vec<Result<Vec<u8>, DataError>>,
     budget: std::cell::Cell<usize>,
-    /// Each buffer view's EXT_meshopt_compression, when it has one (or why it is malformed).
-    compressed: Vec<Option<Result<Compressed, String>>>,
-    /// Compressed views decoded on first use (unused ones, such as animation data, never are).
-    decoded: Vec<OnceCell<Result<Vec<u8>, DataError>>>,
+    /// Each buffer view's compression, when it has one (views never used, such as animation
+    /// data, are never decoded).
+    compressed: Vec<Option<CompressedView>>,
+    /// Bytes the load may still decode from compressed views, in all.
+    decode_budget: std::cell::Cell<u64>,
 }
 
 impl Buffers {
@@ -106,23 +117,24 @@ impl Buffers {
             })
             .collect();
         let compressed = (0..root.buffer_views.len())
-            .map(|i| meshopt::compressed(&raw["bufferViews"][i], i).transpose())
+            .map(|i| {
+                let c = meshopt::compressed(&raw["bufferViews"][i], i).transpose()?;
+                Some((c, OnceCell::new()))
+            })
             .collect();
         Self {
             data: buffers,
             budget: std::cell::Cell::new(MAX_ELEMENTS_READ),
             compressed,
-            decoded: (0..root.buffer_views.len())
-                .map(|_| OnceCell::new())
-                .collect(),
+            decode_budget: std::cell::Cell::new(MAX_DECODED_BYTES),
         }
     }
 
     /// Buffer view `index`'s bytes decoded from its EXT_meshopt_compression (decoded once),
     /// or `None` when the view is not compressed.
     fn decoded(&self, index: usize) -> Option<Result<&[u8], DataError>> {
-        let compressed = self.compressed.get(index)?.as_ref()?;
-        let decoded = self.decoded[index].get_or_init(|| {
+        let (compressed, decoded) = self.compressed.get(index)?.as_ref()?;
+        let decoded = decoded.get_or_init(|| {
             let c = compressed.as_ref().map_err(|e| DataError::Invalid(e.clone()))?;
             let data = self.get(c.buffer, &format!("buffer view {index}'s compressed data"))?;
             let bytes = c
@@ -138,20 +150,31 @@ impl Buffers {
                         data.len()
                     )
                 })?;
-            // (Its size is bounded by `decode` before anything is allocated.)
-            let decoded = c.decode(bytes, index)?;
+            // The decoded size is charged before anything is allocated: views may share
+            // one compressed payload, so each view's own cap does not bound the load.
+            let size = c.decoded_size(index)?;
+            let left = self.decode_budget.get().checked_sub(size).ok_or_else(|| {
+                format!(
+                    "buffer view {index}: the file's compressed views decode to more than raysplat reads ({MAX_DECODED_BYTES} bytes in all)"
+                )
+            })?;
+            self.decode_budget.set(left);
             self.spend(c.count)?;
-            Ok(decoded)
+            c.decode(bytes, index)
         });
-        Some(match decoded {
-            Ok(bytes) => Ok(bytes),
-            Err(DataError::Invalid(e)) => Err(DataError::Invalid(e.clone())),
-            Err(DataError::Unavailable(e)) => Err(DataError::Unavailable(e.clone())),
-        })
+        Some(decoded.as_deref().map_err(DataError::clone))
+    }
+
+    /// The element stride of compressed view `index` (of attribute data; indices have none).
+    fn decoded_stride(&self, index: usize) -> Option<usize> {
+        match self.compressed.get(index)? {
+            Some((Ok(c), _)) => c.attribute_stride(),
+            _ => None,
+        }
     }
 
     /// Takes `count` elements from the load's budget, or says the file asks for too many.
-    fn spend(&self, count: usize) -> Result<(), DataError> {
+    pub(super) fn spend(&self, count: usize) -> Result<(), DataError> {
         let left = self.budget.get().checked_sub(count).ok_or_else(|| {
             format!(
                 "the file asks the loader to read more than {MAX_ELEMENTS_READ} accessor elements in all (each instance of a mesh counts)"
@@ -210,7 +233,8 @@ pub(super) fn view_bytes<'a>(
 ) -> Result<(&'a [u8], Option<usize>), DataError> {
     let view = get(&root.buffer_views, index, what)?;
     if let Some(decoded) = buffers.decoded(index) {
-        return Ok((decoded?, view.byte_stride.map(|s| s.0)));
+        // The stride the elements were encoded with (the view may leave its own out).
+        return Ok((decoded?, buffers.decoded_stride(index)));
     }
     let b = view.buffer.value();
     let data = buffers.get(b, &format!("buffer view {index}"))?;
@@ -259,13 +283,30 @@ fn float_reader(ct: ComponentType, normalized: bool) -> fn(&[u8], usize) -> f32 
         (I16, false) => |b, i| i16::from_le_bytes([b[i], b[i + 1]]) as f32,
         (U16, false) => |b, i| u16::from_le_bytes([b[i], b[i + 1]]) as f32,
         (U32, false) => |b, i| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]) as f32,
-        (I8, true) => |b, i| (b[i] as i8 as f32 / 127.0).max(-1.0),
-        (U8, true) => |b, i| b[i] as f32 / 255.0,
-        (I16, true) => |b, i| (i16::from_le_bytes([b[i], b[i + 1]]) as f32 / 32767.0).max(-1.0),
-        (U16, true) => |b, i| u16::from_le_bytes([b[i], b[i + 1]]) as f32 / 65535.0,
-        (U32, true) => {
-            |b, i| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]) as f32 / u32::MAX as f32
-        }
+        (I8, true) => |b, i| normalized_value(I8, b[i] as i8 as f32),
+        (U8, true) => |b, i| normalized_value(U8, b[i] as f32),
+        (I16, true) => |b, i| normalized_value(I16, i16::from_le_bytes([b[i], b[i + 1]]) as f32),
+        (U16, true) => |b, i| normalized_value(U16, u16::from_le_bytes([b[i], b[i + 1]]) as f32),
+        (U32, true) => |b, i| {
+            normalized_value(
+                U32,
+                u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]) as f32,
+            )
+        },
+    }
+}
+
+/// The value of a `normalized` integer component `v` of type `ct` (glTF 2.0 §3.11: signed
+/// types to [−1, 1], with the most negative integer clamped, unsigned to [0, 1]); floats as
+/// they are.
+pub(super) fn normalized_value(ct: ComponentType, v: f32) -> f32 {
+    match ct {
+        ComponentType::I8 => (v / 127.0).max(-1.0),
+        ComponentType::U8 => v / 255.0,
+        ComponentType::I16 => (v / 32767.0).max(-1.0),
+        ComponentType::U16 => v / 65535.0,
+        ComponentType::U32 => v / u32::MAX as f32,
+        ComponentType::F32 => v,
     }
 }
 

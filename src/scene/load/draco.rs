@@ -6,17 +6,18 @@
 //! `normalized` flag (how the decoded values are read) but have no data of their own, and the
 //! decoded faces are the primitive's triangle indices.
 
-use super::data::DataError;
-use draco_core::{DataType, DecodeLimits, DecoderBuffer, Mesh, MeshDecoder};
+use super::data::{DataError, normalized_value};
+use super::mesh::MAX_TRIANGLES;
+use draco_core::{DataType, DecodeLimits, DecoderBuffer, Mesh, MeshDecoder, PointIndex};
+use gltf::json::accessor::ComponentType;
 use serde_json::Value;
 
 /// The extension's name, as files require it.
 pub(super) const EXTENSION: &str = "KHR_draco_mesh_compression";
 
-/// Most points and faces one primitive may decode to: 2²⁵ each, the scene's own cap on
-/// triangles (`mesh::MAX_TRIANGLES`), and 1 GiB of decoded attributes, so that a small stream
-/// that claims a huge mesh is refused before it is allocated.
-const MAX_ELEMENTS: u64 = 1 << 25;
+/// Most bytes of attributes one primitive may decode to (1 GiB); its points and faces are
+/// capped at the scene's cap on triangles, so that a small stream that claims a huge mesh is
+/// refused before it is allocated.
 const MAX_DECODED_BYTES: u64 = 1 << 30;
 
 /// What a compressed primitive declares: the view holding its stream and the Draco id of each
@@ -51,7 +52,8 @@ pub(super) fn compressed(raw: &Value, what: &str) -> Result<Option<Compressed>, 
     Ok(Some(Compressed { view, attributes }))
 }
 
-/// A decoded primitive: its vertex count, triangle indices and the attributes it names.
+/// A decoded primitive: its mesh (points and their attributes), the glTF attribute names
+/// with their Draco ids, and its triangle indices.
 pub(super) struct Decoded {
     mesh: Mesh,
     attributes: Vec<(String, u32)>,
@@ -59,25 +61,22 @@ pub(super) struct Decoded {
 }
 
 impl Compressed {
-    /// Decodes the stream `bytes`.
-    pub(super) fn decode(&self, bytes: &[u8], what: &str) -> Result<Decoded, DataError> {
+    /// Decodes the stream `bytes` (the faces' indices are checked where every primitive's
+    /// are, in `mesh`).
+    pub(super) fn decode(self, bytes: &[u8], what: &str) -> Result<Decoded, DataError> {
         let limits = DecodeLimits::default()
-            .with_max_points(MAX_ELEMENTS)
-            .with_max_faces(MAX_ELEMENTS)
+            .with_max_points(MAX_TRIANGLES as u64)
+            .with_max_faces(MAX_TRIANGLES as u64)
             .with_max_decoded_bytes(MAX_DECODED_BYTES);
         let mut buffer = DecoderBuffer::new(bytes).with_limits(limits);
         let mut mesh = Mesh::new();
         MeshDecoder::new()
             .decode(&mut buffer, &mut mesh)
             .map_err(|e| format!("{what}'s {EXTENSION} stream cannot be decoded ({e})"))?;
-        let points = mesh.num_points() as u32;
         let indices: Vec<u32> = mesh.faces().iter().flat_map(|f| f.map(|p| p.0)).collect();
-        if let Some(bad) = indices.iter().find(|&&i| i >= points) {
-            return Err(format!("{what}'s {EXTENSION} face index {bad} is out of range").into());
-        }
         Ok(Decoded {
             mesh,
-            attributes: self.attributes.clone(),
+            attributes: self.attributes,
             indices,
         })
     }
@@ -85,35 +84,50 @@ impl Compressed {
 
 impl Decoded {
     /// The decoded values of the glTF attribute `name` with `width` components, read as its
-    /// accessor says (`normalized` integers to [0, 1] or [−1, 1], glTF 2.0 §3.11), or `None`
-    /// when the stream does not carry it.
+    /// accessor says (`normalized` integers as `data::normalized_value` reads them, glTF 2.0
+    /// §3.11), or `None` when the stream does not carry it.
     pub(super) fn floats(
         &self,
         name: &str,
         width: usize,
-        normalized: bool,
+        is_normalized: bool,
     ) -> Option<Result<Vec<f32>, DataError>> {
         let &(_, id) = self.attributes.iter().find(|(n, _)| n == name)?;
-        let Some(attribute) = self.mesh.attribute_by_unique_id(id) else {
-            return Some(Err(format!(
-                "{EXTENSION}: attribute {name} names Draco attribute {id}, which the stream lacks"
+        let lacks = |why: String| -> Option<Result<Vec<f32>, DataError>> {
+            Some(Err(format!(
+                "{EXTENSION}: attribute {name} (Draco attribute {id}) {why}"
             )
-            .into()));
+            .into()))
         };
-        let mut values = attribute.read_f32s(self.mesh.num_points(), width);
-        let scale = match attribute.data_type() {
-            _ if !normalized => 1.0,
-            DataType::Int8 => 1.0 / 127.0,
-            DataType::Uint8 => 1.0 / 255.0,
-            DataType::Int16 => 1.0 / 32767.0,
-            DataType::Uint16 => 1.0 / 65535.0,
-            _ => 1.0,
+        let Some(attribute) = self.mesh.attribute_by_unique_id(id) else {
+            return lacks("is not in the stream".into());
         };
-        if scale != 1.0 {
-            for v in &mut values {
-                *v = (*v * scale).max(-1.0);
-            }
+        // Every point must have a value (the decoder reads a missing one as zeros).
+        let points = self.mesh.num_points();
+        let values = attribute.size();
+        if (0..points).any(|p| attribute.mapped_index(PointIndex(p as u32)).0 as usize >= values) {
+            return lacks(format!("has {values} values for {points} points"));
+        }
+        let mut values = attribute.read_f32s(points, width);
+        let ct = match attribute.data_type() {
+            DataType::Int8 => ComponentType::I8,
+            DataType::Uint8 => ComponentType::U8,
+            DataType::Int16 => ComponentType::I16,
+            DataType::Uint16 => ComponentType::U16,
+            DataType::Uint32 => ComponentType::U32,
+            _ => ComponentType::F32,
+        };
+        if is_normalized {
+            values
+                .iter_mut()
+                .for_each(|v| *v = normalized_value(ct, *v));
         }
         Some(Ok(values))
+    }
+
+    /// The elements this primitive reads, for the load's budget: its points' values of every
+    /// attribute the file names, and its indices.
+    pub(super) fn elements(&self) -> usize {
+        self.mesh.num_points() * self.attributes.len() + self.indices.len()
     }
 }

@@ -14,7 +14,7 @@ use gltf::json::{
 
 /// Most triangles a scene may have: 2²⁵ (about 4 GB with their shading data and BVH), so that
 /// instancing cannot grow the scene until an allocation aborts the program.
-const MAX_TRIANGLES: usize = 1 << 25;
+pub(super) const MAX_TRIANGLES: usize = 1 << 25;
 
 #[derive(Default)]
 pub(super) struct LoadStats {
@@ -90,25 +90,6 @@ fn add_primitive(
             return Ok(());
         }
     };
-    // A Draco stream holds the primitive's attributes and its faces (as triangles).
-    let decoded = match draco::compressed(raw, &format!("primitive {p}"))? {
-        Some(c) => {
-            let (bytes, _) = view_bytes(root, input.buffers, c.view, &what(draco::EXTENSION))?;
-            mode = Mode::Triangles;
-            Some(c.decode(bytes, &format!("primitive {p}"))?)
-        }
-        None => None,
-    };
-    // An attribute's values: from the Draco stream when it carries them, else its accessor.
-    let floats = |a: usize, name: &str| -> Result<(Vec<f32>, usize), DataError> {
-        if let Some(d) = &decoded {
-            let (width, normalized) = accessor_shape(root, a, &what(name))?;
-            if let Some(values) = d.floats(name, width, normalized) {
-                return Ok((values?, width));
-            }
-        }
-        read_floats(root, input.buffers, a, &what(name))
-    };
     let material = match prim.material {
         Some(m) => {
             get(&root.materials, m.value(), &what("material"))?;
@@ -121,6 +102,28 @@ fn add_primitive(
     let Some(position) = attribute(Semantic::Positions) else {
         stats.without_positions += 1;
         return Ok(());
+    };
+    // A Draco stream holds the primitive's attributes and its faces (as triangles); it is
+    // decoded for each instance, so each is charged to the load's budget.
+    let decoded = match draco::compressed(raw, &format!("primitive {p}"))? {
+        Some(c) => {
+            let (bytes, _) = view_bytes(root, input.buffers, c.view, &what(draco::EXTENSION))?;
+            mode = Mode::Triangles;
+            let decoded = c.decode(bytes, &format!("primitive {p}"))?;
+            input.buffers.spend(decoded.elements())?;
+            Some(decoded)
+        }
+        None => None,
+    };
+    // An attribute's values: from the Draco stream when it carries them, else its accessor.
+    let floats = |a: usize, name: &str| -> Result<(Vec<f32>, usize), DataError> {
+        if let Some(d) = &decoded {
+            let (width, normalized) = accessor_shape(root, a, &what(name))?;
+            if let Some(values) = d.floats(name, width, normalized) {
+                return Ok((values?, width));
+            }
+        }
+        read_floats(root, input.buffers, a, &what(name))
     };
     let (values, width) = floats(position, "POSITION")?;
     if width != 3 {

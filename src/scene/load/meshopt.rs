@@ -15,16 +15,16 @@ use serde_json::Value;
 pub(super) const EXTENSION: &str = "EXT_meshopt_compression";
 
 /// Most bytes one decoded view may hold (256 MiB): a small file that declares a huge count
-/// cannot make the loader allocate until the program aborts.
+/// cannot make the loader allocate until the program aborts (the load's total is bounded by
+/// `data::Buffers`).
 const MAX_DECODED_BYTES: u64 = 1 << 28;
 
 /// What a compressed view declares.
-#[derive(Debug, PartialEq)]
 pub(super) struct Compressed {
     pub(super) buffer: usize,
     pub(super) offset: usize,
     pub(super) length: usize,
-    pub(super) stride: usize,
+    stride: usize,
     pub(super) count: usize,
     mode: Mode,
     filter: Filter,
@@ -72,11 +72,13 @@ pub(super) fn compressed(raw: &Value, index: usize) -> Result<Option<Compressed>
             None => Ok(default.to_string()),
         }
     };
+    if ext.get("mode").is_none() {
+        return Err(format!("{what} has no mode"));
+    }
     let mode = match name("mode", "")?.as_str() {
         "ATTRIBUTES" => Mode::Attributes,
         "TRIANGLES" => Mode::Triangles,
         "INDICES" => Mode::Indices,
-        "" => return Err(format!("{what} has no mode")),
         other => return Err(format!("{what} has the unknown mode {other:?}")),
     };
     let filter = match name("filter", "NONE")?.as_str() {
@@ -97,14 +99,11 @@ pub(super) fn compressed(raw: &Value, index: usize) -> Result<Option<Compressed>
     };
     // The specification's constraints on stride, mode and filter.
     let stride_ok = match (c.mode, c.filter) {
-        (Mode::Attributes, Filter::None) => {
+        (Mode::Attributes, Filter::None | Filter::Exponential) => {
             c.stride.is_multiple_of(4) && (4..=256).contains(&c.stride)
         }
         (Mode::Attributes, Filter::Octahedral) => c.stride == 4 || c.stride == 8,
         (Mode::Attributes, Filter::Quaternion) => c.stride == 8,
-        (Mode::Attributes, Filter::Exponential) => {
-            c.stride.is_multiple_of(4) && (4..=256).contains(&c.stride)
-        }
         (Mode::Triangles | Mode::Indices, Filter::None) => c.stride == 2 || c.stride == 4,
         (Mode::Triangles | Mode::Indices, _) => false,
     };
@@ -121,15 +120,29 @@ pub(super) fn compressed(raw: &Value, index: usize) -> Result<Option<Compressed>
 }
 
 impl Compressed {
+    /// The decoded size, `count · byteStride` bytes, or why view `view` may not decode it.
+    pub(super) fn decoded_size(&self, view: usize) -> Result<u64, DataError> {
+        (self.count as u64)
+            .checked_mul(self.stride as u64)
+            .filter(|&size| size <= MAX_DECODED_BYTES)
+            .ok_or_else(|| {
+                format!(
+                    "buffer view {view} would decode {} elements of {} bytes, more than raysplat reads ({MAX_DECODED_BYTES} bytes)",
+                    self.count, self.stride
+                )
+                .into()
+            })
+    }
+
+    /// The stride of the decoded elements when they are vertex attributes (indices are read
+    /// by their accessor's type).
+    pub(super) fn attribute_stride(&self) -> Option<usize> {
+        (self.mode == Mode::Attributes).then_some(self.stride)
+    }
+
     /// The decoded bytes (`count · byteStride` of them) from the compressed `bytes`.
     pub(super) fn decode(&self, bytes: &[u8], view: usize) -> Result<Vec<u8>, DataError> {
-        let size = self.count as u64 * self.stride as u64;
-        if size > MAX_DECODED_BYTES {
-            return Err(format!(
-                "buffer view {view} would decode to {size} bytes, more than raysplat reads ({MAX_DECODED_BYTES})"
-            )
-            .into());
-        }
+        self.decoded_size(view)?;
         let failed = |e: meshopt::Error| {
             DataError::Invalid(format!(
                 "buffer view {view}'s {EXTENSION} data cannot be decoded ({e})"
@@ -206,6 +219,7 @@ fn vertices(bytes: &[u8], count: usize, stride: usize) -> meshopt::Result<Vec<u8
         ($($n:literal)*) => {
             match stride {
                 $($n => decode::<$n>(bytes, count),)*
+                // (`compressed` admits no other stride.)
                 _ => Err(meshopt::Error::Parse(format!("byte stride {stride}"))),
             }
         };
