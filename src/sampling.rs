@@ -65,6 +65,15 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     }
 }
 
+// The sets of [`PixelPoints`] each decision draws from, apart so that no two share points
+// (the eye pass and its first NEE draw are seeded alike).
+/// NEE's light samples at eye samples.
+pub const NEE_LIGHT_SET: u32 = 0;
+/// NEE's BSDF samples at eye samples.
+pub const NEE_BSDF_SET: u32 = 1;
+/// Rough glass's light samples in the eye chain, at chain depth d from this set plus d.
+pub const GLASS_LIGHT_SETS: u32 = 2;
+
 /// One pixel's stratified sample points for a sampling decision repeated at each of its eye
 /// samples (light samples, BSDF samples of NEE): an Owen-scrambled Sobol' sequence (Burley
 /// 2020, "Practical Hash-based Owen Scrambling", through the `sobol_burley` crate), scrambled
@@ -283,29 +292,43 @@ mod tests {
 
     /// A pixel's 16 points (4 eye samples × 4 draws) are stratified: one in each sixteenth
     /// of every dimension, one in each cell of a 4×4 grid over the light's 2D sample (the
-    /// set's first two dimensions); over many pixels each point is uniform (mean 1/2,
-    /// variance 1/12 within 5%), so that estimates drawn from them stay unbiased.
+    /// set's first two dimensions). Over many pixels every one of those points, and one past
+    /// the sequence's 2^16 points (a fresh scramble), is uniform: mean 1/2 and mean squared
+    /// deviation 1/12 within 4.5 standard errors of 4,000 pixels (0.0206 and 6.4%), so that
+    /// estimates drawn from them stay unbiased; and two sets are independent (correlation of
+    /// their first dimensions within 4.5/√4000).
     #[test]
     fn pixel_points_are_stratified_and_uniform() {
-        let mut moments = [[0.0f64; 2]; 4];
         let pixels = 4000u32;
+        let sets = [0, 1, 2, 9];
+        // Sums of x, (x − 1/2)² per (set, rank, draw, dimension); rank 4 is 2^14, whose
+        // points start at 2^16.
+        let mut moments = vec![[0.0f64; 2]; sets.len() * 5 * 4 * 4];
+        let mut cross = 0.0f64;
         for pixel in 0..pixels {
-            for set in [0, 1, 2, 9] {
+            for (si, &set) in sets.iter().enumerate() {
                 let mut cells = [0u32; 16];
                 let mut strata = [[0u32; 16]; 4];
-                for rank in 0..4 {
+                for (ri, rank) in [0, 1, 2, 3, 1 << 14].into_iter().enumerate() {
                     let points = PixelPoints::new(9, pixel, rank, 4);
                     for k in 0..4 {
                         let p = points.point(k, set);
-                        for (d, x) in p.iter().enumerate() {
-                            assert!((0.0..1.0).contains(x));
-                            strata[d][(x * 16.0) as usize] += 1;
-                            if set == 0 && rank == 2 && k == 1 {
-                                moments[d][0] += *x as f64;
-                                moments[d][1] += (*x as f64 - 0.5).powi(2);
+                        for (d, &x) in p.iter().enumerate() {
+                            assert!((0.0..1.0).contains(&x));
+                            let m = &mut moments[((si * 5 + ri) * 4 + k as usize) * 4 + d];
+                            m[0] += x as f64;
+                            m[1] += (x as f64 - 0.5).powi(2);
+                            if rank < 4 {
+                                strata[d][(x * 16.0) as usize] += 1;
                             }
                         }
-                        cells[(p[0] * 4.0) as usize * 4 + (p[1] * 4.0) as usize] += 1;
+                        if rank < 4 {
+                            cells[(p[0] * 4.0) as usize * 4 + (p[1] * 4.0) as usize] += 1;
+                        }
+                        if set == 0 && rank == 1 {
+                            let other = points.point(k, 1)[0];
+                            cross += (p[0] as f64 - 0.5) * (other as f64 - 0.5);
+                        }
                     }
                 }
                 assert_eq!(cells, [1; 16], "pixel {pixel}, set {set}");
@@ -315,11 +338,23 @@ mod tests {
                 );
             }
         }
+        let n = pixels as f64;
         for [sum, sq] in moments {
-            let (mean, var) = (sum / pixels as f64, sq / pixels as f64);
-            assert!((mean - 0.5).abs() < 0.01, "mean {mean}");
-            assert!((var * 12.0 - 1.0).abs() < 0.05, "variance {var}");
+            let (mean, var) = (sum / n, sq / n);
+            assert!(
+                (mean - 0.5).abs() < 4.5 * (1.0 / 12.0 / n).sqrt(),
+                "mean {mean}"
+            );
+            // The squared deviation's own variance is 1/80 − 1/144.
+            let se = ((1.0 / 80.0 - 1.0 / 144.0) / n).sqrt();
+            assert!((var - 1.0 / 12.0).abs() < 4.5 * se, "variance {var}");
         }
+        // Correlation of set 0's and set 1's first dimension over 4 draws of each pixel.
+        let correlation = cross / (4.0 * n) * 12.0;
+        assert!(
+            correlation.abs() < 4.5 / (4.0 * n).sqrt(),
+            "correlation {correlation}"
+        );
     }
 
     #[test]

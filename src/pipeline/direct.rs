@@ -9,7 +9,7 @@
 
 use crate::bsdf::Bsdf;
 use crate::pipeline::eye::EyeSamples;
-use crate::sampling::{PixelPoints, power_heuristic};
+use crate::sampling::{NEE_BSDF_SET, NEE_LIGHT_SET, PixelPoints, power_heuristic};
 use crate::scene::{Hit, Scene};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -116,19 +116,19 @@ fn direct_light_through(
     let radiance: Vec<Vec3> = (0..eye.len())
         .into_par_iter()
         .map(|i| {
-            let points = PixelPoints::new(seed, eye.pixel[i], ranks[i], samples);
             let p = eye.position[i];
             let n = eye.normal[i].get();
             let ng = eye.geo_normal[i].get();
             let Some(bsdf) = bsdf_of(i) else {
                 return Vec3::ZERO;
             };
+            let points = PixelPoints::new(seed, eye.pixel[i], ranks[i], samples);
             let wo = eye.wo[i].get();
             let mut sum = Vec3::ZERO;
             for k in 0..samples {
                 // The light's 2D sample in the set's first two dimensions, whose Sobol'
                 // points are stratified in 2D; the choice among lights in the third.
-                let [x, y, u, _] = points.point(k, 0);
+                let [x, y, u, _] = points.point(k, NEE_LIGHT_SET);
                 let Some(ls) = scene.lights.sample_direct(p, Some(n), u, Vec2::new(x, y)) else {
                     continue;
                 };
@@ -151,7 +151,7 @@ fn direct_light_through(
             // The BSDF-sampled half of the estimate: an emitter met along a sampled direction,
             // weighted against the light sampler's density for it.
             for k in 0..samples {
-                let [x, y, lobe, _] = points.point(k, 1);
+                let [x, y, lobe, _] = points.point(k, NEE_BSDF_SET);
                 let Some(s) = bsdf.sample(wo, n, Vec2::new(x, y), lobe) else {
                     continue;
                 };

@@ -8,7 +8,7 @@ use crate::bsdf::{
     Bsdf, ggx_g1, ggx_g2, glass_lobes, phong_equivalent, reflect, sample_ggx_visible, schlick,
     schlick_to,
 };
-use crate::sampling::{PixelPoints, Rng, power_heuristic};
+use crate::sampling::{GLASS_LIGHT_SETS, PixelPoints, Rng, power_heuristic};
 use crate::scene::{Hit, Scene};
 use glam::{Vec2, Vec3};
 
@@ -255,10 +255,6 @@ fn branch_weight(lobe_pdf: f32, light_samples: u32, light_pdf: impl FnOnce() -> 
         1.0
     }
 }
-
-/// The first of [`PixelPoints`]' dimension sets that rough glass's light samples draw from
-/// (sets 0 and 1 are NEE's at eye samples, [`crate::pipeline::direct`]).
-const GLASS_LIGHT_SETS: u32 = 2;
 
 /// Light seen through and off rough glass at `hit`, by `light_samples` light samples from
 /// both sides (next-event estimation, as the path tracer's at rough glass), drawn from the
