@@ -167,17 +167,12 @@ impl Bsdf {
         }
     }
 
-    /// Solid-angle density with which the eye passes' branch of `wi`'s lobe of rough glass
-    /// (reflected on ωo's side of the shading normal, refracted across it) draws `wi`:
-    /// [`Bsdf::pdf`] without the Fresnel choice, since the eye passes follow both lobes about
-    /// one microfacet normal ([`glass_lobes`]). Zero for every other model and smooth glass.
-    pub fn glass_lobe_pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
-        self.rough_glass(wo, wi, n).1
-    }
-
-    /// Rough glass's [`Bsdf::eval`] and [`Bsdf::glass_lobe_pdf`] from one evaluation of
-    /// Walter et al.'s terms (the eye passes' light samples at rough glass need both); zero
-    /// for every other model and smooth glass.
+    /// Rough glass's [`Bsdf::eval`] and the density with which the eye passes' branch of
+    /// `wi`'s lobe (reflected on ωo's side of the shading normal, refracted across it) draws
+    /// `wi` — [`Bsdf::pdf`] without the Fresnel choice, since the eye passes follow both
+    /// lobes about one microfacet normal ([`glass_lobes`]) — from one evaluation of Walter et
+    /// al.'s terms (the eye passes' light samples at rough glass need both); zero for every
+    /// other model and smooth glass.
     #[inline]
     pub fn rough_glass(&self, wo: Vec3, wi: Vec3, n: Vec3) -> (Vec3, f32) {
         let Bsdf::Dielectric { ior, tint, alpha } = *self else {
@@ -245,33 +240,36 @@ impl Bsdf {
                 let lobes = glass_lobes(wo, n, ior, alpha, u);
                 // Fresnel at ωo·h chooses the lobe.
                 let reflects = u_lobe < lobes.fresnel;
-                let (wi, masking) = if reflects {
+                let lobe = if reflects {
                     lobes.reflected
                 } else {
                     lobes.refracted
                 }?;
+                let choice = if reflects {
+                    lobes.fresnel
+                } else {
+                    1.0 - lobes.fresnel
+                };
+                let wi = lobe.dir;
                 let colour = if reflects { Vec3::ONE } else { tint };
                 if alpha <= 0.0 {
                     return Some(BsdfSample {
                         wi,
                         weight: colour,
-                        pdf: if reflects {
-                            lobes.fresnel
-                        } else {
-                            1.0 - lobes.fresnel
-                        },
+                        pdf: choice,
                         specular: true,
                     });
                 }
-                let pdf = RoughGlass::at(wo, wi, n, ior, alpha)?.pdf;
-                if pdf <= 0.0 {
+                // The branch's density from the drawn normal (no second evaluation).
+                let pdf = choice * lobe.pdf;
+                if pdf <= 0.0 || !pdf.is_finite() {
                     return None;
                 }
                 // f·|cos θi|/pdf with the visible normals' density: G₂/G₁(ωo), the Fresnel
                 // choice cancelling F or 1 − F (Heitz 2018, eq. 19 for either lobe).
                 Some(BsdfSample {
                     wi,
-                    weight: colour * masking,
+                    weight: colour * lobe.masking,
                     pdf,
                     specular: false,
                 })
@@ -286,12 +284,24 @@ impl Bsdf {
 pub struct GlassLobes {
     /// The dielectric Fresnel reflectance at ωo·h.
     pub fresnel: f32,
-    /// The reflected direction and its masking G₂/G₁(ωo) (1 for smooth glass); `None` where
-    /// rough glass reflects below the macrosurface.
-    pub reflected: Option<(Vec3, f32)>,
-    /// The refracted direction and its masking; `None` on total internal reflection, or where
-    /// rough glass refracts back to ωo's side.
-    pub refracted: Option<(Vec3, f32)>,
+    /// The reflected lobe; `None` where rough glass reflects below the macrosurface.
+    pub reflected: Option<GlassLobe>,
+    /// The refracted lobe; `None` on total internal reflection, or where rough glass
+    /// refracts back to ωo's side.
+    pub refracted: Option<GlassLobe>,
+}
+
+/// One lobe of [`GlassLobes`].
+#[derive(Clone, Copy)]
+pub struct GlassLobe {
+    /// Its direction.
+    pub dir: Vec3,
+    /// Its masking G₂/G₁(ωo) (1 for smooth glass).
+    pub masking: f32,
+    /// The solid-angle density of `dir` without the Fresnel choice ([`RoughGlass`]'s
+    /// `lobe_pdf`, from the drawn normal; 1 for smooth glass): what the eye passes' branch of
+    /// this lobe is weighted by.
+    pub pdf: f32,
 }
 
 /// [`GlassLobes`] at ωo: what [`Bsdf::sample`] draws one of by Fresnel, and what the eye
@@ -310,20 +320,43 @@ pub fn glass_lobes(wo: Vec3, n: Vec3, ior: f32, alpha: f32, u: Vec2) -> GlassLob
         nn
     };
     let cos_o = wo.dot(nn);
-    // A rough lobe's direction must land on its side of the macrosurface; smooth glass's
-    // always does.
-    let lobe = |d: Vec3, above: bool| {
-        if alpha <= 0.0 {
-            return Some((d, 1.0));
-        }
-        let cos_i = d.dot(nn);
-        (cos_i != 0.0 && (cos_i > 0.0) == above)
-            .then(|| (d, ggx_g2(cos_o, cos_i, alpha) / ggx_g1(cos_o, alpha)))
+    let oh = wo.dot(h);
+    // The visible normals' density of h, G₁(ωo)·(ωo·h)·D(h)/cos θo (Heitz 2018, eq. 3),
+    // and G₁(ωo) for the masking, once for both lobes.
+    let (g1, visible) = if alpha > 0.0 {
+        let g1 = ggx_g1(cos_o, alpha);
+        (g1, g1 * oh * ggx_d(h.dot(nn), alpha) / cos_o)
+    } else {
+        (1.0, 0.0)
     };
+    // A rough lobe's direction must land on its side of the macrosurface; smooth glass's
+    // always does. `jacobian` turns the density of h into that of the direction (Walter et
+    // al. 2007, eq. 14 and 17).
+    let lobe = |dir: Vec3, above: bool, jacobian: f32| {
+        if alpha <= 0.0 {
+            return Some(GlassLobe {
+                dir,
+                masking: 1.0,
+                pdf: 1.0,
+            });
+        }
+        let cos_i = dir.dot(nn);
+        (cos_i != 0.0 && (cos_i > 0.0) == above).then(|| GlassLobe {
+            dir,
+            masking: ggx_g2(cos_o, cos_i, alpha) / g1,
+            pdf: visible * jacobian,
+        })
+    };
+    let refracted = refract(wo, h, eta).and_then(|t| {
+        // η' = 1/η: the medium of ωi over that of ωo.
+        let ih = t.dot(h);
+        let denom = (ih + oh * eta) * (ih + oh * eta);
+        lobe(t, false, ih.abs() / denom)
+    });
     GlassLobes {
-        fresnel: fresnel_dielectric(wo.dot(h), eta),
-        reflected: lobe(reflect(wo, h), true),
-        refracted: refract(wo, h, eta).and_then(|t| lobe(t, false)),
+        fresnel: fresnel_dielectric(oh, eta),
+        reflected: lobe(reflect(wo, h), true, 1.0 / (4.0 * oh)),
+        refracted,
     }
 }
 

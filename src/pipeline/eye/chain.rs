@@ -36,7 +36,7 @@ pub(super) struct Branch {
     /// The ray leaves a traced lobe.
     pub(super) from_lobe: bool,
     /// The density with which a rough glass vertex's branch drew `dir`
-    /// ([`Bsdf::glass_lobe_pdf`]): the emission it meets is weighted against that vertex's
+    /// ([`crate::bsdf::GlassLobe`]'s `pdf`): the emission it meets is weighted against that vertex's
     /// light samples (multiple importance sampling). Zero: whole weight.
     pub(super) lobe_pdf: f32,
     /// That vertex's position (where its light samples were drawn from), when `lobe_pdf` > 0.
@@ -225,17 +225,18 @@ pub(super) fn trace_chain(
                     let draws = (&points, depth);
                     emitted += w * rough_glass_light(scene, &hit, bsdf, wo, s.light_samples, draws);
                 }
-                // The density of each rough branch's direction, for the emission it meets.
-                let lobe_pdf = |d: Vec3| bsdf.glass_lobe_pdf(wo, d, hit.normal);
-                if let Some((r, masking)) = lobes.reflected {
-                    push(r, w * (f * masking), false, lobe_pdf(r));
+                // (Each rough branch carries its direction's density, for the emission it
+                // meets; smooth glass's branches take the whole weight.)
+                let lobe_pdf = |pdf: f32| if alpha > 0.0 { pdf } else { 0.0 };
+                if let Some(r) = lobes.reflected {
+                    push(r.dir, w * (f * r.masking), false, lobe_pdf(r.pdf));
                 }
-                if let Some((t, masking)) = lobes.refracted {
+                if let Some(t) = lobes.refracted {
                     // Radiance crossing into glass falls by η² (Bsdf::radiance_scale): an
                     // eye sample inside a volume sees light that photons delivered as flux.
-                    let scale = bsdf.radiance_scale(wo, t, hit.normal);
-                    let weight = w * tint * ((1.0 - f) * masking * scale);
-                    push(t, weight, true, lobe_pdf(t));
+                    let scale = bsdf.radiance_scale(wo, t.dir, hit.normal);
+                    let weight = w * tint * ((1.0 - f) * t.masking * scale);
+                    push(t.dir, weight, true, lobe_pdf(t.pdf));
                 }
             }
         }
