@@ -360,13 +360,13 @@ pub fn glass_lobes(wo: Vec3, n: Vec3, ior: f32, alpha: f32, u: Vec2) -> GlassLob
     }
 }
 
-/// Rough glass's value and density for one pair of directions (Walter et al. 2007, §5.2, with
-/// GGX's height-correlated G₂ and visible-normal sampling; pbrt-v4's `DielectricBxDF` has the
-/// same terms). `n` is the surface's own normal (pointing outside); ωo's side decides which
-/// medium it is in. Reflection: f = F·D·G₂/(4|cos θo||cos θi|) about h = ωo + ωi.
-/// Refraction: with η' = η_i/η_o (the medium of ωi over that of ωo) and
-/// h = ωo + η'·ωi turned to ωo's side, f = (1 − F)·D·G₂·|ωi·h||ωo·h| /
-/// (|cos θo||cos θi|·(ωi·h + ωo·h/η')²), the importance (flux) form: radiance takes
+/// Rough glass's value and density for one pair of directions (Walter et al. 2007, §4, with
+/// GGX's distribution, their §5.3, height-correlated G₂ and visible-normal sampling; pbrt-v4's
+/// `DielectricBxDF` has the same terms). `n` is the surface's own normal (pointing outside);
+/// ωo's side decides which medium it is in. Reflection: f = F·D·G₂/(4|cos θo||cos θi|) about
+/// h = ωo + ωi (Walter eq. 13, 20). Refraction: with η' = η_i/η_o (the medium of ωi over that
+/// of ωo) and h = ωo + η'·ωi turned to ωo's side (eq. 16), f = (1 − F)·D·G₂·|ωi·h||ωo·h| /
+/// (|cos θo||cos θi|·(ωi·h + ωo·h/η')²) (eq. 21), the importance (flux) form: radiance takes
 /// [`Bsdf::radiance_scale`]'s 1/η'² on top, as smooth glass does. The density is the visible
 /// normals' G₁(ωo)·(ωo·h)·D(h)/cos θo times the Fresnel choice and the Jacobian,
 /// 1/(4 ωo·h) for reflection and |ωi·h|/(ωi·h + ωo·h/η')² for refraction (Walter eq. 14, 17).

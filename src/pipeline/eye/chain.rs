@@ -244,10 +244,12 @@ pub(super) fn trace_chain(
     emitted
 }
 
-/// The multiple-importance weight (Veach's power heuristic) of emission met by a branch drawn
-/// with density `lobe_pdf` at a rough glass vertex, against that vertex's `light_samples`
-/// light samples, whose density for the same direction `light_pdf` gives (a branch with
-/// `lobe_pdf` zero did not leave rough glass: whole weight).
+/// The multiple-importance weight of emission met by a branch drawn with density `lobe_pdf`
+/// at a rough glass vertex, against that vertex's `light_samples` light samples, whose
+/// density for the same direction `light_pdf` gives: Veach's power heuristic with each
+/// technique's density times its count of samples (Veach 1997, §9.2.2: one branch
+/// against n light samples). A branch with `lobe_pdf` zero did not leave rough glass: whole
+/// weight.
 #[inline]
 fn branch_weight(lobe_pdf: f32, light_samples: u32, light_pdf: impl FnOnce() -> f32) -> f32 {
     if lobe_pdf > 0.0 && light_samples > 0 {
