@@ -73,6 +73,8 @@ pub const NEE_LIGHT_SET: u32 = 0;
 pub const NEE_BSDF_SET: u32 = 1;
 /// Rough glass's light samples in the eye chain, at chain depth d from this set plus d.
 pub const GLASS_LIGHT_SETS: u32 = 2;
+/// The microfacet normals drawn where an eye chain splits at rough glass.
+pub const GLASS_SPLIT_SET: u32 = 1 << 16;
 
 /// One pixel's stratified sample points for a sampling decision repeated at each of its eye
 /// samples (light samples, BSDF samples of NEE): an Owen-scrambled Sobol' sequence (Burley
@@ -85,7 +87,8 @@ pub const GLASS_LIGHT_SETS: u32 = 2;
 #[derive(Clone, Copy, Debug)]
 pub struct PixelPoints {
     seed: u32,
-    base: u32,
+    rank: u32,
+    per_sample: u32,
 }
 
 impl PixelPoints {
@@ -94,7 +97,27 @@ impl PixelPoints {
         let seed = splitmix64(seed ^ splitmix64(pixel as u64 ^ 0x50b0_1000_0000)) as u32;
         Self {
             seed,
-            base: rank.saturating_mul(per_sample),
+            rank,
+            per_sample,
+        }
+    }
+
+    /// The points of the `j`-th of `ways` paths an eye sample splits into, with the same
+    /// `per_sample`: rank `rank · ways + j` of the pixel, so that the pixel's split paths
+    /// together are stratified as its eye samples are (and draw from the same sets).
+    pub fn split(&self, ways: u32, j: u32) -> Self {
+        Self {
+            rank: self.rank.saturating_mul(ways).saturating_add(j),
+            ..*self
+        }
+    }
+
+    /// These points drawing `per_sample` per set instead (a decision made once per eye
+    /// sample takes one).
+    pub fn per_sample(&self, per_sample: u32) -> Self {
+        Self {
+            per_sample,
+            ..*self
         }
     }
 
@@ -105,7 +128,7 @@ impl PixelPoints {
     /// fresh scramble, still uniform.
     #[inline]
     pub fn point(&self, k: u32, set: u32) -> [f32; 4] {
-        let index = self.base.wrapping_add(k);
+        let index = self.rank.saturating_mul(self.per_sample).wrapping_add(k);
         let scramble = splitmix64(((index >> 16) as u64) << 32 | set as u64) as u32;
         sobol_burley::sample_4d(index & 0xffff, 0, self.seed ^ scramble)
     }
@@ -355,6 +378,35 @@ mod tests {
             correlation.abs() < 4.5 / (4.0 * n).sqrt(),
             "correlation {correlation}"
         );
+    }
+
+    /// Where an eye path splits (rough glass in the eye chain, docs/deviations.md §60), the
+    /// pixel's 4 eye samples × 4 split paths draw their normals as 16 stratified points (one
+    /// in each cell of a 4×4 grid), and each split path's own light samples are those of the
+    /// pixel's rank r·4 + j, so that no two of its 16 paths share a light sample.
+    #[test]
+    fn split_paths_take_ranks_of_their_own() {
+        for pixel in 0..500 {
+            let mut cells = [0u32; 16];
+            let mut firsts = Vec::new();
+            for rank in 0..4 {
+                let points = PixelPoints::new(3, pixel, rank, 2);
+                for j in 0..4 {
+                    let [x, y, ..] = points.per_sample(4).point(j, GLASS_SPLIT_SET);
+                    cells[(x * 4.0) as usize * 4 + (y * 4.0) as usize] += 1;
+                    let child = points.split(4, j);
+                    let own = PixelPoints::new(3, pixel, rank * 4 + j, 2);
+                    for k in 0..2 {
+                        assert_eq!(child.point(k, 5), own.point(k, 5));
+                        firsts.push(child.point(k, 5)[0].to_bits());
+                    }
+                }
+            }
+            assert_eq!(cells, [1; 16], "pixel {pixel}");
+            firsts.sort_unstable();
+            firsts.dedup();
+            assert_eq!(firsts.len(), 32, "pixel {pixel}");
+        }
     }
 
     #[test]

@@ -8,14 +8,19 @@ use crate::bsdf::{
     Bsdf, ggx_g1, ggx_g2, glass_lobes, phong_equivalent, reflect, sample_ggx_visible, schlick,
     schlick_to,
 };
-use crate::sampling::{GLASS_LIGHT_SETS, PixelPoints, Rng, power_heuristic};
+use crate::sampling::{GLASS_LIGHT_SETS, GLASS_SPLIT_SET, PixelPoints, Rng, power_heuristic};
 use crate::scene::{Hit, Scene};
 use glam::{Vec2, Vec3};
 
 /// Branches whose weight falls below this are dropped (they cannot change a pixel visibly).
 pub(super) const MIN_BRANCH_WEIGHT: f32 = 1e-3;
 /// Pending specular branches per camera ray.
-pub(super) const BRANCH_STACK: usize = 16;
+pub(super) const BRANCH_STACK: usize = 32;
+/// The paths an eye path splits into at the first rough glass it meets, each about a
+/// microfacet normal of its own drawn from the pixel's stratified points (docs/deviations.md
+/// §60): what is seen through frosted glass varies with the drawn normals far more than what
+/// a diffuse surface's eye sample gathers.
+pub(super) const GLASS_SPLIT: u32 = 4;
 
 /// A branch of an eye path: origin, direction, weight, depth (specular and traced glossy
 /// bounces so far), length so far, the triangle it leaves, and whether it leaves a traced lobe.
@@ -41,6 +46,10 @@ pub(super) struct Branch {
     pub(super) lobe_pdf: f32,
     /// That vertex's position (where its light samples were drawn from), when `lobe_pdf` > 0.
     pub(super) vertex: Vec3,
+    /// The pixel's stratified points of this path (its own rank once it has split).
+    pub(super) points: PixelPoints,
+    /// The path has split at rough glass (it splits once).
+    pub(super) split: bool,
 }
 
 /// An eye sample as a chain leaves it, before it is packed.
@@ -54,15 +63,15 @@ pub(super) struct RawSample {
 }
 
 /// Follow one camera ray through specular chains and traced glossy lobes; push eye samples,
-/// return emitted radiance. Random numbers come from `rng`, and rough glass's light samples
-/// from the pixel's stratified `points`. `stack` is the caller's scratch for pending branches (reused
-/// from ray to ray: nothing is allocated or initialised per ray).
+/// return emitted radiance. Random numbers come from `rng`, and rough glass's split normals
+/// and light samples from the branch's stratified points. `stack` is the caller's scratch for
+/// pending branches (reused from ray to ray: nothing is allocated or initialised per ray).
 pub(super) fn trace_chain(
     scene: &Scene,
     start: Branch,
     pixel: u32,
     s: &EyeSettings,
-    (rng, points): (&mut Rng, PixelPoints),
+    rng: &mut Rng,
     stack: &mut Vec<Branch>,
     out: &mut Vec<RawSample>,
 ) -> Vec3 {
@@ -81,6 +90,8 @@ pub(super) fn trace_chain(
             from_lobe,
             lobe_pdf,
             vertex,
+            points,
+            split,
         } = branch;
         let Some(hit) = scene.intersect_except(o, d, f32::INFINITY, leaving) else {
             // Escaped: the environment seen directly or through the chain (off a traced lobe
@@ -166,6 +177,8 @@ pub(super) fn trace_chain(
                     from_lobe: true,
                     lobe_pdf: 0.0,
                     vertex: hit.position,
+                    points,
+                    split,
                 });
             } else if depth < max_depth && traces_lobe(bsdf, s.lobe_limit) {
                 // The lobe is traced, but its sampled direction left through the surface or
@@ -176,7 +189,7 @@ pub(super) fn trace_chain(
         }
         // A branch that leaves through the geometric surface the wrong way (a shading normal
         // can send it there) is dropped, as photons and the path tracer drop it.
-        let mut push = |d: Vec3, w: Vec3, transmit: bool, lobe_pdf: f32| {
+        let mut push = |d: Vec3, w: Vec3, transmit: bool, lobe_pdf: f32, points, split| {
             if w.max_element() >= MIN_BRANCH_WEIGHT
                 && stack.len() < BRANCH_STACK
                 && Scene::leaves_correctly(&hit, wo, d, transmit)
@@ -191,6 +204,8 @@ pub(super) fn trace_chain(
                     from_lobe: false,
                     lobe_pdf,
                     vertex: hit.position,
+                    points,
+                    split,
                 });
             }
         };
@@ -206,37 +221,59 @@ pub(super) fn trace_chain(
                 };
                 let r = reflect(wo, n);
                 // The conductor's Fresnel, as `Bsdf::sample` gives photons and the path tracer.
-                push(r, w * schlick(color, wo.dot(n)), false, 0.0);
+                push(r, w * schlick(color, wo.dot(n)), false, 0.0, points, split);
             }
             Bsdf::Dielectric { ior, tint, alpha } => {
                 // Both lobes are followed about one microfacet normal (drawn for rough glass
                 // only, so that smooth glass keeps its streams), each an unbiased one-sample
                 // estimate of its lobe (`bsdf::glass_lobes`; `Bsdf::sample` draws one of the
                 // two by Fresnel instead). A rough lobe that lands on the wrong side of the
-                // macrosurface carries nothing.
-                let u = if alpha > 0.0 {
-                    rng.next_2d()
+                // macrosurface carries nothing. At the first rough glass of the path, the
+                // path splits into GLASS_SPLIT such pairs about normals drawn from the pixel's
+                // stratified points (deviations §60), each of weight 1/GLASS_SPLIT.
+                let ways = if alpha > 0.0 && !split {
+                    GLASS_SPLIT
                 } else {
-                    Vec2::ZERO
+                    1
                 };
-                let lobes = glass_lobes(wo, hit.normal, ior, alpha, u);
-                let f = lobes.fresnel;
                 if alpha > 0.0 {
-                    let draws = (&points, depth);
+                    let draws = (&points, depth, ways);
                     emitted += w * rough_glass_light(scene, &hit, bsdf, wo, s.light_samples, draws);
                 }
-                // (Each rough branch carries its direction's density, for the emission it
-                // meets; smooth glass's branches take the whole weight.)
-                let lobe_pdf = |pdf: f32| if alpha > 0.0 { pdf } else { 0.0 };
-                if let Some(r) = lobes.reflected {
-                    push(r.dir, w * (f * r.masking), false, lobe_pdf(r.pdf));
-                }
-                if let Some(t) = lobes.refracted {
-                    // Radiance crossing into glass falls by η² (Bsdf::radiance_scale): an
-                    // eye sample inside a volume sees light that photons delivered as flux.
-                    let scale = bsdf.radiance_scale(wo, t.dir, hit.normal);
-                    let weight = w * tint * ((1.0 - f) * t.masking * scale);
-                    push(t.dir, weight, true, lobe_pdf(t.pdf));
+                let w = w / ways as f32;
+                for j in 0..ways {
+                    let (u, points) = if ways > 1 {
+                        let [x, y, ..] = points.per_sample(ways).point(j, GLASS_SPLIT_SET);
+                        (Vec2::new(x, y), points.split(ways, j))
+                    } else if alpha > 0.0 {
+                        (rng.next_2d(), points)
+                    } else {
+                        (Vec2::ZERO, points)
+                    };
+                    let split = split || ways > 1;
+                    let lobes = glass_lobes(wo, hit.normal, ior, alpha, u);
+                    let f = lobes.fresnel;
+                    // (Each rough branch carries its technique's density, the direction's
+                    // times the paths drawn at this vertex, for the emission it meets; smooth
+                    // glass's branches take the whole weight.)
+                    let lobe_pdf = |pdf: f32| if alpha > 0.0 { pdf * ways as f32 } else { 0.0 };
+                    if let Some(r) = lobes.reflected {
+                        push(
+                            r.dir,
+                            w * (f * r.masking),
+                            false,
+                            lobe_pdf(r.pdf),
+                            points,
+                            split,
+                        );
+                    }
+                    if let Some(t) = lobes.refracted {
+                        // Radiance crossing into glass falls by η² (Bsdf::radiance_scale): an
+                        // eye sample inside a volume sees light that photons delivered as flux.
+                        let scale = bsdf.radiance_scale(wo, t.dir, hit.normal);
+                        let weight = w * tint * ((1.0 - f) * t.masking * scale);
+                        push(t.dir, weight, true, lobe_pdf(t.pdf), points, split);
+                    }
                 }
             }
         }
@@ -247,9 +284,9 @@ pub(super) fn trace_chain(
 /// The multiple-importance weight of emission met by a branch drawn with density `lobe_pdf`
 /// at a rough glass vertex, against that vertex's `light_samples` light samples, whose
 /// density for the same direction `light_pdf` gives: Veach's power heuristic with each
-/// technique's density times its count of samples (Veach 1997, §9.2.2: one branch
-/// against n light samples). A branch with `lobe_pdf` zero did not leave rough glass: whole
-/// weight.
+/// technique's density times its count of samples (Veach 1997, §9.2.2: the vertex's branches
+/// of one lobe, whose count `lobe_pdf` already includes, against n light samples). A branch
+/// with `lobe_pdf` zero did not leave rough glass: whole weight.
 #[inline]
 fn branch_weight(lobe_pdf: f32, light_samples: u32, light_pdf: impl FnOnce() -> f32) -> f32 {
     if lobe_pdf > 0.0 && light_samples > 0 {
@@ -261,10 +298,11 @@ fn branch_weight(lobe_pdf: f32, light_samples: u32, light_pdf: impl FnOnce() -> 
 
 /// Light seen through and off rough glass at `hit`, by `light_samples` light samples from
 /// both sides (next-event estimation, as the path tracer's at rough glass), drawn from the
-/// pixel's stratified `points` (docs/deviations.md §59) at the vertex's chain `depth`: the radiance
-/// towards ωo before the branch's weight, each sample weighted against the branch of its lobe
-/// by [`branch_weight`]'s heuristic (n·p_light against the lobe's density), so that the two
-/// branches and the light samples together count every light once. Point, spot and
+/// path's stratified `points` (docs/deviations.md §59) at the vertex's chain `depth`: the
+/// radiance towards ωo before the branch's weight, each sample weighted against the `ways`
+/// branches of its lobe by [`branch_weight`]'s heuristic (n·p_light against `ways` times the
+/// lobe's density), so that the branches and the light samples together count every light
+/// once. Point, spot and
 /// directional lights, which no branch can meet, are reached this way only.
 fn rough_glass_light(
     scene: &Scene,
@@ -272,7 +310,7 @@ fn rough_glass_light(
     bsdf: Bsdf,
     wo: Vec3,
     light_samples: u32,
-    (points, depth): (&PixelPoints, u32),
+    (points, depth, ways): (&PixelPoints, u32, u32),
 ) -> Vec3 {
     let n = hit.normal;
     let mut sum = Vec3::ZERO;
@@ -295,7 +333,7 @@ fn rough_glass_light(
         if f == Vec3::ZERO || !scene.light_visible(scene.offset(hit, ls.wi), &ls) {
             continue;
         }
-        let m = power_heuristic(light_samples as f32 * ls.pdf, lobe_pdf);
+        let m = power_heuristic(light_samples as f32 * ls.pdf, ways as f32 * lobe_pdf);
         let cos = ls.wi.dot(n).abs();
         sum += f * ls.value * (cos * bsdf.radiance_scale(wo, ls.wi, n) * m);
     }

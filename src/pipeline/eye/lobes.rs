@@ -87,18 +87,12 @@ pub fn trace_lobes(
                         from_lobe: true,
                         lobe_pdf: 0.0,
                         vertex: p,
+                        points: PixelPoints::new(lobe_seed, pixel, j as u32, s.light_samples),
+                        split: false,
                     };
                     if w.max_element() >= MIN_BRANCH_WEIGHT {
-                        let points = PixelPoints::new(lobe_seed, pixel, j as u32, s.light_samples);
-                        emitted[(pixel - y * s.width) as usize] += trace_chain(
-                            scene,
-                            start,
-                            pixel,
-                            &s,
-                            (&mut rng, points),
-                            &mut stack,
-                            &mut out,
-                        );
+                        emitted[(pixel - y * s.width) as usize] +=
+                            trace_chain(scene, start, pixel, &s, &mut rng, &mut stack, &mut out);
                     }
                 }
             }

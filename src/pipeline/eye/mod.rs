@@ -118,17 +118,11 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                     from_lobe: false,
                     lobe_pdf: 0.0,
                     vertex: camera.position,
+                    points: PixelPoints::new(s.seed, pixel, k, s.light_samples),
+                    split: false,
                 };
-                let points = PixelPoints::new(s.seed, pixel, k, s.light_samples);
-                emitted[x as usize] += trace_chain(
-                    scene,
-                    start,
-                    pixel,
-                    s,
-                    (&mut lobe_rng, points),
-                    &mut stack,
-                    &mut out,
-                );
+                emitted[x as usize] +=
+                    trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut stack, &mut out);
             }
             assign_targets(
                 &mut out[first..],
