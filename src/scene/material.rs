@@ -377,6 +377,15 @@ impl Scene {
         c
     }
 
+    /// The share α of light an alpha-`BLEND` surface stops at a hit (the base colour's
+    /// alpha: factor × texture × COLOR_0, glTF §3.9.4), in [0, 1]; `None` for every other
+    /// alpha mode (MASK's cut-outs are never hit).
+    #[inline]
+    pub fn coverage(&self, hit: &Hit) -> Option<f32> {
+        let m = &self.materials[hit.material as usize];
+        matches!(m.alpha, AlphaMode::Blend).then(|| self.base_color(hit).w.clamp(0.0, 1.0))
+    }
+
     /// Diffuse albedo at a hit (the base colour's RGB).
     #[inline]
     pub fn albedo(&self, hit: &Hit) -> Vec3 {

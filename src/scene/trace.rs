@@ -19,14 +19,31 @@ impl Scene {
     /// ones only).
     #[inline]
     pub fn intersect_except(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> Option<Hit> {
-        let (t, tri_id) = self.nearest(origin, dir, tmax, skip)?;
+        let (t, tri_id) = self.nearest(origin, dir, tmax, skip, true)?;
+        Some(self.hit_record(tri_id, origin + t * dir, t))
+    }
+
+    /// [`Scene::intersect_except`] meeting alpha-`BLEND` surfaces whole instead of drawing
+    /// their coverage: for the eye chain, which splits at them into the surface's share α and
+    /// the share 1 − α passing on ([`Scene::coverage`], docs/deviations.md §61).
+    #[inline]
+    pub fn intersect_layers(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> Option<Hit> {
+        let (t, tri_id) = self.nearest(origin, dir, tmax, skip, false)?;
         Some(self.hit_record(tri_id, origin + t * dir, t))
     }
 
     /// The closest hit's distance and triangle, never `skip` (the BVH traversal with the
-    /// alpha test; [`Scene::intersect_except`] and [`Scene::intersect_geometry`] build on it).
+    /// alpha test, BLEND's coverage drawn when `draw_blend`; [`Scene::intersect_except`] and
+    /// [`Scene::intersect_geometry`] build on it).
     #[inline]
-    fn nearest(&self, origin: Vec3, dir: Vec3, tmax: f32, skip: u32) -> Option<(f32, u32)> {
+    fn nearest(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmax: f32,
+        skip: u32,
+        draw_blend: bool,
+    ) -> Option<(f32, u32)> {
         let ray = query(origin, dir, tmax);
         let mut hit = RayHit::none();
         let tris = &self.triangles;
@@ -36,7 +53,7 @@ impl Scene {
             if t == skip {
                 f32::INFINITY
             } else {
-                self.cut_out(r, t, tris[t as usize].intersect(r))
+                self.cut_out(r, t, tris[t as usize].intersect(r), draw_blend)
             }
         }) {
             return None;
@@ -49,7 +66,7 @@ impl Scene {
     /// how far the nearest surface is and which way it faces (the visible domains' probes).
     #[inline]
     pub fn intersect_geometry(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<(f32, Vec3)> {
-        let (t, tri_id) = self.nearest(origin, dir, tmax, u32::MAX)?;
+        let (t, tri_id) = self.nearest(origin, dir, tmax, u32::MAX, true)?;
         let tri = &self.triangles[tri_id as usize];
         let (v0, v1, v2): (Vec3, Vec3, Vec3) = (tri.v0.into(), tri.v1.into(), tri.v2.into());
         Some((t, (v1 - v0).cross(v2 - v0).normalize_or(Vec3::Y)))
@@ -68,7 +85,7 @@ impl Scene {
         let ray = query(origin, dir, tmax);
         self.triangles
             .get(tri as usize)
-            .is_some_and(|t| self.cut_out(&ray, tri, t.intersect(&ray)) < tmax)
+            .is_some_and(|t| self.cut_out(&ray, tri, t.intersect(&ray), true) < tmax)
     }
 
     /// Whether the ray from `origin` along `dir` meets any of the triangles `tris` (by the same
@@ -76,7 +93,7 @@ impl Scene {
     pub fn meets_any(&self, origin: Vec3, dir: Vec3, tris: &[u32]) -> bool {
         let ray = query(origin, dir, f32::INFINITY);
         tris.iter().any(|&t| {
-            self.cut_out(&ray, t, self.triangles[t as usize].intersect(&ray))
+            self.cut_out(&ray, t, self.triangles[t as usize].intersect(&ray), true)
                 .is_finite()
         })
     }
@@ -92,7 +109,7 @@ impl Scene {
             if t == skip {
                 f32::INFINITY
             } else {
-                self.cut_out(r, t, tris[t as usize].intersect(r))
+                self.cut_out(r, t, tris[t as usize].intersect(r), true)
             }
         })
     }
@@ -187,9 +204,10 @@ impl Scene {
     /// `t`, the distance at which ray `r` meets triangle `tri`, or infinity where the
     /// triangle's material is cut out there (glTF §3.9.4): alpha below the cutoff (`MASK`),
     /// or, for `BLEND`, a hash of the ray and the triangle at or above its alpha (stochastic
-    /// coverage: a share α of rays is stopped, the rest pass).
+    /// coverage: a share α of rays is stopped, the rest pass; without `draw_blend` BLEND is
+    /// met whole).
     #[inline]
-    fn cut_out(&self, r: &Ray, tri: u32, t: f32) -> f32 {
+    fn cut_out(&self, r: &Ray, tri: u32, t: f32, draw_blend: bool) -> f32 {
         if !t.is_finite() || !self.has_alpha {
             return t;
         }
@@ -198,7 +216,8 @@ impl Scene {
         let cutoff = match m.alpha {
             AlphaMode::Opaque => return t,
             AlphaMode::Mask(cutoff) => Some(cutoff),
-            AlphaMode::Blend => None,
+            AlphaMode::Blend if draw_blend => None,
+            AlphaMode::Blend => return t,
         };
         let tr = &self.triangles[tri as usize];
         let v0: Vec3 = tr.v0.into();

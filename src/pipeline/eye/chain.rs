@@ -21,6 +21,9 @@ pub(super) const BRANCH_STACK: usize = 32;
 /// §60): what is seen through frosted glass varies with the drawn normals far more than what
 /// a diffuse surface's eye sample gathers.
 pub(super) const GLASS_SPLIT: u32 = 4;
+/// The alpha-BLEND surfaces one camera ray passes through, at most (a bound for pathological
+/// stacks of them; the share past it is dropped).
+const BLEND_LAYERS: u32 = 64;
 
 /// A branch of an eye path: origin, direction, weight, depth (specular and traced glossy
 /// bounces so far), length so far, the triangle it leaves, and whether it leaves a traced lobe.
@@ -79,6 +82,7 @@ pub(super) fn trace_chain(
     stack.clear();
     stack.push(start);
     let mut emitted = Vec3::ZERO;
+    let mut layers = BLEND_LAYERS;
     while let Some(branch) = stack.pop() {
         let Branch {
             origin: o,
@@ -93,7 +97,7 @@ pub(super) fn trace_chain(
             points,
             split,
         } = branch;
-        let Some(hit) = scene.intersect_except(o, d, f32::INFINITY, leaving) else {
+        let Some(hit) = scene.intersect_layers(o, d, f32::INFINITY, leaving) else {
             // Escaped: the environment seen directly or through the chain (off a traced lobe
             // it is NEE's at the lobe's eye sample, as emission below; off rough glass it is
             // weighted against that vertex's light samples).
@@ -110,8 +114,31 @@ pub(super) fn trace_chain(
         };
         // Light from this hit crossed the segment: absorbed inside a volume (glass with
         // KHR_materials_volume), whole elsewhere.
-        let w = w * scene.transmittance(&hit, d);
+        let mut w = w * scene.transmittance(&hit, d);
         let path_length = travelled + hit.t;
+        // An alpha-BLEND surface is met whole and split: its share α is the surface, the rest
+        // passes on as the same branch (its depth kept: what is seen through a pane is still
+        // seen directly), instead of a coverage drawn per ray (docs/deviations.md §61).
+        if let Some(alpha) = scene.coverage(&hit) {
+            let through = w * (1.0 - alpha);
+            if through.max_element() >= MIN_BRANCH_WEIGHT
+                && layers > 0
+                && stack.len() < BRANCH_STACK
+            {
+                layers -= 1;
+                stack.push(Branch {
+                    origin: scene.offset(&hit, d),
+                    weight: through,
+                    travelled: path_length,
+                    leaving: hit.triangle,
+                    ..branch
+                });
+            }
+            w *= alpha;
+            if w.max_element() < MIN_BRANCH_WEIGHT {
+                continue;
+            }
+        }
         let wo = -d;
         // Light met straight off a traced lobe is NEE's at the lobe's eye sample (its BSDF
         // sample under MIS holds this path), so it is not counted twice.
