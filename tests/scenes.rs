@@ -24,6 +24,31 @@ fn assets_match_their_generator() {
     assert!(DEFAULT_SCENE_GLB == BuiltinScene::CornellBox1.to_glb());
 }
 
+/// `builtin:features`' emissive panel reads its texture through TEXCOORD_1 with clamped
+/// edges: it glows at its top edge (v below 0, clamped to the bright row), in its middle, and
+/// not near its foot. Read through TEXCOORD_0 its lower half would be dark; with a repeating
+/// sampler its top would be.
+#[test]
+fn the_features_panel_glows_where_its_second_uv_set_and_clamp_say() {
+    let s = Scene::builtin(BuiltinScene::Features);
+    let glow = |y: f32| {
+        let hit = s
+            .intersect(Vec3::new(1.5, y, 0.0), -Vec3::Z, f32::INFINITY)
+            .expect("the panel is behind");
+        assert!((hit.position.z + 1.5).abs() < 1e-4, "{:?}", hit.position);
+        s.emitted(&hit, Vec3::Z).x
+    };
+    for (y, lit) in [
+        (1.38, true),
+        (1.1, true),
+        (0.5, true),
+        (0.33, true),
+        (0.2, false),
+    ] {
+        assert_eq!(glow(y) > 1.0, lit, "height {y}: {}", glow(y));
+    }
+}
+
 #[test]
 fn cornell_box_1_is_the_papers_scene() {
     let s = Scene::default_scene();

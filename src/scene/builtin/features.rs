@@ -3,7 +3,8 @@
 //! texture and a normal texture of dimples on the floor (repeat sampler, tangents computed),
 //! a sphere whose metallic-roughness texture bands smooth metal with rough plastic, a cube
 //! coloured by COLOR_0, an alpha-MASK screen with round holes, a panel whose emissive
-//! texture is bright on one half only, two plain plastic spheres (roughness 0.3, 0.6; the
+//! texture (read through TEXCOORD_1, clamped at its edges) is bright on one half of the
+//! image, two plain plastic spheres (roughness 0.3, 0.6; the
 //! rougher one's specular layer tinted by KHR_materials_specular), a frosted glass sphere
 //! (rough transmission, IOR, volume) and an alpha-BLEND pane. The banded sphere's texture is
 //! scaled by KHR_texture_transform and mirrored by its sampler; the floor has an occlusion
@@ -242,7 +243,11 @@ pub(super) fn features(g: &mut GlbBuilder) {
     let uv = |p: Vec3| [(p.x - 0.6) / 0.5, 1.0 - p.y / 0.45];
     textured_quad(g, "blend_pane", corners, Vec3::Z, uv, pane);
 
-    // A panel whose emissive texture is warm white on its upper half and black below.
+    // A panel whose emissive texture is warm white on its upper half and black below, read
+    // through TEXCOORD_1 (v from −0.5 at the panel's top edge to 0.75 at its foot) with
+    // clamped edges: the panel glows down to a fifth of its height from the foot. Read
+    // through TEXCOORD_0, it would glow on its upper half; with a repeating sampler, its top
+    // two fifths would be dark.
     let glow = g.texture(
         &png(32, 32, |_, y| {
             if y < 16 {
@@ -251,11 +256,11 @@ pub(super) fn features(g: &mut GlbBuilder) {
                 [0, 0, 0, 255]
             }
         }),
-        Some(json!({"magFilter": 9728})),
+        Some(json!({"magFilter": 9728, "wrapS": 33071, "wrapT": 33071})),
     );
     let mut panel = pbr("panel", [0.2, 0.2, 0.2, 1.0], 0.0, 0.9);
     panel["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
-    panel["emissiveTexture"] = json!({"index": glow});
+    panel["emissiveTexture"] = json!({"index": glow, "texCoord": 1});
     panel["extensions"] = json!({"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}});
     let panel = g.material(panel);
     let corners = [
@@ -264,9 +269,25 @@ pub(super) fn features(g: &mut GlbBuilder) {
         Vec3::new(2.2, 1.4, -1.5),
         Vec3::new(0.8, 1.4, -1.5),
     ];
-    // v = 0 at the top of the image: the panel's top edge.
-    let uv = |p: Vec3| [(p.x - 0.8) / 1.4, 1.0 - p.y / 1.4];
-    textured_quad(g, "emissive_panel", corners, Vec3::Z, uv, panel);
+    // TEXCOORD_0: v = 0 at the top of the image, the panel's top edge; TEXCOORD_1 as above.
+    let mut q = Quads::default();
+    q.add(corners, Vec3::Z);
+    let uv0: Vec<f32> =
+        q.p.iter()
+            .flat_map(|p| [(p.x - 0.8) / 1.4, 1.0 - p.y / 1.4])
+            .collect();
+    let uv1: Vec<f32> =
+        q.p.iter()
+            .flat_map(|p| [(p.x - 0.8) / 1.4, 1.25 * (1.0 - p.y / 1.4) - 0.5])
+            .collect();
+    g.mesh_with(
+        "emissive_panel",
+        &q.p,
+        &q.n,
+        &[("TEXCOORD_0", 2, &uv0), ("TEXCOORD_1", 2, &uv1)],
+        &q.i,
+        panel,
+    );
 
     g.camera(
         "features_camera",
