@@ -103,10 +103,12 @@ impl PixelPoints {
     }
 
     /// The points of the `j`-th of `ways` paths an eye sample splits into, with the same
-    /// `per_sample`: rank `rank · ways + j` of the pixel, so that the pixel's split paths
-    /// together are stratified as its eye samples are (and draw from the same sets).
+    /// `per_sample`: rank `rank · ways + j` of the pixel's split paths, under a scramble of
+    /// their own, so that the pixel's split paths together are stratified as its eye samples
+    /// are and share no point with its unsplit ones.
     pub fn split(&self, ways: u32, j: u32) -> Self {
         Self {
+            seed: splitmix64(self.seed as u64 ^ 0x5b11_7000_0000) as u32,
             rank: self.rank.saturating_mul(ways).saturating_add(j),
             ..*self
         }
@@ -382,30 +384,38 @@ mod tests {
 
     /// Where an eye path splits (rough glass in the eye chain, docs/deviations.md §60), the
     /// pixel's 4 eye samples × 4 split paths draw their normals as 16 stratified points (one
-    /// in each cell of a 4×4 grid), and each split path's own light samples are those of the
-    /// pixel's rank r·4 + j, so that no two of its 16 paths share a light sample.
+    /// in each cell of a 4×4 grid), and the split paths' own light samples (2 each) are
+    /// together stratified, one in each 32nd of a dimension, and none of them is a point
+    /// of the pixel's unsplit eye samples.
     #[test]
-    fn split_paths_take_ranks_of_their_own() {
+    fn split_paths_take_points_of_their_own() {
         for pixel in 0..500 {
             let mut cells = [0u32; 16];
-            let mut firsts = Vec::new();
+            let mut strata = [0u32; 32];
+            let mut unsplit = Vec::new();
+            let mut children = Vec::new();
             for rank in 0..4 {
                 let points = PixelPoints::new(3, pixel, rank, 2);
+                for k in 0..2 {
+                    unsplit.push(points.point(k, 5)[0].to_bits());
+                }
                 for j in 0..4 {
                     let [x, y, ..] = points.per_sample(4).point(j, GLASS_SPLIT_SET);
                     cells[(x * 4.0) as usize * 4 + (y * 4.0) as usize] += 1;
                     let child = points.split(4, j);
-                    let own = PixelPoints::new(3, pixel, rank * 4 + j, 2);
                     for k in 0..2 {
-                        assert_eq!(child.point(k, 5), own.point(k, 5));
-                        firsts.push(child.point(k, 5)[0].to_bits());
+                        let x = child.point(k, 5)[0];
+                        strata[(x * 32.0) as usize] += 1;
+                        children.push(x.to_bits());
                     }
                 }
             }
             assert_eq!(cells, [1; 16], "pixel {pixel}");
-            firsts.sort_unstable();
-            firsts.dedup();
-            assert_eq!(firsts.len(), 32, "pixel {pixel}");
+            assert_eq!(strata, [1; 32], "pixel {pixel}");
+            assert!(
+                children.iter().all(|c| !unsplit.contains(c)),
+                "pixel {pixel}"
+            );
         }
     }
 

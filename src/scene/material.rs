@@ -123,7 +123,8 @@ pub enum AlphaMode {
     Opaque,
     /// Cut out where alpha < the cutoff (0.5 by default).
     Mask(f32),
-    /// Partly transparent: rendered as stochastic coverage.
+    /// Partly transparent: stochastic coverage per ray, except for eye paths, which split at
+    /// it (docs/deviations.md §47, §61).
     Blend,
 }
 

@@ -205,7 +205,7 @@ impl Scene {
     /// triangle's material is cut out there (glTF §3.9.4): alpha below the cutoff (`MASK`),
     /// or, for `BLEND`, a hash of the ray and the triangle at or above its alpha (stochastic
     /// coverage: a share α of rays is stopped, the rest pass; without `draw_blend` BLEND is
-    /// met whole).
+    /// met whole wherever its alpha is above 0).
     #[inline]
     fn cut_out(&self, r: &Ray, tri: u32, t: f32, draw_blend: bool) -> f32 {
         if !t.is_finite() || !self.has_alpha {
@@ -217,7 +217,8 @@ impl Scene {
             AlphaMode::Opaque => return t,
             AlphaMode::Mask(cutoff) => Some(cutoff),
             AlphaMode::Blend if draw_blend => None,
-            AlphaMode::Blend => return t,
+            // Met whole, but never where it is wholly transparent (alpha 0: nothing to meet).
+            AlphaMode::Blend => Some(f32::MIN_POSITIVE),
         };
         let tr = &self.triangles[tri as usize];
         let v0: Vec3 = tr.v0.into();

@@ -1,5 +1,6 @@
 //! One camera ray's eye path (§3): specular chains (split deterministically, rough glass about
-//! one drawn microfacet normal) and traced glossy lobes,
+//! drawn microfacet normals, four at a path's first rough vertex; alpha-BLEND surfaces into
+//! their share and the share passing on) and traced glossy lobes,
 //! the eye samples it leaves and the emission it sees, and the sampled directions of lobes too
 //! sharp for the radiance map.
 
@@ -44,8 +45,9 @@ pub(super) struct Branch {
     /// The ray leaves a traced lobe.
     pub(super) from_lobe: bool,
     /// The density with which a rough glass vertex's branch drew `dir`
-    /// ([`crate::bsdf::GlassLobe`]'s `pdf`): the emission it meets is weighted against that vertex's
-    /// light samples (multiple importance sampling). Zero: whole weight.
+    /// ([`crate::bsdf::GlassLobe`]'s `pdf`) times the paths the vertex split into: the emission
+    /// it meets is weighted against that vertex's light samples (multiple importance
+    /// sampling). Zero: whole weight.
     pub(super) lobe_pdf: f32,
     /// That vertex's position (where its light samples were drawn from), when `lobe_pdf` > 0.
     pub(super) vertex: Vec3,
@@ -121,10 +123,9 @@ pub(super) fn trace_chain(
         // seen directly), instead of a coverage drawn per ray (docs/deviations.md §61).
         if let Some(alpha) = scene.coverage(&hit) {
             let through = w * (1.0 - alpha);
-            if through.max_element() >= MIN_BRANCH_WEIGHT
-                && layers > 0
-                && stack.len() < BRANCH_STACK
-            {
+            // Both shares are kept whenever the branch itself is (the cutoff judges the
+            // branch, not its split into shares).
+            if alpha < 1.0 && layers > 0 && stack.len() < BRANCH_STACK {
                 layers -= 1;
                 stack.push(Branch {
                     origin: scene.offset(&hit, d),
@@ -135,7 +136,7 @@ pub(super) fn trace_chain(
                 });
             }
             w *= alpha;
-            if w.max_element() < MIN_BRANCH_WEIGHT {
+            if alpha <= 0.0 {
                 continue;
             }
         }
@@ -216,26 +217,29 @@ pub(super) fn trace_chain(
         }
         // A branch that leaves through the geometric surface the wrong way (a shading normal
         // can send it there) is dropped, as photons and the path tracer drop it.
-        let mut push = |d: Vec3, w: Vec3, transmit: bool, lobe_pdf: f32, points, split| {
-            if w.max_element() >= MIN_BRANCH_WEIGHT
-                && stack.len() < BRANCH_STACK
-                && Scene::leaves_correctly(&hit, wo, d, transmit)
-            {
-                stack.push(Branch {
-                    origin: scene.offset(&hit, d),
-                    dir: d,
-                    weight: w,
-                    depth: depth + 1,
-                    travelled: path_length,
-                    leaving: hit.triangle,
-                    from_lobe: false,
-                    lobe_pdf,
-                    vertex: hit.position,
-                    points,
-                    split,
-                });
-            }
-        };
+        // `ways`: the paths the vertex split into, whose branches are judged by the cutoff
+        // at their weight before the split's 1/ways.
+        let mut push =
+            |d: Vec3, w: Vec3, transmit: bool, (lobe_pdf, ways): (f32, u32), points, split| {
+                if w.max_element() * ways as f32 >= MIN_BRANCH_WEIGHT
+                    && stack.len() < BRANCH_STACK
+                    && Scene::leaves_correctly(&hit, wo, d, transmit)
+                {
+                    stack.push(Branch {
+                        origin: scene.offset(&hit, d),
+                        dir: d,
+                        weight: w,
+                        depth: depth + 1,
+                        travelled: path_length,
+                        leaving: hit.triangle,
+                        from_lobe: false,
+                        lobe_pdf,
+                        vertex: hit.position,
+                        points,
+                        split,
+                    });
+                }
+            };
         match bsdf {
             // Non-specular surfaces were handled above.
             Bsdf::Lambert { .. } | Bsdf::Glossy { .. } => {}
@@ -248,7 +252,14 @@ pub(super) fn trace_chain(
                 };
                 let r = reflect(wo, n);
                 // The conductor's Fresnel, as `Bsdf::sample` gives photons and the path tracer.
-                push(r, w * schlick(color, wo.dot(n)), false, 0.0, points, split);
+                push(
+                    r,
+                    w * schlick(color, wo.dot(n)),
+                    false,
+                    (0.0, 1),
+                    points,
+                    split,
+                );
             }
             Bsdf::Dielectric { ior, tint, alpha } => {
                 // Both lobes are followed about one microfacet normal (drawn for rough glass
@@ -289,7 +300,7 @@ pub(super) fn trace_chain(
                             r.dir,
                             w * (f * r.masking),
                             false,
-                            lobe_pdf(r.pdf),
+                            (lobe_pdf(r.pdf), ways),
                             points,
                             split,
                         );
@@ -299,7 +310,7 @@ pub(super) fn trace_chain(
                         // eye sample inside a volume sees light that photons delivered as flux.
                         let scale = bsdf.radiance_scale(wo, t.dir, hit.normal);
                         let weight = w * tint * ((1.0 - f) * t.masking * scale);
-                        push(t.dir, weight, true, lobe_pdf(t.pdf), points, split);
+                        push(t.dir, weight, true, (lobe_pdf(t.pdf), ways), points, split);
                     }
                 }
             }
