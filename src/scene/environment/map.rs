@@ -199,21 +199,44 @@ impl EnvLight {
         }
     }
 
-    /// Solid-angle pdf with which [`EnvLight::sample`] picks `d`.
+    /// Solid-angle pdf with which [`EnvLight::sample`] picks `d` for a receiver `facing`
+    /// that way (`None`: the whole sphere, as photons and receivers lit from both sides take
+    /// it).
     #[inline]
-    pub fn pdf(&self, d: Vec3) -> f32 {
-        match self {
-            Self::Uniform(_) => 1.0 / (4.0 * PI),
-            Self::Map(m) => m.pdf(d),
+    pub fn pdf(&self, d: Vec3, facing: Option<Vec3>) -> f32 {
+        match (self, facing) {
+            (Self::Uniform(_), None) => 1.0 / (4.0 * PI),
+            (Self::Uniform(_), Some(n)) => {
+                if d.dot(n) > 0.0 {
+                    0.5 / PI
+                } else {
+                    0.0
+                }
+            }
+            (Self::Map(m), _) => m.pdf(d),
         }
     }
 
-    /// A direction towards the environment, the radiance from it, and its solid-angle pdf.
+    /// A direction towards the environment for a receiver `facing` that way (`None`: over
+    /// the whole sphere), the radiance from it, and its solid-angle pdf ([`EnvLight::pdf`]).
+    /// A map is drawn by its own distribution either way; a uniform environment, which has
+    /// no direction to importance-sample, over the receiver's hemisphere: over the whole
+    /// sphere half the samples fell below the receiver, and the receiver's cosine would
+    /// duplicate the BSDF's own samples, which MIS combines with these, and was worse inside
+    /// rooms lit through a window (docs/deviations.md §58).
     #[inline]
-    pub fn sample(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
-        match self {
-            Self::Uniform(l) => Some((crate::sampling::uniform_sphere(u), *l, 1.0 / (4.0 * PI))),
-            Self::Map(m) => m.sample(u),
+    pub fn sample(&self, u: Vec2, facing: Option<Vec3>) -> Option<(Vec3, Vec3, f32)> {
+        match (self, facing) {
+            (Self::Uniform(l), None) => {
+                Some((crate::sampling::uniform_sphere(u), *l, 1.0 / (4.0 * PI)))
+            }
+            (Self::Uniform(l), Some(n)) => {
+                let d = crate::sampling::uniform_sphere(u);
+                let d = if d.dot(n) < 0.0 { -d } else { d };
+                let pdf = self.pdf(d, facing);
+                (pdf > 0.0).then_some((d, *l, pdf))
+            }
+            (Self::Map(m), _) => m.sample(u),
         }
     }
 

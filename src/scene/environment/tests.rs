@@ -36,13 +36,13 @@ fn map_sampling_pdf_matches_pdf_and_integrates_to_one() {
     let mut est = Vec3::ZERO;
     for _ in 0..n {
         // None only on a pole (sin θ = 0): a set of measure zero, counted as zero.
-        let Some((d, l, pdf)) = env.sample(rng.next_2d()) else {
+        let Some((d, l, pdf)) = env.sample(rng.next_2d(), None) else {
             continue;
         };
         assert!(
-            (env.pdf(d) - pdf).abs() <= 2e-3 * pdf,
+            (env.pdf(d, None) - pdf).abs() <= 2e-3 * pdf,
             "{} vs {pdf}",
-            env.pdf(d)
+            env.pdf(d, None)
         );
         assert_eq!(env.radiance(d), l);
         est += l / pdf;
@@ -57,7 +57,7 @@ fn map_sampling_pdf_matches_pdf_and_integrates_to_one() {
     let mut total = 0.0f64;
     for _ in 0..n {
         let d = crate::sampling::uniform_sphere(rng.next_2d());
-        total += env.pdf(d) as f64 * 4.0 * std::f64::consts::PI;
+        total += env.pdf(d, None) as f64 * 4.0 * std::f64::consts::PI;
     }
     assert!(
         (total / n as f64 - 1.0).abs() < 0.02,

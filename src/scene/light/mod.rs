@@ -10,7 +10,7 @@
 mod sample;
 mod textured;
 
-use super::environment::{EnvLight, Environment, SunLight};
+use super::environment::{Environment, SunLight};
 use super::{AlphaMode, Material, NO_EXTRA, Texture, TextureRef, TriExtra, TriShading};
 use crate::sampling::{Distribution1D, luminance};
 use glam::Vec2;
@@ -122,46 +122,6 @@ pub struct EmittedPhoton {
     /// A photon from infinitely far away (a directional light, the sun, the environment): it
     /// starts on a disc outside the scene, and its density does not fall with distance.
     pub parallel: bool,
-}
-
-/// The density with which [`Lights::sample_direct`] draws direction `d` from the environment
-/// `e` for a receiver `facing` that way: a uniform environment is drawn uniformly over the
-/// receiver's hemisphere (its radiance has no direction to importance-sample; over the whole
-/// sphere half the samples fell below the receiver; the receiver's cosine would duplicate
-/// the BSDF's own samples, which MIS combines with these, and was worse inside rooms lit
-/// through a window: docs/deviations.md §58), otherwise from the environment's own
-/// distribution.
-#[inline]
-pub(crate) fn environment_pdf(e: &EnvLight, d: Vec3, facing: Option<Vec3>) -> f32 {
-    match (e, facing) {
-        (EnvLight::Uniform(_), Some(n)) => {
-            if d.dot(n) > 0.0 {
-                0.5 * std::f32::consts::FRAC_1_PI
-            } else {
-                0.0
-            }
-        }
-        _ => e.pdf(d),
-    }
-}
-
-/// A direction towards the environment `e` for a receiver `facing` that way, the radiance
-/// from it and its density ([`environment_pdf`]).
-#[inline]
-pub(crate) fn sample_environment(
-    e: &EnvLight,
-    facing: Option<Vec3>,
-    u: Vec2,
-) -> Option<(Vec3, Vec3, f32)> {
-    match (e, facing) {
-        (EnvLight::Uniform(l), Some(n)) => {
-            let d = crate::sampling::uniform_sphere(u);
-            let d = if d.dot(n) < 0.0 { -d } else { d };
-            let pdf = environment_pdf(e, d, facing);
-            (pdf > 0.0).then_some((d, *l, pdf))
-        }
-        _ => e.sample(u),
-    }
 }
 
 /// A point on a light for explicit direct lighting.
@@ -432,7 +392,7 @@ impl Lights {
     pub fn pdf_escaped(&self, d: Vec3, facing: Option<Vec3>) -> f32 {
         let mut p = 0.0;
         if let Some(e) = &self.environment.light {
-            p += self.p_environment * environment_pdf(e, d, facing);
+            p += self.p_environment * e.pdf(d, facing);
         }
         if let Some(s) = &self.environment.sun {
             p += self.p_sun * s.pdf(d);

@@ -156,7 +156,7 @@ impl Lights {
             }
             Light::Environment { .. } => {
                 let (towards, radiance, pdf_dir) =
-                    self.environment.light.as_ref()?.sample(u_dir)?;
+                    self.environment.light.as_ref()?.sample(u_dir, None)?;
                 self.photon_from_afar(towards, radiance, pdf_dir, p_sel, u_pos)?
             }
             Light::Sun(sun) => {
@@ -223,7 +223,7 @@ impl Lights {
     /// Sample a point on a light as seen from `p` for next-event estimation. `facing`: the
     /// normal of the hemisphere the receiver takes light from, or `None` for one lit from
     /// both sides (rough glass); a uniform environment is drawn uniformly over its hemisphere
-    /// ([`super::environment_pdf`]), everything else ignores it.
+    /// ([`EnvLight::sample`]), everything else ignores it.
     pub fn sample_direct(
         &self,
         p: Vec3,
@@ -311,7 +311,7 @@ impl Lights {
             }
             Light::Environment { .. } => {
                 let env: &EnvLight = self.environment.light.as_ref()?;
-                let (wi, radiance, pdf) = super::sample_environment(env, facing, u)?;
+                let (wi, radiance, pdf) = env.sample(u, facing)?;
                 (pdf > 0.0).then(|| LightSample {
                     wi,
                     distance: f32::INFINITY,
