@@ -89,6 +89,7 @@ pub struct PixelPoints {
     seed: u32,
     rank: u32,
     per_sample: u32,
+    split: bool,
 }
 
 impl PixelPoints {
@@ -99,6 +100,7 @@ impl PixelPoints {
             seed,
             rank,
             per_sample,
+            split: false,
         }
     }
 
@@ -110,8 +112,14 @@ impl PixelPoints {
         Self {
             seed: splitmix64(self.seed as u64 ^ 0x5b11_7000_0000) as u32,
             rank: self.rank.saturating_mul(ways).saturating_add(j),
+            split: true,
             ..*self
         }
+    }
+
+    /// These are a split path's points ([`PixelPoints::split`]): the path has split.
+    pub fn is_split(&self) -> bool {
+        self.split
     }
 
     /// These points drawing `per_sample` per set instead (a decision made once per eye

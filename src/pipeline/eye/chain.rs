@@ -51,10 +51,9 @@ pub(super) struct Branch {
     pub(super) lobe_pdf: f32,
     /// That vertex's position (where its light samples were drawn from), when `lobe_pdf` > 0.
     pub(super) vertex: Vec3,
-    /// The pixel's stratified points of this path (its own rank once it has split).
+    /// The pixel's stratified points of this path (its own rank once it has split at rough
+    /// glass, which it does once: [`PixelPoints::is_split`]).
     pub(super) points: PixelPoints,
-    /// The path has split at rough glass (it splits once).
-    pub(super) split: bool,
 }
 
 /// An eye sample as a chain leaves it, before it is packed.
@@ -97,7 +96,6 @@ pub(super) fn trace_chain(
             lobe_pdf,
             vertex,
             points,
-            split,
         } = branch;
         let Some(hit) = scene.intersect_layers(o, d, f32::INFINITY, leaving) else {
             // Escaped: the environment seen directly or through the chain (off a traced lobe
@@ -206,7 +204,6 @@ pub(super) fn trace_chain(
                     lobe_pdf: 0.0,
                     vertex: hit.position,
                     points,
-                    split,
                 });
             } else if depth < max_depth && traces_lobe(bsdf, s.lobe_limit) {
                 // The lobe is traced, but its sampled direction left through the surface or
@@ -217,29 +214,28 @@ pub(super) fn trace_chain(
         }
         // A branch that leaves through the geometric surface the wrong way (a shading normal
         // can send it there) is dropped, as photons and the path tracer drop it.
-        // `ways`: the paths the vertex split into, whose branches are judged by the cutoff
-        // at their weight before the split's 1/ways.
-        let mut push =
-            |d: Vec3, w: Vec3, transmit: bool, (lobe_pdf, ways): (f32, u32), points, split| {
-                if w.max_element() * ways as f32 >= MIN_BRANCH_WEIGHT
-                    && stack.len() < BRANCH_STACK
-                    && Scene::leaves_correctly(&hit, wo, d, transmit)
-                {
-                    stack.push(Branch {
-                        origin: scene.offset(&hit, d),
-                        dir: d,
-                        weight: w,
-                        depth: depth + 1,
-                        travelled: path_length,
-                        leaving: hit.triangle,
-                        from_lobe: false,
-                        lobe_pdf,
-                        vertex: hit.position,
-                        points,
-                        split,
-                    });
-                }
-            };
+        // A branch of one of the `ways` paths the vertex split into (1: none), of density
+        // `lobe_pdf` per path (0: not drawn at rough glass), judged by the cutoff at its
+        // weight before the split's 1/ways.
+        let mut push = |d: Vec3, w: Vec3, transmit: bool, lobe_pdf: f32, ways: u32, points| {
+            if w.max_element() * ways as f32 >= MIN_BRANCH_WEIGHT
+                && stack.len() < BRANCH_STACK
+                && Scene::leaves_correctly(&hit, wo, d, transmit)
+            {
+                stack.push(Branch {
+                    origin: scene.offset(&hit, d),
+                    dir: d,
+                    weight: w,
+                    depth: depth + 1,
+                    travelled: path_length,
+                    leaving: hit.triangle,
+                    from_lobe: false,
+                    lobe_pdf: lobe_pdf * ways as f32,
+                    vertex: hit.position,
+                    points,
+                });
+            }
+        };
         match bsdf {
             // Non-specular surfaces were handled above.
             Bsdf::Lambert { .. } | Bsdf::Glossy { .. } => {}
@@ -252,14 +248,7 @@ pub(super) fn trace_chain(
                 };
                 let r = reflect(wo, n);
                 // The conductor's Fresnel, as `Bsdf::sample` gives photons and the path tracer.
-                push(
-                    r,
-                    w * schlick(color, wo.dot(n)),
-                    false,
-                    (0.0, 1),
-                    points,
-                    split,
-                );
+                push(r, w * schlick(color, wo.dot(n)), false, 0.0, 1, points);
             }
             Bsdf::Dielectric { ior, tint, alpha } => {
                 // Both lobes are followed about one microfacet normal (drawn for rough glass
@@ -269,7 +258,7 @@ pub(super) fn trace_chain(
                 // macrosurface carries nothing. At the first rough glass of the path, the
                 // path splits into GLASS_SPLIT such pairs about normals drawn from the pixel's
                 // stratified points (deviations §60), each of weight 1/GLASS_SPLIT.
-                let ways = if alpha > 0.0 && !split {
+                let ways = if alpha > 0.0 && !points.is_split() {
                     GLASS_SPLIT
                 } else {
                     1
@@ -288,29 +277,21 @@ pub(super) fn trace_chain(
                     } else {
                         (Vec2::ZERO, points)
                     };
-                    let split = split || ways > 1;
                     let lobes = glass_lobes(wo, hit.normal, ior, alpha, u);
                     let f = lobes.fresnel;
-                    // (Each rough branch carries its technique's density, the direction's
-                    // times the paths drawn at this vertex, for the emission it meets; smooth
-                    // glass's branches take the whole weight.)
-                    let lobe_pdf = |pdf: f32| if alpha > 0.0 { pdf * ways as f32 } else { 0.0 };
+                    // (Each rough branch carries its direction's density, for the emission it
+                    // meets; smooth glass's branches take the whole weight.)
+                    let lobe_pdf = |pdf: f32| if alpha > 0.0 { pdf } else { 0.0 };
                     if let Some(r) = lobes.reflected {
-                        push(
-                            r.dir,
-                            w * (f * r.masking),
-                            false,
-                            (lobe_pdf(r.pdf), ways),
-                            points,
-                            split,
-                        );
+                        let weight = w * (f * r.masking);
+                        push(r.dir, weight, false, lobe_pdf(r.pdf), ways, points);
                     }
                     if let Some(t) = lobes.refracted {
                         // Radiance crossing into glass falls by η² (Bsdf::radiance_scale): an
                         // eye sample inside a volume sees light that photons delivered as flux.
                         let scale = bsdf.radiance_scale(wo, t.dir, hit.normal);
                         let weight = w * tint * ((1.0 - f) * t.masking * scale);
-                        push(t.dir, weight, true, (lobe_pdf(t.pdf), ways), points, split);
+                        push(t.dir, weight, true, lobe_pdf(t.pdf), ways, points);
                     }
                 }
             }

@@ -88,7 +88,6 @@ pub fn trace_lobes(
                         lobe_pdf: 0.0,
                         vertex: p,
                         points: PixelPoints::new(lobe_seed, pixel, j as u32, s.light_samples),
-                        split: false,
                     };
                     if w.max_element() >= MIN_BRANCH_WEIGHT {
                         emitted[(pixel - y * s.width) as usize] +=

@@ -119,7 +119,6 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
                     lobe_pdf: 0.0,
                     vertex: camera.position,
                     points: PixelPoints::new(s.seed, pixel, k, s.light_samples),
-                    split: false,
                 };
                 emitted[x as usize] +=
                     trace_chain(scene, start, pixel, s, &mut lobe_rng, &mut stack, &mut out);
