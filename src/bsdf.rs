@@ -639,78 +639,109 @@ struct AlbedoTables {
 const TABLE_N: usize = 32;
 const TABLE_GRID: u32 = 32;
 
-static ALBEDO: std::sync::LazyLock<AlbedoTables> = std::sync::LazyLock::new(|| {
+/// One entry of [`AlbedoTables`] at (μ index `k`, √α index `r`): (a, b, zonal, axis).
+pub fn albedo_entry(
+    k: usize,
+    r: usize,
+    grid: u32,
+    lobe: &mut Vec<(Vec3, f32)>,
+) -> (f32, f32, [f32; 4], f32) {
     let n = Vec3::Z;
-    let wo_at = |k: usize| {
-        let mu = (k as f32 / (TABLE_N - 1) as f32).max(1e-3);
-        Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu)
+    let mu = (k as f32 / (TABLE_N - 1) as f32).max(1e-3);
+    let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+    let rough = r as f32 / (TABLE_N - 1) as f32;
+    let alpha = (rough * rough).max(ALPHA_MIN);
+    let (mut sa, mut sb) = (0.0, 0.0);
+    // (direction, f_s/pdf = w/cos θi) of each visible-normal sample above the surface.
+    lobe.clear();
+    let mut mean = Vec3::ZERO;
+    for i in 0..grid {
+        for j in 0..grid {
+            let u = Vec2::new(
+                (i as f32 + 0.5) / grid as f32,
+                (j as f32 + 0.5) / grid as f32,
+            );
+            let h = sample_ggx_visible(wo, n, alpha, u);
+            let wi = reflect(wo, h);
+            if wi.z <= 0.0 {
+                continue;
+            }
+            // f·cos/pdf of the visible-normal sample without F: G₂/G₁.
+            let w = ggx_g2(wo.z, wi.z, alpha) / ggx_g1(wo.z, alpha);
+            let x = (1.0 - wo.dot(h).clamp(0.0, 1.0)).powi(5);
+            sa += (1.0 - x) * w;
+            sb += x * w;
+            lobe.push((wi, w / wi.z));
+            mean += wi * (w / wi.z);
+        }
+    }
+    // The lobe's axis: its mean direction, between n and the mirror direction (which lies
+    // towards −x here), as the angle from n.
+    let angle = (-mean.x).atan2(mean.z).max(0.0);
+    let axis = Vec3::new(-angle.sin(), 0.0, angle.cos());
+    let mut z = [0.0f64; 4];
+    for &(wi, fw) in lobe.iter() {
+        let c = axis.dot(wi) as f64;
+        let p = [
+            1.0,
+            c,
+            0.5 * (3.0 * c * c - 1.0),
+            0.5 * (5.0 * c * c * c - 3.0 * c),
+        ];
+        for (zl, pl) in z.iter_mut().zip(p) {
+            *zl += fw as f64 * pl;
+        }
+    }
+    let total = (sa + sb) as f64;
+    let zonal = if total > 0.0 {
+        z.map(|zl| (zl / total) as f32)
+    } else {
+        [0.0; 4]
     };
-    let grid = |i: u32, j: u32| {
-        Vec2::new(
-            (i as f32 + 0.5) / TABLE_GRID as f32,
-            (j as f32 + 0.5) / TABLE_GRID as f32,
-        )
-    };
-    let count = (TABLE_GRID * TABLE_GRID) as f32;
+    let count = (grid * grid) as f32;
+    (sa / count, sb / count, zonal, angle)
+}
+
+/// The tables, their 1,024 entries integrated in parallel: built on the first glossy
+/// surface's first lookup, single-threaded they took about 0.1 s of the previewer's first
+/// image (docs/benchmarks.md, "The previewer"); [`warm_tables`] starts them early. Plain
+/// scoped threads, not rayon: a rayon worker that meets the lock while another thread
+/// initialises it blocks there, and the initialiser's rayon jobs could then wait for that
+/// very worker.
+static ALBEDO: std::sync::LazyLock<AlbedoTables> = std::sync::LazyLock::new(|| {
+    const ENTRIES: usize = TABLE_N * TABLE_N;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
+    let mut entries = vec![(0.0, 0.0, [0.0; 4], 0.0); ENTRIES];
+    let per = ENTRIES.div_ceil(threads);
+    std::thread::scope(|s| {
+        for (c, part) in entries.chunks_mut(per).enumerate() {
+            s.spawn(move || {
+                let mut lobe = Vec::with_capacity((TABLE_GRID * TABLE_GRID) as usize);
+                for (i, e) in part.iter_mut().enumerate() {
+                    let at = c * per + i;
+                    *e = albedo_entry(at / TABLE_N, at % TABLE_N, TABLE_GRID, &mut lobe);
+                }
+            });
+        }
+    });
     let mut t = AlbedoTables {
         a: [[0.0; TABLE_N]; TABLE_N],
         b: [[0.0; TABLE_N]; TABLE_N],
         zonal: [[[0.0; 4]; TABLE_N]; TABLE_N],
         axis: [[0.0; TABLE_N]; TABLE_N],
     };
-    for k in 0..TABLE_N {
-        let wo = wo_at(k);
-        for r in 0..TABLE_N {
-            let rough = r as f32 / (TABLE_N - 1) as f32;
-            let alpha = (rough * rough).max(ALPHA_MIN);
-            let (mut sa, mut sb) = (0.0, 0.0);
-            // (direction, f_s/pdf = w/cos θi) of each visible-normal sample above the surface.
-            let mut lobe = Vec::with_capacity((TABLE_GRID * TABLE_GRID) as usize);
-            let mut mean = Vec3::ZERO;
-            for i in 0..TABLE_GRID {
-                for j in 0..TABLE_GRID {
-                    let h = sample_ggx_visible(wo, n, alpha, grid(i, j));
-                    let wi = reflect(wo, h);
-                    if wi.z <= 0.0 {
-                        continue;
-                    }
-                    // f·cos/pdf of the visible-normal sample without F: G₂/G₁.
-                    let w = ggx_g2(wo.z, wi.z, alpha) / ggx_g1(wo.z, alpha);
-                    let x = (1.0 - wo.dot(h).clamp(0.0, 1.0)).powi(5);
-                    sa += (1.0 - x) * w;
-                    sb += x * w;
-                    lobe.push((wi, w / wi.z));
-                    mean += wi * (w / wi.z);
-                }
-            }
-            // The lobe's axis: its mean direction, between n and the mirror direction (which
-            // lies towards −x here), as the angle from n.
-            let angle = (-mean.x).atan2(mean.z).max(0.0);
-            t.axis[k][r] = angle;
-            let axis = Vec3::new(-angle.sin(), 0.0, angle.cos());
-            let mut z = [0.0f64; 4];
-            for (wi, fw) in lobe {
-                let c = axis.dot(wi) as f64;
-                let p = [
-                    1.0,
-                    c,
-                    0.5 * (3.0 * c * c - 1.0),
-                    0.5 * (5.0 * c * c * c - 3.0 * c),
-                ];
-                for (zl, pl) in z.iter_mut().zip(p) {
-                    *zl += fw as f64 * pl;
-                }
-            }
-            t.a[k][r] = sa / count;
-            t.b[k][r] = sb / count;
-            let total = (sa + sb) as f64;
-            if total > 0.0 {
-                t.zonal[k][r] = z.map(|zl| (zl / total) as f32);
-            }
-        }
+    for (e, (a, b, zonal, axis)) in entries.into_iter().enumerate() {
+        let (k, r) = (e / TABLE_N, e % TABLE_N);
+        (t.a[k][r], t.b[k][r], t.zonal[k][r], t.axis[k][r]) = (a, b, zonal, axis);
     }
     t
 });
+
+/// Build the glossy model's albedo tables now (the previewer calls it on a thread of its own
+/// when a session starts, so that the first image does not wait for them).
+pub fn warm_tables() {
+    std::sync::LazyLock::force(&ALBEDO);
+}
 
 /// Linear interpolation into a table over [0, 1].
 #[inline]

@@ -507,8 +507,9 @@ fn the_reference_mode_from_the_start_renders_at_full_size() {
     );
 }
 
-/// The coarse first image traces half a batch (a faster first image, docs/benchmarks.md "The
-/// previewer"); the batches after it, at full size, have the configured size again.
+/// The coarse first image, at a quarter of the size, traces half a batch (a faster first
+/// image, docs/benchmarks.md "The previewer"); the batches after it, at full size, have the
+/// configured size again.
 #[test]
 fn the_first_coarse_image_traces_half_a_batch_and_the_next_ones_a_whole() {
     let _w = Watchdog::new(120);
@@ -517,9 +518,11 @@ fn the_first_coarse_image_traces_half_a_batch_and_the_next_ones_a_whole() {
     let (w, m) = (config.settings.width, config.settings.photons);
     let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
     let first = wait(&session, 60, |f| f.stats.method.passes >= 1);
-    assert!(
-        first.interactive && first.settings.width < w,
-        "the first image is coarse"
+    assert!(first.interactive, "the first image is coarse");
+    assert_eq!(
+        first.settings.width,
+        w / SessionConfig::default().first_divisor,
+        "at a quarter of the size"
     );
     assert_eq!(first.settings.photons, m / 2);
     assert_eq!(

@@ -216,6 +216,9 @@ pub struct SessionConfig {
     pub publish_interval: Duration,
     /// Interactive views divide width and height by this and use 1 sample per pixel.
     pub interactive_divisor: u32,
+    /// The coarse first image divides width and height by this (1: none), with the
+    /// interactive views' samples and half a batch; full size follows at once.
+    pub first_divisor: u32,
     /// The environment every scene is lit by (`Auto`: none when the file has lights, uniform
     /// when it has none).
     pub environment: EnvironmentSettings,
@@ -235,6 +238,9 @@ impl Default for SessionConfig {
             max_stored_rays: 4_000_000,
             publish_interval: Duration::from_millis(100),
             interactive_divisor: 2,
+            // A quarter of the size: with the visible domains' probes (16 per eye sample) at
+            // half size the first image took 560–640 ms (docs/benchmarks.md "The previewer").
+            first_divisor: 4,
             environment: EnvironmentSettings::default(),
         }
     }
@@ -263,6 +269,15 @@ impl Session {
         // Build the splat's kept-fraction table (≈ 30 ms, docs/deviations.md §23) beside the
         // first eye pass rather than in front of the first splat.
         std::thread::spawn(|| crate::pipeline::splat::kept_fraction(1.0, 0.0));
+        // So are the glossy model's albedo tables (55 ms on 2 cores, 0.1 s on one), which the
+        // first eye pass would otherwise wait for at its first glossy hit.
+        let glossy = scene
+            .materials
+            .iter()
+            .any(|m| !matches!(m.kind, crate::scene::MaterialKind::Diffuse));
+        if glossy {
+            std::thread::spawn(crate::bsdf::warm_tables);
+        }
         let (cmd_tx, cmd_rx) = unbounded();
         let (frame_tx, frame_rx) = bounded(1);
         let (event_tx, event_rx) = unbounded();

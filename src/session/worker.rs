@@ -466,9 +466,11 @@ impl Worker {
         (self.last_splat_ms, self.splat_ms_sum) = (0.0, 0.0);
         // The reference shows the scene and settings of the method it is beside.
         self.reference = None;
-        self.coarse_start = self.config.interactive_divisor > 1;
-        let mut settings = if self.interactive || self.coarse_start {
+        self.coarse_start = self.config.first_divisor > 1;
+        let mut settings = if self.interactive {
             interactive_view(&self.config.settings, self.config.interactive_divisor)
+        } else if self.coarse_start {
+            interactive_view(&self.config.settings, self.config.first_divisor)
         } else {
             self.config.settings.clone()
         };
