@@ -420,3 +420,96 @@ fn guided_emission_finds_the_window_from_a_lamp_outside() {
     let scene = Arc::new(Scene::builtin(raysplat::scene::BuiltinScene::WindowRoom));
     guided_reaches_more(&scene, 0.05, 2.5);
 }
+
+/// The visible domains a later eye pass takes from an earlier one (docs/deviations.md §40,
+/// "Probes kept across eye passes"): the same targets take every pixel's domain unchanged;
+/// targets moved along their plane by δ take the cells shrunk so that each sees at least δ
+/// less far than from where the probes left, and their nearest free distance is the probes'
+/// less δ; a target on another plane, or off its plane, casts its own probes.
+#[test]
+fn a_later_eye_pass_takes_the_probes_of_an_earlier_one_where_they_fit() {
+    use raysplat::pipeline::splat_tree::{DomainCache, LANES, SplatTree, free_distance};
+    let scene = shed();
+    // Floor targets near the wall z = −1 (the nearest free distance is about 0.1), one a
+    // pixel, and a wall target.
+    let mut pos: Vec<Vec3> = (0..12)
+        .map(|i| Vec3::new(-0.6 + 0.1 * i as f32, 0.0, -0.9 + 0.05 * (i % 3) as f32))
+        .collect();
+    let mut nrm = vec![Vec3::Y; pos.len()];
+    pos.push(Vec3::new(0.0, 1.0, -1.0));
+    nrm.push(Vec3::Z);
+    let pixels: Vec<u32> = (0..pos.len() as u32).collect();
+    // (free_min, decoded cells) of every target, in target order.
+    let lanes = |tree: &SplatTree| {
+        let mut out = vec![(0.0f32, [0.0f32; 16]); pos.len()];
+        for (slot, &t) in tree.slot_target.iter().enumerate() {
+            if (t as usize) < out.len() {
+                let d = &tree.domains[slot / LANES];
+                let l = slot % LANES;
+                let fm = d.free_min[l];
+                out[t as usize] = (fm, std::array::from_fn(|c| free_distance(d.free[l][c], fm)));
+            }
+        }
+        out
+    };
+    let mut cache = DomainCache::default();
+    let mut first = SplatTree::build(&pos, &nrm);
+    let n = pos.len() as u64;
+    assert_eq!(
+        first.probe_domains(&scene, &nrm, Some((&cache, &pixels))),
+        (0, n)
+    );
+    cache.keep(&first, &pixels);
+    let probed = lanes(&first);
+    assert!(probed[0].0 > 0.09 && probed[0].0 < 0.12, "{:?}", probed[0]);
+
+    // The same targets again: every one taken, bit for bit; keeping them changes nothing.
+    let mut again = SplatTree::build(&pos, &nrm);
+    assert_eq!(
+        again.probe_domains(&scene, &nrm, Some((&cache, &pixels))),
+        (n, 0)
+    );
+    cache.keep(&again, &pixels);
+    assert_eq!(lanes(&again), probed);
+
+    // Moved along the floor by δ = 0.01 (a tenth of the nearest free distance): taken,
+    // shrunk; the wall target moved off its plane, and one floor target given another
+    // normal, probe anew.
+    let delta = 0.01;
+    let mut moved: Vec<Vec3> = pos
+        .iter()
+        .map(|p| *p + Vec3::new(0.6, 0.0, 0.8) * delta)
+        .collect();
+    moved[12] += Vec3::Z * 0.01;
+    let mut tilted = nrm.clone();
+    tilted[5] = Vec3::new(0.0, 1.0, 0.05).normalize();
+    let mut later = SplatTree::build(&moved, &tilted);
+    assert_eq!(
+        later.probe_domains(&scene, &tilted, Some((&cache, &pixels))),
+        (n - 2, 2)
+    );
+    let taken = lanes(&later);
+    for t in (0..12).filter(|&t| t != 5) {
+        let ((fm, cells), (fm0, cells0)) = (taken[t], probed[t]);
+        assert!(
+            (fm - (fm0 - delta)).abs() < 1e-5,
+            "target {t}: {fm} against {fm0}"
+        );
+        for c in 0..16 {
+            assert!(
+                cells[c] <= cells0[c] - delta + 1e-5 || cells0[c].is_infinite(),
+                "target {t}, cell {c}: {} against {}",
+                cells[c],
+                cells0[c]
+            );
+        }
+        // No farther than a fresh probe from the moved target sees, within the probes' own
+        // approximation (one ray per 45° sector).
+        let fresh = probe(&scene, moved[t], Vec3::Y);
+        let fresh_min = fresh.iter().copied().fold(f32::INFINITY, f32::min);
+        assert!(
+            fm <= fresh_min + 0.25 * delta,
+            "target {t}: {fm} against {fresh_min}"
+        );
+    }
+}

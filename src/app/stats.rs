@@ -158,6 +158,18 @@ impl StatsPanel {
                     "splatted pairs tested against the visible kernel domain of their target: \
                      light beyond a wall splats nothing there (docs/deviations.md §40)",
                 );
+                let probed = m.domains_reused + m.domains_probed;
+                if probed > 0 {
+                    ui.label(format!(
+                        "domains: {:.0}% of the pixels' targets took an earlier pass's probes",
+                        100.0 * m.domains_reused as f64 / probed as f64
+                    ))
+                    .on_hover_text(
+                        "a pixel's target on the same plane near where an earlier eye pass \
+                         probed its visible domain takes those cells, shrunk by the distance, \
+                         instead of casting 16 probes (docs/deviations.md §40)",
+                    );
+                }
             }
             ui.separator();
             ui.label(format!("{}×{}", f.film.width, f.film.height));

@@ -278,6 +278,8 @@ fn stats_json(
         "accepted_pairs": s.accepted_pairs,
         "domain_tests": s.domain_tests,
         "occluded_pairs": s.occluded_pairs,
+        "domains_reused": s.domains_reused,
+        "domains_probed": s.domains_probed,
         "splat_rays": s.splat_rays,
         "rays_reaching": s.rays_reaching,
         "reaching_fraction": s.rays_reaching as f64 / s.splat_rays.max(1) as f64,

@@ -9,7 +9,7 @@ use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
 use crate::pipeline::radiance_map::{Accumulators, Channel};
-use crate::pipeline::splat_tree::SplatTree;
+use crate::pipeline::splat_tree::{DomainCache, SplatTree};
 use crate::sampling::splitmix64;
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, RenderSettings};
@@ -78,12 +78,16 @@ pub struct EyeSide {
 
 impl EyeSide {
     /// Eye pass, splat tree and explicit direct light for one view (`settings`' width,
-    /// height and spp), built as `options` say, timed into `timings` (T_E and T_D).
+    /// height and spp), built as `options` say, timed into `timings` (T_E and T_D). With
+    /// `cache`, the visible domains earlier eye passes probed serve this one's targets where
+    /// they fit ([`DomainCache`]; the caller keeps this pass's with [`DomainCache::keep`]
+    /// before it releases it), and its counts of reused and probed domains grow.
     pub fn new(
         scene: &Scene,
         camera: &Camera,
         settings: &RenderSettings,
         options: EyeSideOptions,
+        cache: Option<&mut DomainCache>,
         timings: &mut Timings,
     ) -> Result<Self, MethodError> {
         if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
@@ -114,7 +118,11 @@ impl EyeSide {
         } = eye_pass(scene, camera, &eye_settings);
         let mut tree = SplatTree::build(&targets.position, &targets.normal);
         if settings.splat_visibility {
-            tree.probe_domains(scene, &targets.geo_normal);
+            let consult = cache.as_deref().map(|c| (c, targets.pixel.as_slice()));
+            let (reused, probed) = tree.probe_domains(scene, &targets.geo_normal, consult);
+            if let Some(c) = cache {
+                (c.reused, c.probed) = (c.reused + reused, c.probed + probed);
+            }
         }
         let mut targets = targets;
         if options.targets == TargetGeometry::Freed {
@@ -320,7 +328,8 @@ mod tests {
             targets: TargetGeometry::Freed,
         };
         let mut timings = Timings::default();
-        let mut side = EyeSide::new(&scene, &camera, &settings, options, &mut timings).unwrap();
+        let mut side =
+            EyeSide::new(&scene, &camera, &settings, options, None, &mut timings).unwrap();
         let pixels = 24 * 24;
         let image = |side: &EyeSide| {
             let mut out = vec![Vec3::ZERO; pixels];

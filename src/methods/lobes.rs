@@ -133,7 +133,7 @@ impl TracedLobes {
         }
         let mut tree = SplatTree::build(&pass.targets.position, &pass.targets.normal);
         if settings.splat_visibility {
-            tree.probe_domains(scene, &pass.targets.geo_normal);
+            tree.probe_domains(scene, &pass.targets.geo_normal, None);
         }
         timings.t_eye += t.elapsed().as_secs_f64();
 

@@ -5,6 +5,7 @@
 use crate::methods::MethodError;
 use crate::pipeline::eye::EYE_SAMPLE_BYTES;
 use crate::pipeline::photon::PhotonRay;
+use crate::pipeline::splat_tree::DomainCache;
 use crate::settings::{MethodKind, RenderSettings};
 
 /// Bytes per pixel of the film (rgb and the AOVs), the radiance map and the displayed image.
@@ -35,6 +36,12 @@ pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
     let photons = settings
         .photons
         .saturating_mul(2 * std::mem::size_of::<PhotonRay>() as u64);
+    // The visible domains kept across eye passes, a pixel's first target each.
+    let domains = if settings.splat_visibility {
+        pixels.saturating_mul(DomainCache::BYTES_PER_PIXEL as u64)
+    } else {
+        0
+    };
     match settings.method {
         MethodKind::Pt => film,
         MethodKind::RsFg | MethodKind::PmFg => film
@@ -48,6 +55,7 @@ pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
         MethodKind::Rs => {
             film.saturating_add(eye)
                 .saturating_add(photons)
+                .saturating_add(domains)
                 .saturating_add(pixels.saturating_mul(
                     TRACED_LOBES_PER_PIXEL + EARLIER_PASSES_PER_PIXEL + PER_EYE_SAMPLE,
                 ))
@@ -55,7 +63,8 @@ pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
         }
         MethodKind::Rc | MethodKind::Pm => film
             .saturating_add(eye.saturating_mul(2))
-            .saturating_add(photons),
+            .saturating_add(photons)
+            .saturating_add(domains),
     }
 }
 

@@ -231,6 +231,12 @@ pub struct MethodStats {
     pub domain_tests: u64,
     /// Of those, the pairs outside it: light that would have leaked through a surface.
     pub occluded_pairs: u64,
+    /// Pixels' first splat targets of this render's eye passes that took the visible domain
+    /// an earlier pass probed nearby on their plane, and those that cast their own probes
+    /// (docs/deviations.md §40, "Probes kept across eye passes").
+    pub domains_reused: u64,
+    /// See `domains_reused`.
+    pub domains_probed: u64,
     /// Photon rays splatted onto the eye side (each class's splat counts its own rays).
     pub splat_rays: u64,
     /// Of those, the rays that splatted onto at least one eye sample.

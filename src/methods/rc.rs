@@ -147,7 +147,7 @@ fn cache_by_splatting(core: &PhotonCore) -> (Cache, Interpolated, SplatCounters)
                     .iter()
                     .map(|&t| side.targets.geo_normal[t])
                     .collect();
-                tree.probe_domains(scene, &geo_normals);
+                tree.probe_domains(scene, &geo_normals, None);
             }
             let mut acc = Accumulators::for_tree(&tree, &glossy, mode);
             for batch in &batches {

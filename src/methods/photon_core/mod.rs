@@ -33,6 +33,7 @@ use crate::pipeline::eye::SplatTargets;
 use crate::pipeline::photon::{Bandwidth, BandwidthParams};
 use crate::pipeline::radiance_map::Accumulators;
 use crate::pipeline::splat::SplatCounters;
+use crate::pipeline::splat_tree::DomainCache;
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, Effect, RenderSettings};
 use passes::{BandwidthHistory, EarlierPasses};
@@ -129,6 +130,9 @@ pub struct PhotonCore {
     config: CoreConfig,
     /// Everything that depends on the view.
     side: EyeSide,
+    /// The visible domains this view's eye passes probed, which later passes' targets take
+    /// where they fit (docs/deviations.md §40).
+    domains: DomainCache,
     /// The stored photon rays.
     store: PhotonStore,
     /// Stored batches (indices into the store) still to be re-splatted, next last.
@@ -216,11 +220,13 @@ impl PhotonCore {
         config: CoreConfig,
     ) -> Result<Self, MethodError> {
         let mut timings = Timings::default();
+        let mut domains = DomainCache::default();
         let side = EyeSide::new(
             &scene,
             &camera,
             &settings,
             side_options(config, 0),
+            Some(&mut domains),
             &mut timings,
         )?;
         let lobes = TracedLobes::new(&side.eye);
@@ -238,6 +244,7 @@ impl PhotonCore {
             camera,
             config,
             side,
+            domains,
             store,
             resplat_queue: Vec::new(),
             splatted: 0,
@@ -449,6 +456,8 @@ impl PhotonCore {
         if self.settings.auto_c {
             self.choose_c();
         }
+        // The domains this pass probed serve the next one where they fit.
+        self.domains.keep(&self.side.tree, &self.side.targets.pixel);
         // Free the finished side's arrays first (its film is kept), so that the peak holds
         // one eye side, not two (a `--time-budget` render of CORNELL BOX I at 500×500×4:
         // docs/benchmarks.md, "Memory").
@@ -460,6 +469,7 @@ impl PhotonCore {
             &self.camera,
             &self.settings,
             side_options(self.config, pass),
+            Some(&mut self.domains),
             &mut self.timings,
         ) {
             Ok(side) => self.side = side,
@@ -557,11 +567,15 @@ impl PhotonCore {
     ) -> Result<(), MethodError> {
         let settings = crate::methods::checked_view(&self.settings, width, height, spp)?;
         let before = self.timings;
+        // A new view probes anew: a pixel's kept "nothing met" (free_min infinite) is bounded
+        // only by the pixel it was probed in, which another view's pixel is not.
+        self.domains.clear();
         self.side = EyeSide::new(
             &self.scene,
             &camera,
             &settings,
             side_options(self.config, 0),
+            Some(&mut self.domains),
             &mut self.timings,
         )?;
         self.eye_pass = 0;

@@ -29,7 +29,7 @@ impl PhotonCore {
         MemoryBreakdown {
             eye_samples: side.eye.memory_bytes(),
             splat_targets: side.targets.memory_bytes(),
-            splat_tree: side.tree.memory_bytes(),
+            splat_tree: side.tree.memory_bytes() + self.domains.memory_bytes(),
             accumulators: side.acc_indirect.memory_bytes()
                 + side.acc_direct.memory_bytes()
                 + side.acc_half.memory_bytes()
@@ -75,6 +75,8 @@ impl PhotonCore {
             accepted_pairs: self.counters.accepted,
             domain_tests: self.counters.domain_tests,
             occluded_pairs: self.counters.occluded,
+            domains_reused: self.domains.reused,
+            domains_probed: self.domains.probed,
             splat_rays: self.counters.rays,
             rays_reaching: self.counters.rays_reaching,
             guide_batches: self.store.guide().map(|g| g.batches()),

@@ -59,12 +59,15 @@ pub struct SplatTargets {
     pub geo_normal: Vec<Vec3>,
     /// The target lies on a glossy surface and needs directional storage (§8.1).
     pub glossy: Vec<bool>,
+    /// The pixel of its first eye sample (targets come in pixel order): the key of the
+    /// visible domains kept across eye passes ([`crate::pipeline::splat_tree::DomainCache`]).
+    pub pixel: Vec<u32>,
 }
 
 impl SplatTargets {
     /// Bytes held by the target arrays.
     pub fn memory_bytes(&self) -> usize {
-        self.position.len() * 3 * 12 + self.glossy.len()
+        self.position.len() * 3 * 12 + self.glossy.len() + self.pixel.len() * 4
     }
 
     /// Number of splat targets.
@@ -78,8 +81,9 @@ impl SplatTargets {
     }
 
     /// Free the positions and normals (the splat tree holds its own copy in slot order),
-    /// keeping which targets are glossy: for methods that read the targets only through
-    /// the tree (rs).
+    /// keeping which targets are glossy and their pixels ([`crate::pipeline::splat_tree::
+    /// DomainCache::keep`] reads them): for methods that read the targets only through the
+    /// tree (rs).
     pub fn drop_geometry(&mut self) {
         self.position = Vec::new();
         self.normal = Vec::new();

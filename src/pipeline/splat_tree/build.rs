@@ -109,6 +109,7 @@ impl SplatTree {
             chunks,
             points,
             domains: Vec::new(),
+            domain_fresh: Vec::new(),
             slot_target,
             target_slot,
             subtrees,

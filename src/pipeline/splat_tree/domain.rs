@@ -312,21 +312,163 @@ pub fn share_position(r: f32, free_min: f32) -> f32 {
     (2.0 * log2).clamp(0.0, (SHARE_RADII - 1) as f32)
 }
 
+/// The visible domains probed for each pixel's first splat target, kept across the eye
+/// passes of one view (docs/deviations.md §40, "Probes kept across eye passes"): a later
+/// pass's first target of the pixel that lies on the same plane within a quarter of the
+/// nearest free distance of where the probes left takes the cells instead of casting its 16
+/// probes again, its distances shrunk by how far it lies from there. Cleared with the view
+/// ([`DomainCache::clear`]).
+#[derive(Default)]
+pub struct DomainCache {
+    /// Per pixel (index y·width + x); `free_min` NaN where nothing was probed yet.
+    entries: Vec<CachedDomain>,
+    /// Pixels' first targets that took a cached domain since the cache was made.
+    pub reused: u64,
+    /// Pixels' first targets that were probed (and cached) since the cache was made.
+    pub probed: u64,
+}
+
+/// One pixel's probed domain ([`DomainCache`]): where the probes left, the plane's normal and
+/// the lane's quantised cells as [`DomainChunk`] holds them (44 bytes; its share table is
+/// computed again from them, 192 table reads against 16 probe rays).
+#[derive(Clone, Copy)]
+struct CachedDomain {
+    origin: Vec3,
+    normal: Vec3,
+    free_min: f32,
+    free: [u8; PROBES],
+}
+
+impl CachedDomain {
+    const NONE: Self = Self {
+        origin: Vec3::ZERO,
+        normal: Vec3::ZERO,
+        free_min: f32::NAN,
+        free: [FREE_NONE; PROBES],
+    };
+}
+
+/// The normals of a target and of its pixel's cached domain agree to this cosine (0.5°).
+const REUSE_COS: f32 = 0.999_96;
+/// A cached domain serves a target within this share of its nearest free distance of the
+/// probes' origin.
+const REUSE_REACH: f32 = 0.25;
+
+impl DomainCache {
+    /// Bytes a pixel's entry takes (the memory estimate counts them per pixel).
+    pub const BYTES_PER_PIXEL: usize = std::mem::size_of::<CachedDomain>();
+
+    /// Keep the domains `tree` probed for its pixels' first targets (those
+    /// [`SplatTree::probe_domains`] marked; `pixels`: each target's pixel), before the eye
+    /// pass that made them is released. Entries another pass took stay as they were, so a
+    /// pixel's entry keeps the origin its probes left from. One entry a pixel of the view,
+    /// allocated on the first call (a second eye pass): a render of one pass holds none.
+    pub fn keep(&mut self, tree: &SplatTree, pixels: &[u32]) {
+        let Some(&last) = pixels.iter().max() else {
+            return;
+        };
+        let needed = last as usize + 1;
+        if self.entries.len() < needed {
+            self.entries.reserve_exact(needed - self.entries.len());
+            self.entries.resize(needed, CachedDomain::NONE);
+        }
+        for (k, &fresh) in tree.domain_fresh.iter().enumerate() {
+            let (c, d) = (&tree.points.chunks[k], &tree.domains[k]);
+            for l in (0..LANES).filter(|l| fresh & (1 << l) != 0) {
+                let target = tree.slot_target[k * LANES + l] as usize;
+                self.entries[pixels[target] as usize] = CachedDomain {
+                    origin: Vec3::new(c.px[l], c.py[l], c.pz[l]),
+                    normal: Vec3::new(d.normal[0][l], d.normal[1][l], d.normal[2][l]),
+                    free_min: d.free_min[l],
+                    free: d.free[l],
+                };
+            }
+        }
+    }
+
+    /// Forget every entry (a new view), keeping the counts.
+    pub fn clear(&mut self) {
+        self.entries = Vec::new();
+    }
+
+    /// Bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        self.entries.capacity() * std::mem::size_of::<CachedDomain>()
+    }
+
+    /// The smallest free distance a target at `p` with geometric normal `n` takes from
+    /// `pixel`'s cached domain, with its cells and shares, or None where it must probe: the
+    /// cached one's, shrunk by the distance δ from the probes' origin. All cells are
+    /// distances of at least free_min scaled by (1 − δ/free_min), so each shrinks by at least
+    /// δ (the target sees no farther than the origin did, less its offset), and N(x, r),
+    /// tabulated at radii relative to free_min over distances relative to it, is unchanged.
+    fn fit(&self, pixel: u32, p: Vec3, n: Vec3) -> Option<(f32, [u8; PROBES])> {
+        let c = self.entries.get(pixel as usize)?;
+        if c.free_min.is_nan() || c.normal.dot(n) < REUSE_COS {
+            return None;
+        }
+        let d = p - c.origin;
+        // On the same plane: off it by no more than the positions' own rounding.
+        let tolerance =
+            2.0 * surface_offset(p.abs().max_element().max(c.origin.abs().max_element()));
+        if d.dot(n).abs() > tolerance {
+            return None;
+        }
+        let delta = d.length();
+        if c.free_min.is_infinite() {
+            // No surface met: the target, on the same plane within its pixel, meets none
+            // either, to the probes' one-ray-per-cell approximation.
+            return Some((f32::INFINITY, c.free));
+        }
+        (delta <= REUSE_REACH * c.free_min)
+            .then(|| ((c.free_min - delta).max(f32::MIN_POSITIVE), c.free))
+    }
+}
+
+/// Lane `l`'s smallest free distance, quantised cells and N(x, r_j), computed from the
+/// distances as the splat pass decodes them (so that the cut and the renormalisation agree).
+fn set_cells(out: &mut DomainChunk, l: usize, free_min: f32, codes: [u8; PROBES]) {
+    out.free_min[l] = free_min;
+    if !free_min.is_finite() {
+        return;
+    }
+    out.free[l] = codes;
+    let free: [f32; PROBES] = std::array::from_fn(|c| free_distance(codes[c], free_min));
+    for j in 0..SHARE_RADII {
+        let r = free_min * (j as f32 * 0.5).exp2();
+        let n = visible_share(|c| free[c], r);
+        out.share[l][j] = (n.clamp(0.0, 1.0) * 255.0).round() as u8;
+    }
+}
+
 impl SplatTree {
     /// Probe every target's visible domain (module docs), so that splatting with a scene
     /// keeps each kernel on its target's side of the walls. `geo_normals` are the targets'
     /// geometric normals, in target order: the probes leave from that plane (a shading normal
-    /// can lean away from the surface).
-    pub fn probe_domains(&mut self, scene: &Scene, geo_normals: &[Vec3]) {
+    /// can lean away from the surface). With `cache` (and each target's pixel, in target
+    /// order) a pixel's first target takes the cached domain of its pixel where it fits
+    /// ([`DomainCache`]); the ones probed instead are marked for [`DomainCache::keep`].
+    /// Returns how many pixels' first targets took a cached domain and how many probed.
+    pub fn probe_domains(
+        &mut self,
+        scene: &Scene,
+        geo_normals: &[Vec3],
+        cache: Option<(&DomainCache, &[u32])>,
+    ) -> (u64, u64) {
         assert_eq!(geo_normals.len(), self.samples);
         // The table is built once, outside the parallel loop (see `kept_fraction`).
         planar_share(0, 1.0);
         let (pts, slot_target) = (&self.points.chunks, &self.slot_target);
-        self.domains = pts
-            .par_iter()
+        // Each chunk's domains, and its lanes probed as their pixel's first target (to be
+        // cached) and those that took a cached domain.
+        // Written in place (an indexed unzip): a collected copy of the domains was 15 MB
+        // at 500×500.
+        let (mut domains, mut marks) = (Vec::new(), Vec::<(u8, u8)>::new());
+        pts.par_iter()
             .enumerate()
             .map(|(k, c)| {
                 let mut out = DomainChunk::default();
+                let (mut fresh, mut reused) = (0u8, 0u8);
                 for l in 0..LANES {
                     let target = slot_target[k * LANES + l];
                     if target == PADDING {
@@ -334,8 +476,21 @@ impl SplatTree {
                     }
                     let n = geo_normals[target as usize];
                     let p = Vec3::new(c.px[l], c.py[l], c.pz[l]);
-                    let exact = probe(scene, p, n);
                     (out.normal[0][l], out.normal[1][l], out.normal[2][l]) = (n.x, n.y, n.z);
+                    // A pixel's first target (targets come in pixel order).
+                    let first = cache.and_then(|(_, px)| {
+                        let t = target as usize;
+                        (t == 0 || px[t - 1] != px[t]).then_some(px[t])
+                    });
+                    if let Some(pixel) = first
+                        && let Some((cache, _)) = cache
+                        && let Some((free_min, free)) = cache.fit(pixel, p, n)
+                    {
+                        set_cells(&mut out, l, free_min, free);
+                        reused |= 1 << l;
+                        continue;
+                    }
+                    let exact = probe(scene, p, n);
                     // A probe that met a surface at once (a target in a crease) closes its
                     // cell: the smallest distance quantised against stays positive.
                     let free_min = exact
@@ -343,24 +498,29 @@ impl SplatTree {
                         .copied()
                         .fold(f32::INFINITY, f32::min)
                         .max(f32::MIN_POSITIVE);
-                    out.free_min[l] = free_min;
+                    let mut codes = [FREE_NONE; PROBES];
                     if free_min.is_finite() {
-                        // N is computed from the distances as the splat pass decodes them.
-                        let mut free = [0.0f32; PROBES];
-                        for (cell, f) in exact.iter().enumerate() {
-                            out.free[l][cell] = quantise_free(*f, free_min);
-                            free[cell] = free_distance(out.free[l][cell], free_min);
-                        }
-                        for j in 0..SHARE_RADII {
-                            let r = free_min * (j as f32 * 0.5).exp2();
-                            let n = visible_share(|c| free[c], r);
-                            out.share[l][j] = (n.clamp(0.0, 1.0) * 255.0).round() as u8;
+                        for (q, f) in codes.iter_mut().zip(exact) {
+                            *q = quantise_free(f, free_min);
                         }
                     }
+                    set_cells(&mut out, l, free_min, codes);
+                    if first.is_some() {
+                        fresh |= 1 << l;
+                    }
                 }
-                out
+                (out, (fresh, reused))
             })
-            .collect();
+            .unzip_into_vecs(&mut domains, &mut marks);
+        self.domains = domains;
+        let count = |f: fn(&(u8, u8)) -> u8| marks.iter().map(|m| f(m).count_ones() as u64).sum();
+        let counts = (count(|m| m.1), count(|m| m.0));
+        self.domain_fresh = if cache.is_some() {
+            marks.into_iter().map(|m| m.0).collect()
+        } else {
+            Vec::new()
+        };
+        counts
     }
 
     /// The tree knows its targets' visible domains ([`SplatTree::probe_domains`]).

@@ -24,8 +24,8 @@ mod node;
 mod traverse;
 
 pub use domain::{
-    AZIMUTHS, DomainChunk, FREE_NONE, FREE_STEPS_PER_OCTAVE, PROBE_ELEVATIONS_DEG, PROBES,
-    SHARE_RADII, cell, cell_index, free_distance, planar_share, probe, quantise_free,
+    AZIMUTHS, DomainCache, DomainChunk, FREE_NONE, FREE_STEPS_PER_OCTAVE, PROBE_ELEVATIONS_DEG,
+    PROBES, SHARE_RADII, cell, cell_index, free_distance, planar_share, probe, quantise_free,
     share_from_row, share_position, visible_share,
 };
 pub use node::Node;
@@ -189,6 +189,10 @@ pub struct SplatTree {
     /// Visible kernel domains of the slots, one chunk per [`LANES`] slots, or empty when the
     /// tree was built without a scene to probe ([`SplatTree::probe_domains`]).
     pub domains: Vec<DomainChunk>,
+    /// Per chunk of [`domains`](Self::domains), the lanes probed as their pixel's first
+    /// target when the probes had a [`DomainCache`] to consult (what
+    /// [`DomainCache::keep`] keeps); empty otherwise.
+    pub domain_fresh: Vec<u8>,
     /// Splat target held by each slot (`u32::MAX` for padding).
     pub slot_target: Vec<u32>,
     /// Slot of each splat target.
@@ -245,6 +249,7 @@ impl SplatTree {
             + self.chunks.len() * std::mem::size_of::<Chunk>()
             + self.points.chunks.len() * std::mem::size_of::<PointChunk>()
             + self.domains.len() * std::mem::size_of::<DomainChunk>()
+            + self.domain_fresh.len()
             + self.slots() * 4
             + self.target_slot.len() * 4
     }
