@@ -422,23 +422,33 @@ fn guided_emission_finds_the_window_from_a_lamp_outside() {
 }
 
 /// The visible domains a later eye pass takes from an earlier one (docs/deviations.md §40,
-/// "Probes kept across eye passes"): the same targets take every pixel's domain unchanged;
-/// targets moved along their plane by δ take the cells shrunk so that each sees at least δ
-/// less far than from where the probes left, and their nearest free distance is the probes'
-/// less δ; a target on another plane, or off its plane, casts its own probes.
+/// "Probes kept across eye passes"): the same targets take every pixel's first target's
+/// domain unchanged (a pixel's second target probes); targets moved along their plane by δ
+/// take the cells shrunk so that each reaches at least δ less far than from where the probes
+/// left, and their nearest free distance is the probes' less δ, no farther than a fresh probe
+/// from the moved point sees (up to the probes' one ray per cell); a target moved beyond a
+/// quarter of its nearest free distance, off its plane or with another normal probes anew;
+/// an entry taken keeps the origin of its probes.
 #[test]
 fn a_later_eye_pass_takes_the_probes_of_an_earlier_one_where_they_fit() {
     use raysplat::pipeline::splat_tree::{DomainCache, LANES, SplatTree, free_distance};
     let scene = shed();
-    // Floor targets near the wall z = −1 (the nearest free distance is about 0.1), one a
-    // pixel, and a wall target.
+    // Floor targets near the wall z = −1 (the nearest free distance is about 0.1), and a
+    // wall target; pixels 0 and 1 have a second target (on the floor beside the first).
     let mut pos: Vec<Vec3> = (0..12)
         .map(|i| Vec3::new(-0.6 + 0.1 * i as f32, 0.0, -0.9 + 0.05 * (i % 3) as f32))
         .collect();
     let mut nrm = vec![Vec3::Y; pos.len()];
     pos.push(Vec3::new(0.0, 1.0, -1.0));
     nrm.push(Vec3::Z);
-    let pixels: Vec<u32> = (0..pos.len() as u32).collect();
+    let mut pixels: Vec<u32> = (0..pos.len() as u32).collect();
+    pos.insert(1, Vec3::new(-0.55, 0.0, -0.6));
+    nrm.insert(1, Vec3::Y);
+    pixels.insert(1, 0);
+    pos.insert(3, Vec3::new(-0.45, 0.0, -0.6));
+    nrm.insert(3, Vec3::Y);
+    pixels.insert(3, 1);
+    let firsts = 13u64;
     // (free_min, decoded cells) of every target, in target order.
     let lanes = |tree: &SplatTree| {
         let mut out = vec![(0.0f32, [0.0f32; 16]); pos.len()];
@@ -454,42 +464,35 @@ fn a_later_eye_pass_takes_the_probes_of_an_earlier_one_where_they_fit() {
     };
     let mut cache = DomainCache::default();
     let mut first = SplatTree::build(&pos, &nrm);
-    let n = pos.len() as u64;
-    assert_eq!(
-        first.probe_domains(&scene, &nrm, Some((&cache, &pixels))),
-        (0, n)
-    );
+    let counts = first.probe_domains(&scene, &nrm, Some((&cache, &pixels)));
+    assert_eq!(counts, (0, firsts));
     cache.keep(&first, &pixels);
     let probed = lanes(&first);
     assert!(probed[0].0 > 0.09 && probed[0].0 < 0.12, "{:?}", probed[0]);
 
-    // The same targets again: every one taken, bit for bit; keeping them changes nothing.
+    // The same targets again: every first one taken, bit for bit (the second ones probe
+    // and come out the same); keeping them changes nothing.
     let mut again = SplatTree::build(&pos, &nrm);
-    assert_eq!(
-        again.probe_domains(&scene, &nrm, Some((&cache, &pixels))),
-        (n, 0)
-    );
+    let counts = again.probe_domains(&scene, &nrm, Some((&cache, &pixels)));
+    assert_eq!(counts, (firsts, 0));
     cache.keep(&again, &pixels);
     assert_eq!(lanes(&again), probed);
 
-    // Moved along the floor by δ = 0.01 (a tenth of the nearest free distance): taken,
-    // shrunk; the wall target moved off its plane, and one floor target given another
-    // normal, probe anew.
+    // Moved towards the wall by δ = 0.01 (a tenth of the nearest free distance): taken,
+    // shrunk. Probed anew: the wall target moved off its plane, one floor target given a
+    // normal tilted by 3°, one moved by a third of its nearest free distance.
     let delta = 0.01;
-    let mut moved: Vec<Vec3> = pos
-        .iter()
-        .map(|p| *p + Vec3::new(0.6, 0.0, 0.8) * delta)
-        .collect();
-    moved[12] += Vec3::Z * 0.01;
+    let step = Vec3::new(0.6, 0.0, -0.8);
+    let mut moved: Vec<Vec3> = pos.iter().map(|p| *p + step * delta).collect();
+    moved[14] += Vec3::Z * 0.01;
+    moved[9] = pos[9] + step * (probed[9].0 / 3.0);
     let mut tilted = nrm.clone();
-    tilted[5] = Vec3::new(0.0, 1.0, 0.05).normalize();
+    tilted[7] = Vec3::new(0.0, 1.0, 0.05).normalize();
     let mut later = SplatTree::build(&moved, &tilted);
-    assert_eq!(
-        later.probe_domains(&scene, &tilted, Some((&cache, &pixels))),
-        (n - 2, 2)
-    );
+    let counts = later.probe_domains(&scene, &tilted, Some((&cache, &pixels)));
+    assert_eq!(counts, (firsts - 3, 3));
     let taken = lanes(&later);
-    for t in (0..12).filter(|&t| t != 5) {
+    for t in [0, 2, 4, 5, 6, 8, 10, 11, 12, 13] {
         let ((fm, cells), (fm0, cells0)) = (taken[t], probed[t]);
         assert!(
             (fm - (fm0 - delta)).abs() < 1e-5,
@@ -503,13 +506,23 @@ fn a_later_eye_pass_takes_the_probes_of_an_earlier_one_where_they_fit() {
                 cells0[c]
             );
         }
-        // No farther than a fresh probe from the moved target sees, within the probes' own
-        // approximation (one ray per 45° sector).
+        // Towards the wall a fresh probe from the moved point meets it about 1.1·δ nearer
+        // (the low ring's 10° and the sector's 22.5° from head-on): the shrunk distance
+        // lies within the probes' own error of it.
         let fresh = probe(&scene, moved[t], Vec3::Y);
         let fresh_min = fresh.iter().copied().fold(f32::INFINITY, f32::min);
         assert!(
             fm <= fresh_min + 0.25 * delta,
             "target {t}: {fm} against {fresh_min}"
         );
+    }
+    // Kept, a taken entry keeps its probes' origin: at the first positions again the
+    // domains are the first ones (an entry rewritten at the moved point would shrink by δ).
+    cache.keep(&later, &pixels);
+    let mut back = SplatTree::build(&pos, &nrm);
+    back.probe_domains(&scene, &nrm, Some((&cache, &pixels)));
+    let back = lanes(&back);
+    for t in [0, 2, 4, 5, 6, 8, 10, 11, 12, 13] {
+        assert_eq!(back[t], probed[t], "target {t}");
     }
 }

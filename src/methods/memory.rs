@@ -61,10 +61,10 @@ pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
                 ))
                 .saturating_add(eye / 2)
         }
+        // Their one eye pass keeps no domains.
         MethodKind::Rc | MethodKind::Pm => film
             .saturating_add(eye.saturating_mul(2))
-            .saturating_add(photons)
-            .saturating_add(domains),
+            .saturating_add(photons),
     }
 }
 

@@ -372,11 +372,13 @@ impl DomainCache {
             self.entries.reserve_exact(needed - self.entries.len());
             self.entries.resize(needed, CachedDomain::NONE);
         }
-        for (k, &fresh) in tree.domain_fresh.iter().enumerate() {
-            let (c, d) = (&tree.points.chunks[k], &tree.domains[k]);
+        let chunks = tree.domain_fresh.iter().zip(&tree.domains);
+        for (k, ((&fresh, d), c)) in chunks.zip(&tree.points.chunks).enumerate() {
             for l in (0..LANES).filter(|l| fresh & (1 << l) != 0) {
-                let target = tree.slot_target[k * LANES + l] as usize;
-                self.entries[pixels[target] as usize] = CachedDomain {
+                let Some(&target) = tree.slot_target.get(k * LANES + l) else {
+                    continue;
+                };
+                self.entries[pixels[target as usize] as usize] = CachedDomain {
                     origin: Vec3::new(c.px[l], c.py[l], c.pz[l]),
                     normal: Vec3::new(d.normal[0][l], d.normal[1][l], d.normal[2][l]),
                     free_min: d.free_min[l],
@@ -397,14 +399,23 @@ impl DomainCache {
     }
 
     /// The smallest free distance a target at `p` with geometric normal `n` takes from
-    /// `pixel`'s cached domain, with its cells and shares, or None where it must probe: the
+    /// `pixel`'s cached domain, with its quantised cells, or None where it must probe: the
     /// cached one's, shrunk by the distance δ from the probes' origin. All cells are
     /// distances of at least free_min scaled by (1 − δ/free_min), so each shrinks by at least
-    /// δ (the target sees no farther than the origin did, less its offset), and N(x, r),
-    /// tabulated at radii relative to free_min over distances relative to it, is unchanged.
+    /// δ (no cell reaches farther from the target than the origin's reached, less the
+    /// offset; against what the moved point itself would see, the error is of the order of
+    /// the probes' own, one ray per cell), and N(x, r), tabulated at radii relative to
+    /// free_min over distances relative to it, is the same table.
     fn fit(&self, pixel: u32, p: Vec3, n: Vec3) -> Option<(f32, [u8; PROBES])> {
         let c = self.entries.get(pixel as usize)?;
-        if c.free_min.is_nan() || c.normal.dot(n) < REUSE_COS {
+        // A "nothing met" has no distance to bound the move by (a target through rough
+        // glass, whose normals are drawn anew each pass, lands anywhere on the plane): probed
+        // again. The cells' frame is `onb` of the normal, which turns by 180° with the sign
+        // of its z (two triangles of one wall can give +0 and −0): the signs must agree.
+        if !c.free_min.is_finite()
+            || c.normal.dot(n) < REUSE_COS
+            || c.normal.z.is_sign_negative() != n.z.is_sign_negative()
+        {
             return None;
         }
         let d = p - c.origin;
@@ -415,11 +426,6 @@ impl DomainCache {
             return None;
         }
         let delta = d.length();
-        if c.free_min.is_infinite() {
-            // No surface met: the target, on the same plane within its pixel, meets none
-            // either, to the probes' one-ray-per-cell approximation.
-            return Some((f32::INFINITY, c.free));
-        }
         (delta <= REUSE_REACH * c.free_min)
             .then(|| ((c.free_min - delta).max(f32::MIN_POSITIVE), c.free))
     }
