@@ -158,8 +158,9 @@ impl StatsPanel {
                     "splatted pairs tested against the visible kernel domain of their target: \
                      light beyond a wall splats nothing there (docs/deviations.md §40)",
                 );
+                // Once a pass has taken kept domains (pm and rc draw one eye pass).
                 let probed = m.domains_reused + m.domains_probed;
-                if probed > 0 {
+                if m.domains_reused > 0 {
                     ui.label(format!(
                         "domains: {:.0}% of the pixels' targets took an earlier pass's probes",
                         100.0 * m.domains_reused as f64 / probed as f64
