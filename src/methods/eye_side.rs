@@ -118,10 +118,12 @@ impl EyeSide {
         } = eye_pass(scene, camera, &eye_settings);
         let mut tree = SplatTree::build(&targets.position, &targets.normal);
         if settings.splat_visibility {
-            let consult = cache.as_deref().map(|c| (c, targets.pixel.as_slice()));
+            let pixels = cache.as_ref().map(|_| eye.target_pixels(targets.len()));
+            let consult = cache.as_deref().zip(pixels.as_deref());
             let (reused, probed) = tree.probe_domains(scene, &targets.geo_normal, consult);
             if let Some(c) = cache {
-                (c.reused, c.probed) = (c.reused + reused, c.probed + probed);
+                c.reused += reused;
+                c.probed += probed;
             }
         }
         let mut targets = targets;
@@ -164,6 +166,15 @@ impl EyeSide {
             acc_half,
             eye_settings,
         })
+    }
+
+    /// Keep in `cache` the visible domains this pass probed for its pixels' first targets
+    /// ([`DomainCache::keep`]), before [`EyeSide::release`].
+    pub fn keep_domains(&self, cache: &mut DomainCache) {
+        if self.tree.domain_fresh.is_empty() {
+            return;
+        }
+        cache.keep(&self.tree, &self.eye.target_pixels(self.targets.len()));
     }
 
     /// Free the per-sample and per-pixel arrays (the eye samples, splat targets,

@@ -457,7 +457,7 @@ impl PhotonCore {
             self.choose_c();
         }
         // The domains this pass probed serve the next one where they fit.
-        self.domains.keep(&self.side.tree, &self.side.targets.pixel);
+        self.side.keep_domains(&mut self.domains);
         // Free the finished side's arrays first (its film is kept), so that the peak holds
         // one eye side, not two (a `--time-budget` render of CORNELL BOX I at 500×500×4:
         // docs/benchmarks.md, "Memory").

@@ -124,7 +124,6 @@ pub(super) fn collect_bands(
                     }
                     targets.geo_normal.extend_from_slice(&r.2.geo_normal);
                     targets.glossy.extend_from_slice(&r.2.glossy);
-                    targets.pixel.extend_from_slice(&r.2.pixel);
                     emitted.extend_from_slice(&r.1);
                 }
             },
@@ -168,7 +167,6 @@ pub(super) fn assign_targets(
                 targets.normal.push(s.normal);
                 targets.geo_normal.push(s.geo_normal);
                 targets.glossy.push(glossy);
-                targets.pixel.push(s.pixel);
                 (targets.len() - 1) as u32
             }
         };

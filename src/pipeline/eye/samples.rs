@@ -59,15 +59,12 @@ pub struct SplatTargets {
     pub geo_normal: Vec<Vec3>,
     /// The target lies on a glossy surface and needs directional storage (§8.1).
     pub glossy: Vec<bool>,
-    /// The pixel of its first eye sample (targets come in pixel order): the key of the
-    /// visible domains kept across eye passes ([`crate::pipeline::splat_tree::DomainCache`]).
-    pub pixel: Vec<u32>,
 }
 
 impl SplatTargets {
     /// Bytes held by the target arrays.
     pub fn memory_bytes(&self) -> usize {
-        self.position.len() * 3 * 12 + self.glossy.len() + self.pixel.len() * 4
+        self.position.len() * 3 * 12 + self.glossy.len()
     }
 
     /// Number of splat targets.
@@ -81,9 +78,8 @@ impl SplatTargets {
     }
 
     /// Free the positions and normals (the splat tree holds its own copy in slot order),
-    /// keeping which targets are glossy and their pixels ([`crate::pipeline::splat_tree::
-    /// DomainCache::keep`] reads them): for methods that read the targets only through the
-    /// tree (rs).
+    /// keeping which targets are glossy: for methods that read the targets only through
+    /// the tree (rs).
     pub fn drop_geometry(&mut self) {
         self.position = Vec::new();
         self.normal = Vec::new();
@@ -103,6 +99,18 @@ const LOBE_TRACED: u8 = 2;
 pub const EYE_SAMPLE_BYTES: usize = 12 + 3 * 4 + 3 * 6 + 3 * 2 + 3 * 4 + 1;
 
 impl EyeSamples {
+    /// The pixel of each of the pass's `targets` splat targets, read from the samples that
+    /// use them (a target never spans two pixels; in pixel order, as the targets are): the
+    /// key of the visible domains kept across eye passes
+    /// ([`crate::pipeline::splat_tree::DomainCache`]).
+    pub fn target_pixels(&self, targets: usize) -> Vec<u32> {
+        let mut out = vec![0; targets];
+        for (&t, &p) in self.target.iter().zip(&self.pixel) {
+            out[t as usize] = p;
+        }
+        out
+    }
+
     /// Number of eye samples.
     pub fn len(&self) -> usize {
         self.position.len()

@@ -363,8 +363,9 @@ impl DomainCache {
     /// pass that made them is released. Entries another pass took stay as they were, so a
     /// pixel's entry keeps the origin its probes left from. One entry a pixel of the view,
     /// allocated on the first call (a second eye pass): a render of one pass holds none.
+    /// The targets come in pixel order: the last one's pixel is the largest.
     pub fn keep(&mut self, tree: &SplatTree, pixels: &[u32]) {
-        let Some(&last) = pixels.iter().max() else {
+        let Some(&last) = pixels.last() else {
             return;
         };
         let needed = last as usize + 1;
