@@ -637,24 +637,25 @@ struct AlbedoTables {
 }
 
 const TABLE_N: usize = 32;
-const TABLE_GRID: u32 = 32;
+/// Visible-normal samples per entry and axis, when the tables were integrated. A finer grid
+/// does not converge on the albedo much faster: the grid resolves GGX's heavy tail, where the
+/// masking loss lies, poorly (at μ = 1, α = 0.05 the quadrature of
+/// `the_albedo_table_matches_a_quadrature` gives 0.9972, grids of 32, 64, 128, 256 and 512
+/// per axis 0.99996, 0.99995, 0.99985, 0.99605, 0.99774).
+pub const TABLE_GRID: u32 = 32;
 
 /// One entry of [`AlbedoTables`] at (μ index `k`, √α index `r`): (a, b, zonal, axis).
-pub fn albedo_entry(
-    k: usize,
-    r: usize,
-    grid: u32,
-    lobe: &mut Vec<(Vec3, f32)>,
-) -> (f32, f32, [f32; 4], f32) {
+pub fn albedo_entry(k: usize, r: usize, grid: u32, lobe: &mut Vec<(Vec3, f32)>) -> AlbedoEntry {
     let n = Vec3::Z;
     let mu = (k as f32 / (TABLE_N - 1) as f32).max(1e-3);
     let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
     let rough = r as f32 / (TABLE_N - 1) as f32;
     let alpha = (rough * rough).max(ALPHA_MIN);
-    let (mut sa, mut sb) = (0.0, 0.0);
+    // Sums in f64: 16,384 samples of order one summed in f32 lose 0.4% of the albedo.
+    let (mut sa, mut sb) = (0.0f64, 0.0f64);
     // (direction, f_s/pdf = w/cos θi) of each visible-normal sample above the surface.
     lobe.clear();
-    let mut mean = Vec3::ZERO;
+    let mut mean = glam::DVec3::ZERO;
     for i in 0..grid {
         for j in 0..grid {
             let u = Vec2::new(
@@ -669,15 +670,15 @@ pub fn albedo_entry(
             // f·cos/pdf of the visible-normal sample without F: G₂/G₁.
             let w = ggx_g2(wo.z, wi.z, alpha) / ggx_g1(wo.z, alpha);
             let x = (1.0 - wo.dot(h).clamp(0.0, 1.0)).powi(5);
-            sa += (1.0 - x) * w;
-            sb += x * w;
+            sa += ((1.0 - x) * w) as f64;
+            sb += (x * w) as f64;
             lobe.push((wi, w / wi.z));
-            mean += wi * (w / wi.z);
+            mean += wi.as_dvec3() * (w / wi.z) as f64;
         }
     }
     // The lobe's axis: its mean direction, between n and the mirror direction (which lies
     // towards −x here), as the angle from n.
-    let angle = (-mean.x).atan2(mean.z).max(0.0);
+    let angle = ((-mean.x).atan2(mean.z) as f32).max(0.0);
     let axis = Vec3::new(-angle.sin(), 0.0, angle.cos());
     let mut z = [0.0f64; 4];
     for &(wi, fw) in lobe.iter() {
@@ -692,55 +693,81 @@ pub fn albedo_entry(
             *zl += fw as f64 * pl;
         }
     }
-    let total = (sa + sb) as f64;
+    let total = sa + sb;
     let zonal = if total > 0.0 {
         z.map(|zl| (zl / total) as f32)
     } else {
         [0.0; 4]
     };
-    let count = (grid * grid) as f32;
-    (sa / count, sb / count, zonal, angle)
+    let count = (grid * grid) as f64;
+    ((sa / count) as f32, (sb / count) as f32, zonal, angle)
 }
 
-/// The tables, their 1,024 entries integrated in parallel: built on the first glossy
-/// surface's first lookup, single-threaded they took about 0.1 s of the previewer's first
-/// image (docs/benchmarks.md, "The previewer"); [`warm_tables`] starts them early. Plain
-/// scoped threads, not rayon: a rayon worker that meets the lock while another thread
-/// initialises it blocks there, and the initialiser's rayon jobs could then wait for that
-/// very worker.
+/// The tables as the program carries them (`albedo_tables.bin`: for each entry, μ index
+/// major, its a, b, zonal[0..4] and axis as little-endian f32), integrated once by
+/// [`integrate_tables`] on a [`TABLE_GRID`]² grid per entry. Integrating them at start-up took
+/// 55 ms of both cores (0.1 s on one) beside the previewer's first image (docs/benchmarks.md,
+/// "The previewer"); read from the binary they cost microseconds.
+/// `bsdf::tests::the_carried_albedo_tables_are_the_integrals` integrates them again and
+/// compares (`RAYSPLAT_WRITE_ALBEDO_TABLES=1` writes the file anew).
 static ALBEDO: std::sync::LazyLock<AlbedoTables> = std::sync::LazyLock::new(|| {
-    const ENTRIES: usize = TABLE_N * TABLE_N;
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
-    let mut entries = vec![(0.0, 0.0, [0.0; 4], 0.0); ENTRIES];
-    let per = ENTRIES.div_ceil(threads);
-    std::thread::scope(|s| {
-        for (c, part) in entries.chunks_mut(per).enumerate() {
-            s.spawn(move || {
-                let mut lobe = Vec::with_capacity((TABLE_GRID * TABLE_GRID) as usize);
-                for (i, e) in part.iter_mut().enumerate() {
-                    let at = c * per + i;
-                    *e = albedo_entry(at / TABLE_N, at % TABLE_N, TABLE_GRID, &mut lobe);
-                }
-            });
-        }
-    });
+    let bytes: &[u8] = include_bytes!("albedo_tables.bin");
+    let floats: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let entries: Vec<AlbedoEntry> = floats
+        .chunks_exact(ENTRY_FLOATS)
+        .map(|e| (e[0], e[1], [e[2], e[3], e[4], e[5]], e[6]))
+        .collect();
+    assert_eq!(
+        entries.len(),
+        TABLE_N * TABLE_N,
+        "albedo_tables.bin is incomplete"
+    );
+    tables_from(&entries)
+});
+
+/// One table entry: (a, b, zonal, axis).
+type AlbedoEntry = (f32, f32, [f32; 4], f32);
+
+/// Floats an entry takes in `albedo_tables.bin`.
+const ENTRY_FLOATS: usize = 7;
+
+/// The tables from their entries, μ index major.
+fn tables_from(entries: &[AlbedoEntry]) -> AlbedoTables {
     let mut t = AlbedoTables {
         a: [[0.0; TABLE_N]; TABLE_N],
         b: [[0.0; TABLE_N]; TABLE_N],
         zonal: [[[0.0; 4]; TABLE_N]; TABLE_N],
         axis: [[0.0; TABLE_N]; TABLE_N],
     };
-    for (e, (a, b, zonal, axis)) in entries.into_iter().enumerate() {
+    for (e, &(a, b, zonal, axis)) in entries.iter().enumerate() {
         let (k, r) = (e / TABLE_N, e % TABLE_N);
         (t.a[k][r], t.b[k][r], t.zonal[k][r], t.axis[k][r]) = (a, b, zonal, axis);
     }
     t
-});
+}
 
-/// Build the glossy model's albedo tables now (the previewer calls it on a thread of its own
-/// when a session starts, so that the first image does not wait for them).
-pub fn warm_tables() {
-    std::sync::LazyLock::force(&ALBEDO);
+/// Every entry of the tables integrated on a `grid`² grid, μ index major (rayon; for the
+/// test that checks the carried tables and for writing them).
+pub fn integrate_tables(grid: u32) -> Vec<AlbedoEntry> {
+    use rayon::prelude::*;
+    (0..TABLE_N * TABLE_N)
+        .into_par_iter()
+        .map_init(Vec::new, |lobe, at| {
+            albedo_entry(at / TABLE_N, at % TABLE_N, grid, lobe)
+        })
+        .collect()
+}
+
+/// The entries as `albedo_tables.bin` holds them.
+pub fn table_bytes(entries: &[AlbedoEntry]) -> Vec<u8> {
+    entries
+        .iter()
+        .flat_map(|&(a, b, z, axis)| [a, b, z[0], z[1], z[2], z[3], axis])
+        .flat_map(f32::to_le_bytes)
+        .collect()
 }
 
 /// Linear interpolation into a table over [0, 1].
@@ -1009,6 +1036,31 @@ mod tests {
             );
         }
         assert!((quadrature(1.0, 0.58) - 0.61).abs() < 0.01);
+    }
+
+    /// The tables the program carries are the integrals `albedo_entry` makes on the grid of
+    /// [`TABLE_GRID`] (to rounding: another libm's sin and atan2 may differ in the last bit).
+    /// `RAYSPLAT_WRITE_ALBEDO_TABLES=1` writes `src/albedo_tables.bin` anew.
+    #[test]
+    fn the_carried_albedo_tables_are_the_integrals() {
+        let fresh = integrate_tables(TABLE_GRID);
+        if std::env::var_os("RAYSPLAT_WRITE_ALBEDO_TABLES").is_some() {
+            let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/albedo_tables.bin");
+            std::fs::write(path, table_bytes(&fresh)).unwrap();
+            return;
+        }
+        let carried = &*ALBEDO;
+        let mut worst = 0.0f32;
+        for (e, &(a, b, z, axis)) in fresh.iter().enumerate() {
+            let (k, r) = (e / TABLE_N, e % TABLE_N);
+            let got = [carried.a[k][r], carried.b[k][r], carried.axis[k][r]]
+                .into_iter()
+                .chain(carried.zonal[k][r]);
+            for (g, w) in got.zip([a, b, axis].into_iter().chain(z)) {
+                worst = worst.max((g - w).abs() / w.abs().max(1.0));
+            }
+        }
+        assert!(worst < 1e-5, "the carried tables are off by {worst}");
     }
 
     #[test]

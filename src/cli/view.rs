@@ -20,8 +20,6 @@ pub struct ViewArgs {
 /// Loads the scene (a failure is reported here, on stderr, and no window opens), then opens
 /// the previewer window on it and returns when the window closes.
 pub fn run(args: ViewArgs) -> Result<(), super::error::CliError> {
-    // The glossy model's tables (55 ms) are built while the scene loads and the window opens.
-    std::thread::spawn(raysplat::bsdf::warm_tables);
     let scene = load_scene(args.scene.as_deref(), &args.environment)?;
     let path = args
         .scene

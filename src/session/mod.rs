@@ -269,15 +269,6 @@ impl Session {
         // Build the splat's kept-fraction table (≈ 30 ms, docs/deviations.md §23) beside the
         // first eye pass rather than in front of the first splat.
         std::thread::spawn(|| crate::pipeline::splat::kept_fraction(1.0, 0.0));
-        // So are the glossy model's albedo tables (55 ms on 2 cores, 0.1 s on one), which the
-        // first eye pass would otherwise wait for at its first glossy hit.
-        let glossy = scene
-            .materials
-            .iter()
-            .any(|m| !matches!(m.kind, crate::scene::MaterialKind::Diffuse));
-        if glossy {
-            std::thread::spawn(crate::bsdf::warm_tables);
-        }
         let (cmd_tx, cmd_rx) = unbounded();
         let (frame_tx, frame_rx) = bounded(1);
         let (event_tx, event_rx) = unbounded();
