@@ -36,3 +36,55 @@ fn every_method_refuses_a_view_outside_the_limits_and_keeps_its_own() {
         assert_eq!(film.invalid_pixels(), 0, "{}", kind.name());
     }
 }
+
+/// A resting view's eye side that the window's worker gives up for a newer view
+/// (`Method::set_stop`, docs/benchmarks.md "The previewer") leaves the method mid-step, with
+/// no film taken, until a step draws it; given up again while the flag stays raised, drawn
+/// once it is lowered, and then the render is the one a method never stopped makes, pixel
+/// for pixel. A dragged (interactive) view's side is never given up.
+#[test]
+fn an_eye_side_given_up_for_a_new_view_is_drawn_by_the_next_step() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let scene = Arc::new(Scene::builtin(BuiltinScene::WindowRoom));
+    let settings = RenderSettings {
+        width: 32,
+        height: 24,
+        spp: 1,
+        photons: 4_000,
+        method: MethodKind::Rs,
+        ..RenderSettings::default()
+    };
+    let mut plain = methods::build(scene.clone(), settings.clone()).unwrap();
+    let mut stopped = methods::build(scene.clone(), settings).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    stopped.set_stop(stop.clone());
+    for m in [&mut plain, &mut stopped] {
+        m.step();
+        m.step();
+    }
+    let mut camera = plain.camera().clone();
+    camera.position += camera.right() * 0.1;
+    stop.store(true, Ordering::Release);
+    plain.set_view(camera.clone(), 32, 24, 1).unwrap();
+    stopped.set_view(camera.clone(), 32, 24, 1).unwrap();
+    assert!(!plain.mid_step());
+    assert!(stopped.mid_step(), "the side was not given up");
+    assert_eq!(stopped.step(), methods::Step::Partial);
+    assert!(stopped.mid_step(), "drawn while the flag was raised");
+    stop.store(false, Ordering::Release);
+    for _ in 0..4 {
+        plain.step();
+        stopped.step();
+    }
+    assert!(!stopped.mid_step());
+    let (a, b) = (plain.film(), stopped.film());
+    assert_eq!(a.rgb, b.rgb);
+    assert_eq!(plain.passes(), stopped.passes());
+
+    // An interactive view's side is drawn whatever the flag says.
+    stop.store(true, Ordering::Release);
+    stopped.set_interactive(true);
+    camera.position += camera.right() * 0.1;
+    stopped.set_view(camera, 16, 12, 1).unwrap();
+    assert!(!stopped.mid_step());
+}

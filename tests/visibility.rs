@@ -463,6 +463,7 @@ fn a_later_eye_pass_takes_the_probes_of_an_earlier_one_where_they_fit() {
         out
     };
     let mut cache = DomainCache::default();
+    cache.set_view(13, 1);
     let mut first = SplatTree::build(&pos, &nrm);
     let counts = first.probe_domains(&scene, &nrm, Some((&cache, &pixels)));
     assert_eq!(counts, (0, firsts));
@@ -525,4 +526,63 @@ fn a_later_eye_pass_takes_the_probes_of_an_earlier_one_where_they_fit() {
     for t in [0, 2, 4, 5, 6, 8, 10, 11, 12, 13] {
         assert_eq!(back[t], probed[t], "target {t}");
     }
+}
+
+/// The visible domains a view of another size takes (the window's dragged views are at half
+/// its size, its first image at a quarter): a pixel looks at the cached cells under it, takes
+/// the one that fits, and probes where none does; a larger view that keeps its probes spreads
+/// the entries over its own pixels, and what was kept stays found.
+#[test]
+fn a_view_of_another_size_takes_the_probes_under_its_pixels() {
+    use raysplat::pipeline::splat_tree::{DomainCache, LANES, SplatTree};
+    let scene = shed();
+    // Floor targets 0.1 from the wall z = −1 (nearest free distance about 0.1, so a reach
+    // of 0.025), 0.1 apart along it.
+    let at = |x: f32| Vec3::new(x, 0.0, -0.9);
+    let free_min = |tree: &SplatTree, target: u32| {
+        let slot = tree.slot_target.iter().position(|&t| t == target).unwrap();
+        tree.domains[slot / LANES].free_min[slot % LANES]
+    };
+    let mut cache = DomainCache::default();
+    // A view 4 pixels wide, its targets at x = −0.6 … −0.3.
+    cache.set_view(4, 1);
+    let grid: Vec<Vec3> = (0..4).map(|i| at(-0.6 + 0.1 * i as f32)).collect();
+    let mut first = SplatTree::build(&grid, &[Vec3::Y; 4]);
+    assert_eq!(
+        first.probe_domains(&scene, &[Vec3::Y; 4], Some((&cache, &[0, 1, 2, 3]))),
+        (0, 4)
+    );
+    cache.keep(&first, &[0, 1, 2, 3]);
+
+    // Half as wide: pixel 0 lies over cells 0 and 1 and its target is where cell 1's was
+    // (taken, the same distance); pixel 1's target is where cell 0's was, not under it
+    // (probed).
+    cache.set_view(2, 1);
+    let half = [at(-0.5), at(-0.6)];
+    let mut small = SplatTree::build(&half, &[Vec3::Y; 2]);
+    assert_eq!(
+        small.probe_domains(&scene, &[Vec3::Y; 2], Some((&cache, &[0, 1]))),
+        (1, 1)
+    );
+    assert_eq!(free_min(&small, 0), free_min(&first, 1));
+    assert!((free_min(&small, 1) - free_min(&first, 0)).abs() < 1e-6);
+    cache.keep(&small, &[0, 1]);
+
+    // Twice as wide: pixel 5 lies over cell 2, where the small view's pixel 1 kept x = −0.6.
+    cache.set_view(8, 1);
+    let wide: Vec<Vec3> = (0..8).map(|i| at(if i == 5 { -0.6 } else { 0.4 })).collect();
+    let pixels: Vec<u32> = (0..8).collect();
+    let mut large = SplatTree::build(&wide, &[Vec3::Y; 8]);
+    assert_eq!(
+        large.probe_domains(&scene, &[Vec3::Y; 8], Some((&cache, &pixels))),
+        (1, 7)
+    );
+    // Kept, the entries spread over the eight pixels: pixel 5 still finds its domain.
+    cache.keep(&large, &pixels);
+    let mut again = SplatTree::build(&wide, &[Vec3::Y; 8]);
+    assert_eq!(
+        again.probe_domains(&scene, &[Vec3::Y; 8], Some((&cache, &pixels))),
+        (8, 0)
+    );
+    assert_eq!(free_min(&again, 5), free_min(&large, 5));
 }

@@ -7,7 +7,9 @@
 use crate::methods::{MethodError, Timings};
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::directional::DirectionalMode;
-use crate::pipeline::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass};
+use crate::pipeline::eye::{
+    EyePass, EyeSamples, EyeSettings, SplatTargets, Stop, eye_pass_until, stopped,
+};
 use crate::pipeline::radiance_map::{Accumulators, Channel};
 use crate::pipeline::splat_tree::{DomainCache, SplatTree};
 use crate::sampling::splitmix64;
@@ -90,6 +92,23 @@ impl EyeSide {
         cache: Option<&mut DomainCache>,
         timings: &mut Timings,
     ) -> Result<Self, MethodError> {
+        Self::new_until(scene, camera, settings, options, cache, timings, None)
+            .map(|side| side.expect("an eye side without a stop is made whole"))
+    }
+
+    /// [`EyeSide::new`], given up (`Ok(None)`) once `stop` is raised: between bands of the
+    /// eye pass's rows, chunks of the visible domains' probes, and before the NEE draw. The
+    /// window's worker raises it when a new view arrives, which discards this side anyway
+    /// (docs/benchmarks.md, "The previewer"); the time spent counts in `timings`.
+    pub fn new_until(
+        scene: &Scene,
+        camera: &Camera,
+        settings: &RenderSettings,
+        options: EyeSideOptions,
+        mut cache: Option<&mut DomainCache>,
+        timings: &mut Timings,
+        stop: Stop,
+    ) -> Result<Option<Self>, MethodError> {
         if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
             return Err(MethodError::EmptyView);
         }
@@ -111,20 +130,36 @@ impl EyeSide {
             follow_lobes: options.lobes == LobeDraws::InEyePass,
             light_samples: settings.nee_samples,
         };
-        let EyePass {
+        let Some(EyePass {
             samples: eye,
             targets,
             emitted,
-        } = eye_pass(scene, camera, &eye_settings);
+        }) = eye_pass_until(scene, camera, &eye_settings, stop)
+        else {
+            timings.t_eye += t.elapsed().as_secs_f64();
+            return Ok(None);
+        };
         let mut tree = SplatTree::build(&targets.position, &targets.normal);
         if settings.splat_visibility {
+            if let Some(c) = cache.as_deref_mut() {
+                c.set_view(settings.width, settings.height);
+            }
             let pixels = cache.as_ref().map(|_| eye.target_pixels(targets.len()));
             let consult = cache.as_deref().zip(pixels.as_deref());
-            let (reused, probed) = tree.probe_domains(scene, &targets.geo_normal, consult);
+            let Some((reused, probed)) =
+                tree.probe_domains_until(scene, &targets.geo_normal, consult, stop)
+            else {
+                timings.t_eye += t.elapsed().as_secs_f64();
+                return Ok(None);
+            };
             if let Some(c) = cache {
                 c.reused += reused;
                 c.probed += probed;
             }
+        }
+        if stopped(stop) {
+            timings.t_eye += t.elapsed().as_secs_f64();
+            return Ok(None);
         }
         let mut targets = targets;
         if options.targets == TargetGeometry::Freed {
@@ -153,7 +188,7 @@ impl EyeSide {
         } else {
             Accumulators::default()
         };
-        Ok(Self {
+        Ok(Some(Self {
             eye,
             targets,
             tree,
@@ -165,7 +200,7 @@ impl EyeSide {
             acc_direct,
             acc_half,
             eye_settings,
-        })
+        }))
     }
 
     /// Keep in `cache` the visible domains this pass probed for its pixels' first targets
@@ -174,6 +209,7 @@ impl EyeSide {
         if self.tree.domain_fresh.is_empty() {
             return;
         }
+        cache.set_view(self.eye_settings.width, self.eye_settings.height);
         cache.keep(&self.tree, &self.eye.target_pixels(self.targets.len()));
     }
 

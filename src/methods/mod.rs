@@ -286,6 +286,11 @@ pub trait Method: Send {
     /// wants a frame per step then, so re-splats are not cut into pieces.
     fn set_interactive(&mut self, _interactive: bool) {}
 
+    /// A flag the window's worker raises when a new view arrives: work for the current,
+    /// resting view that the new one discards (an eye pass) may be given up, leaving the
+    /// method [`Method::mid_step`] until its next step.
+    fn set_stop(&mut self, _stop: std::sync::Arc<std::sync::atomic::AtomicBool>) {}
+
     /// A new camera, resolution or sample count. Methods with view-independent stored work
     /// (photon rays) keep it and re-use it; the others start again.
     fn set_view(

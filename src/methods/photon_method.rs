@@ -12,6 +12,7 @@ use crate::pipeline::splat::SplatCounters;
 use crate::scene::{Camera, Scene};
 use crate::settings::{MethodKind, RenderSettings};
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 
 /// A film and what making it cost: the core adds the timings and counters to its own
 /// ([`PhotonCore::record`]).
@@ -106,9 +107,17 @@ impl<R: Resolver> Method for PhotonMethod<R> {
     /// Re-splat one stored batch, or trace and splat a new one; before a new batch, a new
     /// eye pass when the current one has had its share of photons (its film is kept).
     fn step(&mut self) -> Step {
+        // A side given up for a new view that has not come (or a view's own, given up for
+        // the next) is drawn first; given up again, the step ends there.
+        if !self.core.draw_owed() {
+            return Step::Partial;
+        }
         if !self.core.resplat_pending() && self.core.wants_new_eye_pass() {
             let film = self.resolve();
             self.core.next_eye_pass(&film);
+            if self.core.owes_side() {
+                return Step::Partial;
+            }
         }
         self.core.step()
     }
@@ -118,7 +127,11 @@ impl<R: Resolver> Method for PhotonMethod<R> {
     }
 
     fn mid_step(&self) -> bool {
-        self.core.mid_batch()
+        self.core.mid_batch() || self.core.owes_side()
+    }
+
+    fn set_stop(&mut self, stop: Arc<AtomicBool>) {
+        self.core.set_stop(stop);
     }
 
     fn set_interactive(&mut self, interactive: bool) {

@@ -25,6 +25,7 @@ use crossbeam_channel::{Receiver, Sender, bounded, unbounded};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -254,6 +255,9 @@ pub struct Session {
     cmd_tx: Sender<Command>,
     frame_rx: Receiver<Frame>,
     event_rx: Receiver<Event>,
+    /// Raised with a command that brings a new view ([`Session::send`]); the worker lowers
+    /// it when it reads its commands.
+    stop: Arc<AtomicBool>,
     handle: Option<JoinHandle<()>>,
 }
 
@@ -273,13 +277,15 @@ impl Session {
         let (frame_tx, frame_rx) = bounded(1);
         let (event_tx, event_rx) = unbounded();
         let stale = frame_rx.clone();
+        let stop = Arc::new(AtomicBool::new(false));
+        let worker_stop = stop.clone();
         let handle = std::thread::Builder::new()
             .name("raysplat-worker".into())
             .spawn(move || {
                 let events = event_tx.clone();
                 let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     Worker::new(scene, scene_path, config, frame_tx, stale, event_tx, notify)
-                        .run(cmd_rx)
+                        .run(cmd_rx, worker_stop)
                 }));
                 if let Err(e) = result {
                     let msg = e
@@ -295,14 +301,29 @@ impl Session {
             cmd_tx,
             frame_rx,
             event_rx,
+            stop,
             handle: Some(handle),
         }
     }
 
     /// Queue a command for the worker (ignored once the worker has stopped).
     pub fn send(&self, c: Command) {
+        // A command that discards the current view's eye pass lets the worker give up the one
+        // it may be drawing (raised after the send: the worker that sees it finds the command
+        // at its next drain).
+        let new_view = matches!(
+            c,
+            Command::SetCamera { .. }
+                | Command::SetResolution { .. }
+                | Command::SetSamplesPerPixel(_)
+                | Command::LoadScene(_)
+                | Command::Restart
+        );
         // A stopped worker has told the UI why through an event.
         let _ = self.cmd_tx.send(c);
+        if new_view {
+            self.stop.store(true, Ordering::Release);
+        }
     }
 
     /// The newest frame published since the last call, if any.

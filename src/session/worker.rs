@@ -8,6 +8,7 @@ use crate::settings::{Changes, Effect, MethodKind, RenderSettings, limits};
 use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Changes gathered from one drain of the command queue, applied once. Changes of the render
@@ -71,6 +72,9 @@ pub(super) struct Worker {
     last_splat_ms: f64,
     /// The pieces of the batch in flight so far, milliseconds.
     splat_ms_sum: f64,
+    /// Raised by the session with a command that brings a new view; lowered here before the
+    /// commands are read ([`crate::methods::Method::set_stop`]).
+    stop: Option<Arc<AtomicBool>>,
 }
 
 impl Worker {
@@ -113,6 +117,7 @@ impl Worker {
             notify,
             last_splat_ms: 0.0,
             splat_ms_sum: 0.0,
+            stop: None,
         };
         w.announce_scene();
         if let Some(e) = lighting_error {
@@ -122,7 +127,11 @@ impl Worker {
         w
     }
 
-    pub(super) fn run(mut self, cmd_rx: Receiver<Command>) {
+    pub(super) fn run(mut self, cmd_rx: Receiver<Command>, stop: Arc<AtomicBool>) {
+        if let Some(r) = self.renderer.as_mut() {
+            r.set_stop(stop.clone());
+        }
+        self.stop = Some(stop.clone());
         let mut last_publish: Option<Instant> = None;
         // Something the UI has not seen yet (a change, a pause, a re-splatted batch).
         let mut unseen = true;
@@ -132,6 +141,10 @@ impl Worker {
                 .as_ref()
                 .is_some_and(|r| r.catching_up() || r.mid_step() || !self.paused);
             let mut commands = Vec::new();
+            // Lowered before the commands are read: a command sent after this raises it
+            // again, and is read by this drain or the next (a raise whose command this drain
+            // reads costs the next eye side one false start at most).
+            stop.store(false, Ordering::Release);
             if !busy {
                 match cmd_rx.recv_timeout(Duration::from_millis(250)) {
                     Ok(c) => commands.push(c),
@@ -317,6 +330,12 @@ impl Worker {
         if let Some(i) = p.interactive {
             self.interactive = i;
         }
+        // Before a view is set: a dragged view's (or the coarse first image's) eye side is
+        // never given up, a resting view's may be.
+        let interactive = self.interactive || self.coarse_start;
+        if let Some(r) = self.renderer.as_mut() {
+            r.set_interactive(interactive);
+        }
         if let Some(path) = p.load {
             match Scene::load(&path) {
                 Ok(scene) => {
@@ -484,6 +503,9 @@ impl Worker {
         match methods::build_for(self.scene.clone(), settings, self.camera.clone()) {
             Ok(mut r) => {
                 r.set_ray_budget(self.config.max_stored_rays);
+                if let Some(stop) = &self.stop {
+                    r.set_stop(stop.clone());
+                }
                 // The window renders by the clock.
                 r.pace();
                 self.renderer = Some(r);

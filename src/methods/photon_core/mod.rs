@@ -38,6 +38,7 @@ use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, Effect, RenderSettings};
 use passes::{BandwidthHistory, EarlierPasses};
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 /// Photon classes (direct, indirect, caustic) splatted onto every splat target as batches
@@ -174,6 +175,14 @@ pub struct PhotonCore {
     paced: bool,
     /// What the current eye pass and its NEE draws cost, and what was spent since.
     pub(crate) clock: PassClock,
+    /// Raised by the window's worker when a new view arrives: an eye side being drawn for a
+    /// resting view is given up, since the new view discards it
+    /// ([`PhotonCore::set_stop`]; a dragged view's sides are always finished).
+    stop: Option<Arc<AtomicBool>>,
+    /// The eye pass whose side was given up and is still to be drawn (its view and settings
+    /// already adopted): the next step draws it before anything else, and until then the
+    /// core is mid-step (no film is taken).
+    owed: Option<u32>,
 }
 
 /// The costs a paced render weighs (docs/deviations.md §50), in seconds.
@@ -263,6 +272,8 @@ impl PhotonCore {
             paced: false,
             clock: PassClock::started(&Timings::default(), &timings),
             timings,
+            stop: None,
+            owed: None,
         })
     }
 
@@ -463,30 +474,69 @@ impl PhotonCore {
         // docs/benchmarks.md, "Memory").
         self.side.release();
         self.lobes = TracedLobes::default();
+        if self.draw_side(pass).is_err() {
+            // Unreachable for a view that was built once; should it happen, the view starts
+            // again from the stored rays rather than splatting onto nothing.
+            let _ = self.draw_side(0);
+        }
+    }
+
+    /// Draw eye pass `pass`'s side for the current view and settings (pass 0: a new view,
+    /// whose stored batches are then re-splatted onto it), unless the stop is raised first:
+    /// it is then owed ([`PhotonCore::owes_side`]) and the next step tries again.
+    fn draw_side(&mut self, pass: u32) -> Result<(), MethodError> {
         let before = self.timings;
-        match EyeSide::new(
+        // A dragged view's sides are finished: each of its views wants a frame.
+        let stop = self.stop.as_deref().filter(|_| !self.interactive);
+        let side = EyeSide::new_until(
             &self.scene,
             &self.camera,
             &self.settings,
             side_options(self.config, pass),
             Some(&mut self.domains),
             &mut self.timings,
-        ) {
-            Ok(side) => self.side = side,
-            Err(_) => {
-                // Unreachable for a view that was built once; should it happen, the view
-                // starts again from the stored rays rather than splatting onto nothing.
-                let (w, h, spp) = (self.settings.width, self.settings.height, self.settings.spp);
-                let _ = self.set_view(self.camera.clone(), w, h, spp);
-                return;
-            }
-        }
+            stop,
+        );
+        let Some(side) = side? else {
+            self.owed = Some(pass);
+            return Ok(());
+        };
+        self.side = side;
+        self.owed = None;
         self.eye_pass = pass;
         self.clock = PassClock::started(&before, &self.timings);
         self.lobes = TracedLobes::new(&self.side.eye);
-        self.splatted = 0;
-        self.folded = 0;
-        self.generation += 1;
+        if pass == 0 {
+            // What reached the old view's eye samples says little about the new one's.
+            self.store.reset_guide();
+            self.begin_resplat(self.settings.bandwidth);
+        } else {
+            self.splatted = 0;
+            self.folded = 0;
+            self.generation += 1;
+        }
+        Ok(())
+    }
+
+    /// An eye side was given up and is still to be drawn.
+    pub fn owes_side(&self) -> bool {
+        self.owed.is_some()
+    }
+
+    /// Draw the side that was given up (the next step's first work); true when it is drawn.
+    pub(crate) fn draw_owed(&mut self) -> bool {
+        if let Some(pass) = self.owed
+            && self.draw_side(pass).is_err()
+            && pass > 0
+        {
+            let _ = self.draw_side(0);
+        }
+        self.owed.is_none()
+    }
+
+    /// The flag the window's worker raises when a new view arrives (see `stop`).
+    pub(crate) fn set_stop(&mut self, stop: Arc<AtomicBool>) {
+        self.stop = Some(stop);
     }
 
     /// `--c auto` (docs/deviations.md §51): from the finished passes' estimated kernel bias²
@@ -566,27 +616,18 @@ impl PhotonCore {
         spp: u32,
     ) -> Result<(), MethodError> {
         let settings = crate::methods::checked_view(&self.settings, width, height, spp)?;
-        let before = self.timings;
-        // A new view probes anew: a pixel's kept "nothing met" (free_min infinite) is bounded
-        // only by the pixel it was probed in, which another view's pixel is not.
-        self.domains.clear();
-        self.side = EyeSide::new(
-            &self.scene,
-            &camera,
-            &settings,
-            side_options(self.config, 0),
-            Some(&mut self.domains),
-            &mut self.timings,
-        )?;
-        self.eye_pass = 0;
-        self.clock = PassClock::started(&before, &self.timings);
-        self.lobes = TracedLobes::new(&self.side.eye);
-        self.settings = settings;
-        self.camera = camera;
-        // What reached the old view's eye samples says little about the new one's.
-        self.store.reset_guide();
-        self.begin_resplat(self.settings.bandwidth);
-        Ok(())
+        // The domains the last view probed serve the new one where they fit: the test is
+        // geometric (a "nothing met" is never taken), the pixel only says where to look.
+        self.side.keep_domains(&mut self.domains);
+        let old = (
+            std::mem::replace(&mut self.settings, settings),
+            std::mem::replace(&mut self.camera, camera),
+        );
+        let drawn = self.draw_side(0);
+        if drawn.is_err() {
+            (self.settings, self.camera) = old;
+        }
+        drawn
     }
 
     /// Apply the settings whose change needs no re-trace ([`Effect::Resplat`] and
@@ -595,6 +636,10 @@ impl PhotonCore {
     /// it moves the progressive schedule's M₁ (deviations §43); a new radiance map builds new
     /// accumulators, then re-splats; the cache and the filter reach the next film.
     pub(crate) fn update(&mut self, s: &RenderSettings) -> Result<(), MethodError> {
+        // A side still owed stays owed: a re-splat begun here clears only accumulators
+        // (empty ones when the side was released) and queues the stored batches, which wait
+        // for the side (the core is mid-step until it is drawn); a new map or estimate draws
+        // a new side for the view anyway.
         // Both need a new eye side (its accumulators), then a re-splat.
         let new_map = s.radiance_map != self.settings.radiance_map;
         let new_estimate = s.estimate_error != self.settings.estimate_error;

@@ -3,7 +3,7 @@
 
 use super::chain::RawSample;
 use super::samples::PackedSample;
-use super::{EyePass, EyeSamples, SplatTargets};
+use super::{EyePass, EyeSamples, SplatTargets, Stop, stopped};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -22,13 +22,15 @@ type PackedRow = (Vec<(PackedSample, u32)>, Vec<Vec3>, SplatTargets);
 /// a band of rows at a time and appended into the pass's arrays (reserved for `expect`
 /// samples; reserved pages that are never written take no memory), each band's rows freed
 /// before the next is made. Collecting every row before concatenating them held the whole
-/// pass twice: +70 MB at 500×500×4 (docs/benchmarks.md, "Memory").
+/// pass twice: +70 MB at 500×500×4 (docs/benchmarks.md, "Memory"). None when `stop` is
+/// raised before a band (the caller no longer wants the pass: [`crate::pipeline::eye::Stop`]).
 pub(super) fn collect_bands(
     height: u32,
     pixels: u32,
     expect: usize,
+    stop: Stop,
     row: impl Fn(u32) -> Row + Sync + Send,
-) -> EyePass {
+) -> Option<EyePass> {
     let mut samples = EyeSamples::default();
     samples.position.reserve_exact(expect);
     samples.geo_normal.reserve_exact(expect);
@@ -57,6 +59,9 @@ pub(super) fn collect_bands(
     let band = (8 * rayon::current_num_threads() as u32).max(16);
     let mut y0 = 0;
     while y0 < height {
+        if stopped(stop) {
+            return None;
+        }
         let y1 = (y0 + band).min(height);
         // Rows made and their samples packed in parallel; the append only copies.
         let rows: Vec<PackedRow> = (y0..y1)
@@ -130,7 +135,7 @@ pub(super) fn collect_bands(
         );
         y0 = y1;
     }
-    pass
+    Some(pass)
 }
 
 /// Give the samples of one pixel their splat targets: a new target per sample, or, when

@@ -38,7 +38,7 @@ pub fn trace_lobes(
         ..*s
     };
     let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / s.height as f32;
-    collect_bands(s.height, s.width * s.height, 0, |y| {
+    collect_bands(s.height, s.width * s.height, 0, None, |y| {
         let mut out = Vec::new();
         let mut emitted = vec![Vec3::ZERO; s.width as usize];
         let mut targets = SplatTargets::default();
@@ -105,4 +105,5 @@ pub fn trace_lobes(
         }
         (out, emitted, targets)
     })
+    .expect("traced lobes without a stop are drawn whole")
 }

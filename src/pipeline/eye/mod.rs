@@ -79,8 +79,28 @@ fn jitter(s: u32, spp: u32, rng: &mut Rng) -> Vec2 {
     }
 }
 
+/// A flag the caller raises when it no longer wants the work under way (the window's worker,
+/// when a new view arrives: docs/benchmarks.md, "The previewer"); None: never stopped.
+pub type Stop<'a> = Option<&'a std::sync::atomic::AtomicBool>;
+
+/// `stop` is raised.
+#[inline]
+pub fn stopped(stop: Stop) -> bool {
+    stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Acquire))
+}
+
 /// Run the eye pass for `camera` over the whole image.
 pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
+    eye_pass_until(scene, camera, s, None).expect("an eye pass without a stop runs to its end")
+}
+
+/// [`eye_pass`], given up (None) once `stop` is raised, between bands of rows.
+pub fn eye_pass_until(
+    scene: &Scene,
+    camera: &Camera,
+    s: &EyeSettings,
+    stop: Stop,
+) -> Option<EyePass> {
     let aspect = s.width as f32 / s.height as f32;
     // Angle subtended by one pixel (vertically), for the footprint of merged targets.
     let pixel_angle = 2.0 * (0.5 * camera.yfov).tan() / s.height as f32;
@@ -88,7 +108,7 @@ pub fn eye_pass(scene: &Scene, camera: &Camera, s: &EyeSettings) -> EyePass {
     // Specular branches add samples beyond spp per pixel: an eighth more is reserved
     // (reserved pages that are never written take no memory).
     let expect = (pixels * s.spp) as usize;
-    collect_bands(s.height, pixels, expect + expect / 8, |y| {
+    collect_bands(s.height, pixels, expect + expect / 8, stop, |y| {
         let mut out = Vec::with_capacity((s.width * s.spp) as usize);
         let mut emitted = vec![Vec3::ZERO; s.width as usize];
         let mut targets = SplatTargets::default();

@@ -24,6 +24,7 @@
 //! visible, the estimate only loses samples, not its mean: the same cell cuts N.
 
 use super::{LANES, PADDING, SplatTree};
+use crate::pipeline::eye::{Stop, stopped};
 use crate::sampling::onb;
 use crate::scene::{Scene, offset_ray_origin, surface_offset};
 use glam::Vec3;
@@ -312,16 +313,22 @@ pub fn share_position(r: f32, free_min: f32) -> f32 {
     (2.0 * log2).clamp(0.0, (SHARE_RADII - 1) as f32)
 }
 
-/// The visible domains probed for each pixel's first splat target, kept across the eye
-/// passes of one view (docs/deviations.md §40, "Probes kept across eye passes"): a later
-/// pass's first target of the pixel that lies on the same plane within a quarter of the
-/// nearest free distance of where the probes left takes the cells instead of casting its 16
-/// probes again, its distances shrunk by how far it lies from there. Cleared with the view
-/// ([`DomainCache::clear`]).
+/// The visible domains probed for each pixel's first splat target, kept across eye passes
+/// and views (docs/deviations.md §40, "Probes kept across eye passes"): a later pass's first
+/// target of the pixel that lies on the same plane within a quarter of the nearest free
+/// distance of where the probes left takes the cells instead of casting its 16 probes again,
+/// its distances shrunk by how far it lies from there. The test is geometric, so the pixel
+/// only says where to look: a view of another size (the window's dragged views are at half
+/// size) looks at the entry of the same place in the image ([`DomainCache::set_view`]), and a
+/// moved camera's pixels find the points near where they looked before.
 #[derive(Default)]
 pub struct DomainCache {
-    /// Per pixel (index y·width + x); `free_min` NaN where nothing was probed yet.
+    /// Per pixel of `grid` (index y·width + x); `free_min` NaN where nothing was probed yet.
     entries: Vec<CachedDomain>,
+    /// The width and height the entries are laid out for: the view that kept the first.
+    grid: (u32, u32),
+    /// The width and height of the view whose pixels are looked up and kept.
+    view: (u32, u32),
     /// Pixels' first targets that took a cached domain since the cache was made.
     pub reused: u64,
     /// Pixels' first targets that were probed (and cached) since the cache was made.
@@ -365,13 +372,29 @@ impl DomainCache {
     /// allocated on the first call (a second eye pass): a render of one pass holds none.
     /// The targets come in pixel order: the last one's pixel is the largest.
     pub fn keep(&mut self, tree: &SplatTree, pixels: &[u32]) {
-        let Some(&last) = pixels.last() else {
+        if pixels.is_empty() || self.view.0 == 0 || self.view.1 == 0 {
             return;
-        };
-        let needed = last as usize + 1;
-        if self.entries.len() < needed {
-            self.entries.reserve_exact(needed - self.entries.len());
-            self.entries.resize(needed, CachedDomain::NONE);
+        }
+        // Laid out for the largest view so far (the window's first image is at a quarter of
+        // the size): a larger one spreads the entries over its pixels.
+        let ((w, h), (gw, gh)) = (self.view, self.grid);
+        if self.entries.is_empty() || (w as u64) * (h as u64) > (gw as u64) * (gh as u64) {
+            let mut entries = Vec::with_capacity(w as usize * h as usize);
+            entries.extend(
+                (0..h as u64)
+                    .flat_map(|y| {
+                        (0..w as u64)
+                            .map(move |x| (x * gw as u64 / w as u64, y * gh as u64 / h as u64))
+                    })
+                    .map(|(gx, gy)| {
+                        self.entries
+                            .get((gy * gw as u64 + gx) as usize)
+                            .copied()
+                            .unwrap_or(CachedDomain::NONE)
+                    }),
+            );
+            self.entries = entries;
+            self.grid = self.view;
         }
         let chunks = tree.domain_fresh.iter().zip(&tree.domains);
         for (k, ((&fresh, d), c)) in chunks.zip(&tree.points.chunks).enumerate() {
@@ -379,19 +402,42 @@ impl DomainCache {
                 let Some(&target) = tree.slot_target.get(k * LANES + l) else {
                     continue;
                 };
-                self.entries[pixels[target as usize] as usize] = CachedDomain {
+                let entry = CachedDomain {
                     origin: Vec3::new(c.px[l], c.py[l], c.pz[l]),
                     normal: Vec3::new(d.normal[0][l], d.normal[1][l], d.normal[2][l]),
                     free_min: d.free_min[l],
                     free: d.free[l],
                 };
+                for slot in self.slots(pixels[target as usize]) {
+                    self.entries[slot] = entry;
+                }
             }
         }
     }
 
-    /// Forget every entry (a new view), keeping the counts.
+    /// Forget every entry, keeping the counts.
     pub fn clear(&mut self) {
         self.entries = Vec::new();
+    }
+
+    /// The pixels looked up and kept from now on are of a view `width` × `height`.
+    pub fn set_view(&mut self, width: u32, height: u32) {
+        self.view = (width, height);
+    }
+
+    /// The entries for pixel `pixel` of the view: the grid's cells under it (one where the
+    /// view is the grid's size, 2 × 2 for the window's dragged views at half size).
+    #[inline]
+    fn slots(&self, pixel: u32) -> impl Iterator<Item = usize> + use<> {
+        let ((w, h), (gw, gh)) = (self.view, self.grid);
+        let ok = w > 0 && h > 0 && !self.entries.is_empty() && pixel < w * h;
+        let (w, h) = (w.max(1) as u64, h.max(1) as u64);
+        let (gw, gh) = (gw as u64, gh as u64);
+        let (x, y) = (pixel as u64 % w, pixel as u64 / w);
+        let span = |i: u64, n: u64, g: u64| (i * g / n, ((i + 1) * g / n).max(i * g / n + 1));
+        let ((x0, x1), (y0, y1)) = (span(x, w, gw), span(y, h, gh));
+        let (y0, y1) = if ok { (y0, y1.min(gh)) } else { (0, 0) };
+        (y0..y1).flat_map(move |gy| (x0..x1.min(gw)).map(move |gx| (gy * gw + gx) as usize))
     }
 
     /// Bytes held.
@@ -407,29 +453,37 @@ impl DomainCache {
     /// offset; against what the moved point itself would see, the error is of the order of
     /// the probes' own, one ray per cell), and N(x, r), tabulated at radii relative to
     /// free_min over distances relative to it, is the same table.
+    /// Of the pixel's cells (more than one for a smaller view), the one that leaves the
+    /// largest distance.
     fn fit(&self, pixel: u32, p: Vec3, n: Vec3) -> Option<(f32, [u8; PROBES])> {
-        let c = self.entries.get(pixel as usize)?;
-        // A "nothing met" has no distance to bound the move by (a target through rough
-        // glass, whose normals are drawn anew each pass, lands anywhere on the plane): probed
-        // again. The cells' frame is `onb` of the normal, which turns by 180° with the sign
-        // of its z (two triangles of one wall can give +0 and −0): the signs must agree.
-        if !c.free_min.is_finite()
-            || c.normal.dot(n) < REUSE_COS
-            || c.normal.z.is_sign_negative() != n.z.is_sign_negative()
-        {
-            return None;
-        }
-        let d = p - c.origin;
-        // On the same plane: off it by no more than the positions' own rounding.
-        let tolerance =
-            2.0 * surface_offset(p.abs().max_element().max(c.origin.abs().max_element()));
-        if d.dot(n).abs() > tolerance {
-            return None;
-        }
-        let delta = d.length();
-        (delta <= REUSE_REACH * c.free_min)
-            .then(|| ((c.free_min - delta).max(f32::MIN_POSITIVE), c.free))
+        self.slots(pixel)
+            .filter_map(|slot| fit_entry(&self.entries[slot], p, n))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
     }
+}
+
+/// [`DomainCache::fit`] for one cached domain `c`.
+#[inline]
+fn fit_entry(c: &CachedDomain, p: Vec3, n: Vec3) -> Option<(f32, [u8; PROBES])> {
+    // A "nothing met" has no distance to bound the move by (a target through rough
+    // glass, whose normals are drawn anew each pass, lands anywhere on the plane): probed
+    // again. The cells' frame is `onb` of the normal, which turns by 180° with the sign
+    // of its z (two triangles of one wall can give +0 and −0): the signs must agree.
+    if !c.free_min.is_finite()
+        || c.normal.dot(n) < REUSE_COS
+        || c.normal.z.is_sign_negative() != n.z.is_sign_negative()
+    {
+        return None;
+    }
+    let d = p - c.origin;
+    // On the same plane: off it by no more than the positions' own rounding.
+    let tolerance = 2.0 * surface_offset(p.abs().max_element().max(c.origin.abs().max_element()));
+    if d.dot(n).abs() > tolerance {
+        return None;
+    }
+    let delta = d.length();
+    (delta <= REUSE_REACH * c.free_min)
+        .then(|| ((c.free_min - delta).max(f32::MIN_POSITIVE), c.free))
 }
 
 /// Lane `l`'s smallest free distance, quantised cells and N(x, r_j), computed from the
@@ -462,6 +516,19 @@ impl SplatTree {
         geo_normals: &[Vec3],
         cache: Option<(&DomainCache, &[u32])>,
     ) -> (u64, u64) {
+        self.probe_domains_until(scene, geo_normals, cache, None)
+            .expect("probes without a stop run to their end")
+    }
+
+    /// [`SplatTree::probe_domains`], given up (None, the tree's domains then unusable) once
+    /// `stop` is raised: each chunk of targets looks at it before it probes.
+    pub fn probe_domains_until(
+        &mut self,
+        scene: &Scene,
+        geo_normals: &[Vec3],
+        cache: Option<(&DomainCache, &[u32])>,
+        stop: Stop,
+    ) -> Option<(u64, u64)> {
         assert_eq!(geo_normals.len(), self.samples);
         // The table is built once, outside the parallel loop (see `kept_fraction`).
         planar_share(0, 1.0);
@@ -476,6 +543,9 @@ impl SplatTree {
             .map(|(k, c)| {
                 let mut out = DomainChunk::default();
                 let (mut fresh, mut reused) = (0u8, 0u8);
+                if stopped(stop) {
+                    return (out, (fresh, reused));
+                }
                 for l in 0..LANES {
                     let target = slot_target[k * LANES + l];
                     if target == PADDING {
@@ -519,6 +589,10 @@ impl SplatTree {
                 (out, (fresh, reused))
             })
             .unzip_into_vecs(&mut domains, &mut marks);
+        if stopped(stop) {
+            self.domains = Vec::new();
+            return None;
+        }
         self.domains = domains;
         let count = |f: fn(&(u8, u8)) -> u8| marks.iter().map(|m| f(m).count_ones() as u64).sum();
         let counts = (count(|m| m.1), count(|m| m.0));
@@ -527,7 +601,7 @@ impl SplatTree {
         } else {
             Vec::new()
         };
-        counts
+        Some(counts)
     }
 
     /// The tree knows its targets' visible domains ([`SplatTree::probe_domains`]).
