@@ -69,9 +69,12 @@ fn an_eye_side_given_up_for_a_new_view_is_drawn_by_the_next_step() {
     stopped.set_view(camera.clone(), 32, 24, 1).unwrap();
     assert!(!plain.mid_step());
     assert!(stopped.mid_step(), "the side was not given up");
-    assert_eq!(stopped.step(), methods::Step::Partial);
+    assert_eq!(stopped.step(), methods::Step::Side);
     assert!(stopped.mid_step(), "drawn while the flag was raised");
     stop.store(false, Ordering::Release);
+    // The step that draws the side does nothing else.
+    assert_eq!(stopped.step(), methods::Step::Side);
+    assert!(!stopped.mid_step());
     for _ in 0..4 {
         plain.step();
         stopped.step();

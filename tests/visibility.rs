@@ -570,7 +570,9 @@ fn a_view_of_another_size_takes_the_probes_under_its_pixels() {
 
     // Twice as wide: pixel 5 lies over cell 2, where the small view's pixel 1 kept x = −0.6.
     cache.set_view(8, 1);
-    let wide: Vec<Vec3> = (0..8).map(|i| at(if i == 5 { -0.6 } else { 0.4 })).collect();
+    let wide: Vec<Vec3> = (0..8)
+        .map(|i| at(if i == 5 { -0.6 } else { 0.4 }))
+        .collect();
     let pixels: Vec<u32> = (0..8).collect();
     let mut large = SplatTree::build(&wide, &[Vec3::Y; 8]);
     assert_eq!(

@@ -100,6 +100,10 @@ pub enum Step {
     /// that a command waits for a piece, not a batch): the light is not counted yet, so no image is
     /// taken until the batch is whole ([`Method::mid_step`]).
     Partial,
+    /// Drew an eye side that had been given up for a new view (the window's stop flag,
+    /// [`Method::set_stop`]), or gave it up again: no light added, and the step's time is an
+    /// eye pass's, not a splat's. Mid-step while it is still owed.
+    Side,
 }
 
 /// Seconds spent per phase (Table 2: T_E, T_L, T_S).

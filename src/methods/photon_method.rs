@@ -108,15 +108,17 @@ impl<R: Resolver> Method for PhotonMethod<R> {
     /// eye pass when the current one has had its share of photons (its film is kept).
     fn step(&mut self) -> Step {
         // A side given up for a new view that has not come (or a view's own, given up for
-        // the next) is drawn first; given up again, the step ends there.
-        if !self.core.draw_owed() {
-            return Step::Partial;
+        // the next) is drawn first, and the step ends there: a paused window steps an owed
+        // side but traces no batch.
+        if self.core.owes_side() {
+            self.core.draw_owed();
+            return Step::Side;
         }
         if !self.core.resplat_pending() && self.core.wants_new_eye_pass() {
             let film = self.resolve();
             self.core.next_eye_pass(&film);
             if self.core.owes_side() {
-                return Step::Partial;
+                return Step::Side;
             }
         }
         self.core.step()

@@ -209,6 +209,7 @@ mod tests {
                 }
                 Step::Traced => break,
                 Step::Resplatted => panic!("nothing to re-splat"),
+                Step::Side => panic!("no side was given up"),
             }
         }
         assert_eq!(partial, SPLAT_PIECES - 1);
@@ -234,6 +235,7 @@ mod tests {
                 Step::Partial => pieces += 1,
                 Step::Resplatted => assert!(!cut.catching_up()),
                 Step::Traced => panic!("a new batch before the re-splat ended"),
+                Step::Side => panic!("no side was given up"),
             }
         }
         assert_eq!(pieces, SPLAT_PIECES - 1);

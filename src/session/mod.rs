@@ -318,6 +318,7 @@ impl Session {
                 | Command::SetSamplesPerPixel(_)
                 | Command::LoadScene(_)
                 | Command::Restart
+                | Command::Shutdown
         );
         // A stopped worker has told the UI why through an event.
         let _ = self.cmd_tx.send(c);
@@ -353,7 +354,7 @@ impl Session {
 
 impl Drop for Session {
     fn drop(&mut self) {
-        let _ = self.cmd_tx.send(Command::Shutdown);
+        self.send(Command::Shutdown);
         if let Some(h) = self.handle.take() {
             let _ = h.join();
         }

@@ -142,8 +142,9 @@ impl Worker {
                 .is_some_and(|r| r.catching_up() || r.mid_step() || !self.paused);
             let mut commands = Vec::new();
             // Lowered before the commands are read: a command sent after this raises it
-            // again, and is read by this drain or the next (a raise whose command this drain
-            // reads costs the next eye side one false start at most).
+            // again, and is read by this drain or the next. A raise whose command this drain
+            // reads (the usual case for a camera that comes to rest while the worker waits)
+            // gives up the view's side at its first band, and the next step draws it.
             stop.store(false, Ordering::Release);
             if !busy {
                 match cmd_rx.recv_timeout(Duration::from_millis(250)) {
@@ -190,7 +191,8 @@ impl Worker {
                 // Re-splat pieces are not the method's turn in the split view (a whole
                 // re-splat step never was).
                 let resplat = r.catching_up();
-                match r.step() {
+                let step = r.step();
+                match step {
                     // Show re-splat progress at once: it follows a user's change.
                     Step::Resplatted => unseen = true,
                     Step::Traced => {
@@ -200,9 +202,14 @@ impl Worker {
                     // Part of a batch: commands are read again before the next piece.
                     Step::Partial if !resplat => self.t_method += t.elapsed().as_secs_f64(),
                     Step::Partial => {}
+                    // An eye side drawn (or given up again) for a new view: the method's
+                    // time, but not a splat's.
+                    Step::Side => self.t_method += t.elapsed().as_secs_f64(),
                 }
                 // The stats show a whole batch's splat time, its pieces added up.
-                self.splat_ms_sum += t.elapsed().as_secs_f64() * 1e3;
+                if step != Step::Side {
+                    self.splat_ms_sum += t.elapsed().as_secs_f64() * 1e3;
+                }
                 if !r.mid_step() {
                     self.last_splat_ms = std::mem::take(&mut self.splat_ms_sum);
                 }

@@ -368,9 +368,10 @@ impl DomainCache {
     /// Keep the domains `tree` probed for its pixels' first targets (those
     /// [`SplatTree::probe_domains`] marked; `pixels`: each target's pixel), before the eye
     /// pass that made them is released. Entries another pass took stay as they were, so a
-    /// pixel's entry keeps the origin its probes left from. One entry a pixel of the view,
-    /// allocated on the first call (a second eye pass): a render of one pass holds none.
-    /// The targets come in pixel order: the last one's pixel is the largest.
+    /// pixel's entry keeps the origin its probes left from. One entry a pixel of the largest
+    /// view so far, allocated on the first call (a second eye pass or a second view): a
+    /// headless render of one pass holds none. `pixels` are of the view given to
+    /// [`DomainCache::set_view`].
     pub fn keep(&mut self, tree: &SplatTree, pixels: &[u32]) {
         if pixels.is_empty() || self.view.0 == 0 || self.view.1 == 0 {
             return;
@@ -430,7 +431,7 @@ impl DomainCache {
     #[inline]
     fn slots(&self, pixel: u32) -> impl Iterator<Item = usize> + use<> {
         let ((w, h), (gw, gh)) = (self.view, self.grid);
-        let ok = w > 0 && h > 0 && !self.entries.is_empty() && pixel < w * h;
+        let ok = w > 0 && h > 0 && !self.entries.is_empty() && (pixel as u64) < w as u64 * h as u64;
         let (w, h) = (w.max(1) as u64, h.max(1) as u64);
         let (gw, gh) = (gw as u64, gh as u64);
         let (x, y) = (pixel as u64 % w, pixel as u64 / w);
