@@ -642,10 +642,14 @@ const TABLE_N: usize = 32;
 /// masking loss lies, poorly (at μ = 1, α = 0.05 the quadrature of
 /// `the_albedo_table_matches_a_quadrature` gives 0.9972, grids of 32, 64, 128, 256 and 512
 /// per axis 0.99996, 0.99995, 0.99985, 0.99605, 0.99774).
-pub const TABLE_GRID: u32 = 32;
+#[cfg(test)]
+const TABLE_GRID: u32 = 32;
 
-/// One entry of [`AlbedoTables`] at (μ index `k`, √α index `r`): (a, b, zonal, axis).
-pub fn albedo_entry(k: usize, r: usize, grid: u32, lobe: &mut Vec<(Vec3, f32)>) -> AlbedoEntry {
+/// One entry of [`AlbedoTables`] at (μ index `k`, √α index `r`): (a, b, zonal, axis). The
+/// program reads the integrals from `albedo_tables.bin`; only the test that checks (and
+/// writes) that file integrates them.
+#[cfg(test)]
+fn albedo_entry(k: usize, r: usize, grid: u32, lobe: &mut Vec<(Vec3, f32)>) -> AlbedoEntry {
     let n = Vec3::Z;
     let mu = (k as f32 / (TABLE_N - 1) as f32).max(1e-3);
     let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
@@ -705,7 +709,7 @@ pub fn albedo_entry(k: usize, r: usize, grid: u32, lobe: &mut Vec<(Vec3, f32)>) 
 
 /// The tables as the program carries them (`albedo_tables.bin`: for each entry, μ index
 /// major, its a, b, zonal[0..4] and axis as little-endian f32), integrated once by
-/// [`integrate_tables`] on a [`TABLE_GRID`]² grid per entry. Integrating them at start-up took
+/// `integrate_tables` on a `TABLE_GRID`² grid per entry. Integrating them at start-up took
 /// 55 ms of both cores (0.1 s on one) beside the previewer's first image (docs/benchmarks.md,
 /// "The previewer"); read from the binary they cost microseconds.
 /// `bsdf::tests::the_carried_albedo_tables_are_the_integrals` integrates them again and
@@ -751,7 +755,8 @@ fn tables_from(entries: &[AlbedoEntry]) -> AlbedoTables {
 
 /// Every entry of the tables integrated on a `grid`² grid, μ index major (rayon; for the
 /// test that checks the carried tables and for writing them).
-pub fn integrate_tables(grid: u32) -> Vec<AlbedoEntry> {
+#[cfg(test)]
+fn integrate_tables(grid: u32) -> Vec<AlbedoEntry> {
     use rayon::prelude::*;
     (0..TABLE_N * TABLE_N)
         .into_par_iter()
@@ -762,7 +767,8 @@ pub fn integrate_tables(grid: u32) -> Vec<AlbedoEntry> {
 }
 
 /// The entries as `albedo_tables.bin` holds them.
-pub fn table_bytes(entries: &[AlbedoEntry]) -> Vec<u8> {
+#[cfg(test)]
+fn table_bytes(entries: &[AlbedoEntry]) -> Vec<u8> {
     entries
         .iter()
         .flat_map(|&(a, b, z, axis)| [a, b, z[0], z[1], z[2], z[3], axis])

@@ -7,11 +7,10 @@
 use crate::methods::{MethodError, Timings};
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::directional::DirectionalMode;
-use crate::pipeline::eye::{
-    EyePass, EyeSamples, EyeSettings, SplatTargets, Stop, eye_pass_until, stopped,
-};
+use crate::pipeline::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass_until};
 use crate::pipeline::radiance_map::{Accumulators, Channel};
 use crate::pipeline::splat_tree::{DomainCache, SplatTree};
+use crate::pipeline::{Stop, stopped};
 use crate::sampling::splitmix64;
 use crate::scene::{Camera, Scene};
 use crate::settings::{DirectMode, RenderSettings};
@@ -130,37 +129,40 @@ impl EyeSide {
             follow_lobes: options.lobes == LobeDraws::InEyePass,
             light_samples: settings.nee_samples,
         };
-        let Some(EyePass {
-            samples: eye,
-            targets,
-            emitted,
-        }) = eye_pass_until(scene, camera, &eye_settings, stop)
+        // The eye pass, its tree and the targets' visible domains, or None once `stop` is
+        // raised (the time spent counts either way).
+        let drawn = (|| {
+            let pass = eye_pass_until(scene, camera, &eye_settings, stop)?;
+            let mut tree = SplatTree::build(&pass.targets.position, &pass.targets.normal);
+            if settings.splat_visibility {
+                if let Some(c) = cache.as_deref_mut() {
+                    c.set_view(settings.width, settings.height);
+                }
+                let pixels = cache
+                    .as_ref()
+                    .map(|_| pass.samples.target_pixels(pass.targets.len()));
+                let consult = cache.as_deref().zip(pixels.as_deref());
+                let (reused, probed) =
+                    tree.probe_domains_until(scene, &pass.targets.geo_normal, consult, stop)?;
+                if let Some(c) = cache {
+                    c.reused += reused;
+                    c.probed += probed;
+                }
+            }
+            (!stopped(stop)).then_some((pass, tree))
+        })();
+        let Some((
+            EyePass {
+                samples: eye,
+                targets,
+                emitted,
+            },
+            tree,
+        )) = drawn
         else {
             timings.t_eye += t.elapsed().as_secs_f64();
             return Ok(None);
         };
-        let mut tree = SplatTree::build(&targets.position, &targets.normal);
-        if settings.splat_visibility {
-            if let Some(c) = cache.as_deref_mut() {
-                c.set_view(settings.width, settings.height);
-            }
-            let pixels = cache.as_ref().map(|_| eye.target_pixels(targets.len()));
-            let consult = cache.as_deref().zip(pixels.as_deref());
-            let Some((reused, probed)) =
-                tree.probe_domains_until(scene, &targets.geo_normal, consult, stop)
-            else {
-                timings.t_eye += t.elapsed().as_secs_f64();
-                return Ok(None);
-            };
-            if let Some(c) = cache {
-                c.reused += reused;
-                c.probed += probed;
-            }
-        }
-        if stopped(stop) {
-            timings.t_eye += t.elapsed().as_secs_f64();
-            return Ok(None);
-        }
         let mut targets = targets;
         if options.targets == TargetGeometry::Freed {
             targets.drop_geometry();

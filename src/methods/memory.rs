@@ -61,7 +61,8 @@ pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
                 ))
                 .saturating_add(eye / 2)
         }
-        // Their one eye pass keeps no domains.
+        // Their one eye pass keeps no domains (in the window, a moved view keeps its last
+        // view's: 44 bytes a pixel, not counted here).
         MethodKind::Rc | MethodKind::Pm => film
             .saturating_add(eye.saturating_mul(2))
             .saturating_add(photons),

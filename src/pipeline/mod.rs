@@ -23,3 +23,14 @@ pub mod photon_map;
 pub mod radiance_map;
 pub mod splat;
 pub mod splat_tree;
+
+/// A flag the caller raises when it no longer wants the work under way (the window's worker,
+/// when a new view arrives: docs/benchmarks.md, "The previewer"); None: never stopped. The
+/// eye pass looks at it between bands of rows, the visible domains' probes between chunks.
+pub type Stop<'a> = Option<&'a std::sync::atomic::AtomicBool>;
+
+/// `stop` is raised.
+#[inline]
+pub fn stopped(stop: Stop) -> bool {
+    stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Acquire))
+}

@@ -168,11 +168,8 @@ impl Worker {
                 }
             }
             self.apply(pending);
-            // A view being dragged (or the coarse first image) wants a frame per step.
-            let interactive = self.interactive || self.coarse_start;
-            if let Some(r) = self.renderer.as_mut() {
-                r.set_interactive(interactive);
-            }
+            // A renderer that `apply` rebuilt learns it too.
+            self.sync_interactive();
             let mut traced = false;
             // The reference mode waits for a batch in pieces to be whole.
             let whole_batch = self.renderer.as_ref().is_some_and(|r| !r.mid_step());
@@ -339,10 +336,7 @@ impl Worker {
         }
         // Before a view is set: a dragged view's (or the coarse first image's) eye side is
         // never given up, a resting view's may be.
-        let interactive = self.interactive || self.coarse_start;
-        if let Some(r) = self.renderer.as_mut() {
-            r.set_interactive(interactive);
-        }
+        self.sync_interactive();
         if let Some(path) = p.load {
             match Scene::load(&path) {
                 Ok(scene) => {
@@ -438,6 +432,15 @@ impl Worker {
         }
         if view || changed {
             self.generation += 1;
+        }
+    }
+
+    /// A view being dragged (or the coarse first image) wants a frame per step: re-splats
+    /// whole, eye sides never given up.
+    fn sync_interactive(&mut self) {
+        let interactive = self.interactive || self.coarse_start;
+        if let Some(r) = self.renderer.as_mut() {
+            r.set_interactive(interactive);
         }
     }
 

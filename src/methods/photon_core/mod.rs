@@ -131,7 +131,7 @@ pub struct PhotonCore {
     config: CoreConfig,
     /// Everything that depends on the view.
     side: EyeSide,
-    /// The visible domains this view's eye passes probed, which later passes' targets take
+    /// The visible domains earlier eye passes and views probed, which later targets take
     /// where they fit (docs/deviations.md §40).
     domains: DomainCache,
     /// The stored photon rays.
@@ -474,16 +474,14 @@ impl PhotonCore {
         // docs/benchmarks.md, "Memory").
         self.side.release();
         self.lobes = TracedLobes::default();
-        if self.draw_side(pass).is_err() {
-            // Unreachable for a view that was built once; should it happen, the view starts
-            // again from the stored rays rather than splatting onto nothing.
-            let _ = self.draw_side(0);
-        }
+        let _ = self.draw_side(pass);
     }
 
     /// Draw eye pass `pass`'s side for the current view and settings (pass 0: a new view,
     /// whose stored batches are then re-splatted onto it), unless the stop is raised first:
-    /// it is then owed ([`PhotonCore::owes_side`]) and the next step tries again.
+    /// it is then owed ([`PhotonCore::owes_side`]) and the next step tries again. A later
+    /// pass that cannot be drawn (unreachable for a view that was drawn once) starts the view
+    /// again from the stored rays rather than leaving it to splat onto nothing.
     fn draw_side(&mut self, pass: u32) -> Result<(), MethodError> {
         let before = self.timings;
         // A dragged view's sides are finished: each of its views wants a frame.
@@ -497,7 +495,11 @@ impl PhotonCore {
             &mut self.timings,
             stop,
         );
-        let Some(side) = side? else {
+        let side = match side {
+            Err(_) if pass > 0 => return self.draw_side(0),
+            drawn => drawn?,
+        };
+        let Some(side) = side else {
             self.owed = Some(pass);
             return Ok(());
         };
@@ -525,11 +527,8 @@ impl PhotonCore {
 
     /// Draw the side that was given up (the next step's first work); true when it is drawn.
     pub(crate) fn draw_owed(&mut self) -> bool {
-        if let Some(pass) = self.owed
-            && self.draw_side(pass).is_err()
-            && pass > 0
-        {
-            let _ = self.draw_side(0);
+        if let Some(pass) = self.owed {
+            let _ = self.draw_side(pass);
         }
         self.owed.is_none()
     }

@@ -3,7 +3,8 @@
 
 use super::chain::RawSample;
 use super::samples::PackedSample;
-use super::{EyePass, EyeSamples, SplatTargets, Stop, stopped};
+use super::{EyePass, EyeSamples, SplatTargets};
+use crate::pipeline::{Stop, stopped};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -23,7 +24,7 @@ type PackedRow = (Vec<(PackedSample, u32)>, Vec<Vec3>, SplatTargets);
 /// samples; reserved pages that are never written take no memory), each band's rows freed
 /// before the next is made. Collecting every row before concatenating them held the whole
 /// pass twice: +70 MB at 500×500×4 (docs/benchmarks.md, "Memory"). None when `stop` is
-/// raised before a band (the caller no longer wants the pass: [`crate::pipeline::eye::Stop`]).
+/// raised before a band (the caller no longer wants the pass: [`crate::pipeline::Stop`]).
 pub(super) fn collect_bands(
     height: u32,
     pixels: u32,

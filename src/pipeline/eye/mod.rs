@@ -21,6 +21,7 @@ mod tests;
 pub use lobes::trace_lobes;
 pub use samples::{EYE_SAMPLE_BYTES, EyeSample, EyeSamples, SplatTargets};
 
+use crate::pipeline::Stop;
 use crate::sampling::{PixelPoints, Rng};
 use crate::scene::{Camera, Scene};
 use bands::{assign_targets, collect_bands};
@@ -77,16 +78,6 @@ fn jitter(s: u32, spp: u32, rng: &mut Rng) -> Vec2 {
     } else {
         rng.next_2d()
     }
-}
-
-/// A flag the caller raises when it no longer wants the work under way (the window's worker,
-/// when a new view arrives: docs/benchmarks.md, "The previewer"); None: never stopped.
-pub type Stop<'a> = Option<&'a std::sync::atomic::AtomicBool>;
-
-/// `stop` is raised.
-#[inline]
-pub fn stopped(stop: Stop) -> bool {
-    stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Acquire))
 }
 
 /// Run the eye pass for `camera` over the whole image.

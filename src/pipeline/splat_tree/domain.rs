@@ -24,7 +24,7 @@
 //! visible, the estimate only loses samples, not its mean: the same cell cuts N.
 
 use super::{LANES, PADDING, SplatTree};
-use crate::pipeline::eye::{Stop, stopped};
+use crate::pipeline::{Stop, stopped};
 use crate::sampling::onb;
 use crate::scene::{Scene, offset_ray_origin, surface_offset};
 use glam::Vec3;
