@@ -8,6 +8,7 @@
 use crate::methods::Timings;
 use crate::methods::eye_side::EyeSide;
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
+use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::EyeSamples;
 use crate::pipeline::eye::trace_lobes;
 use crate::pipeline::photon::{Bandwidth, PhotonRay};
@@ -32,6 +33,13 @@ pub struct TracedLobes {
     indirect: Vec<Vec3>,
     /// Batches in the sums.
     batches: u32,
+    /// Per entry of `pixels`, for the error estimate (docs/deviations.md §51): the splatted
+    /// light seen through the traced lobes at the batches' bandwidth h and at h/2, both shaded
+    /// from irradiance alone as the eye side's two splats are; empty unless it is estimated.
+    at_h: Vec<Vec3>,
+    at_half: Vec<Vec3>,
+    /// Batches in `at_h` and `at_half`.
+    half_batches: u32,
     /// Directions drawn so far (never reset: every draw is a new random stream).
     draws: u64,
     /// Contributions dropped as NaN or infinite.
@@ -65,13 +73,17 @@ impl TracedLobes {
     pub fn clear(&mut self) {
         self.direct.fill(Vec3::ZERO);
         self.indirect.fill(Vec3::ZERO);
+        self.at_h.fill(Vec3::ZERO);
+        self.at_half.fill(Vec3::ZERO);
         self.batches = 0;
+        self.half_batches = 0;
         self.invalid = 0;
     }
 
     /// Bytes held by the sums and their pixel index.
     pub fn memory_bytes(&self) -> usize {
-        (self.direct.len() + self.indirect.len()) * std::mem::size_of::<Vec3>()
+        (self.direct.len() + self.indirect.len() + self.at_h.len() + self.at_half.len())
+            * std::mem::size_of::<Vec3>()
             + self.pixels.len() * 4
     }
 
@@ -117,6 +129,14 @@ impl TracedLobes {
         timings: &mut Timings,
     ) -> Option<LobeBatch> {
         self.batches += 1;
+        if !side.acc_half.is_empty() {
+            // This batch's light at h and h/2 is in the estimate's sums, whatever it reaches.
+            if self.at_h.len() != self.pixels.len() {
+                self.at_h = vec![Vec3::ZERO; self.pixels.len()];
+                self.at_half = vec![Vec3::ZERO; self.pixels.len()];
+            }
+            self.half_batches += 1;
+        }
         if !side.eye.any_lobe_traced() {
             return None;
         }
@@ -156,10 +176,18 @@ impl TracedLobes {
 
         let mode = settings.radiance_map;
         let acc = |on: bool| on.then(|| Accumulators::for_tree(&tree, &pass.targets.glossy, mode));
+        let direct_photons = settings.direct == DirectMode::Photons;
+        // The error estimate's second splat at h/2, of every class splatted at h (as the eye
+        // side's, `splat_rays`).
+        let half_classes = [classes[0] || direct_photons, classes[1], classes[2]];
+        let half = (!side.acc_half.is_empty() && half_classes != [false; 3])
+            .then(|| Accumulators::for_tree(&tree, &pass.targets.glossy, DirectionalMode::Diffuse));
         Some(LobeBatch {
             classes,
             indirect: acc(classes != [false; 3]),
-            direct: acc(settings.direct == DirectMode::Photons),
+            direct: acc(direct_photons),
+            half_classes,
+            half,
             samples: pass.samples,
             tree,
         })
@@ -182,6 +210,39 @@ impl TracedLobes {
                 self.invalid +=
                     add_radiance_at(samples, target_slot, acc, 1, sums, at, Shading::Records);
             }
+        }
+        let Some(half) = &batch.half else {
+            return;
+        };
+        // add_radiance_at leaves non-finite values out; they were counted above.
+        let shading = Shading::Irradiance;
+        for acc in [&batch.indirect, &batch.direct].into_iter().flatten() {
+            add_radiance_at(samples, target_slot, acc, 1, &mut self.at_h, at, shading);
+        }
+        add_radiance_at(
+            samples,
+            target_slot,
+            half,
+            1,
+            &mut self.at_half,
+            at,
+            shading,
+        );
+    }
+
+    /// Add the mean over batches of the splatted light through traced lobes at h and at h/2
+    /// (shaded from irradiance alone) to the per-pixel `at_h` and `at_half` of the error
+    /// estimate's pass values (docs/deviations.md §51): a glossy reflection of splatted light
+    /// carries the kernels' bias of the surfaces it reflects. Nothing unless every batch of
+    /// the sums had its second splat.
+    pub fn add_estimate_means(&self, at_h: &mut [Vec3], at_half: &mut [Vec3]) {
+        if self.half_batches == 0 || self.half_batches != self.batches {
+            return;
+        }
+        let b = self.half_batches as f32;
+        for (k, &p) in self.pixels.iter().enumerate() {
+            at_h[p as usize] += self.at_h[k] / b;
+            at_half[p as usize] += self.at_half[k] / b;
         }
     }
 
@@ -211,6 +272,11 @@ pub struct LobeBatch {
     indirect: Option<Accumulators>,
     /// Direct photons at their targets (with `--direct photons`).
     direct: Option<Accumulators>,
+    /// Classes gathered into `half`.
+    half_classes: [bool; 3],
+    /// Every class of `indirect` and `direct` at half the bandwidth, irradiance only (the
+    /// error estimate's second splat, docs/deviations.md §51; None unless it is estimated).
+    half: Option<Accumulators>,
 }
 
 impl LobeBatch {
@@ -226,6 +292,21 @@ impl LobeBatch {
                 let mode = acc.mode;
                 prepare_and_splat(tree, rays, bw, classes, mode, scene, acc, Some(scene), None);
             }
+        }
+        if let Some(acc) = &mut self.half {
+            let half = bw.map(|b| b.scaled(0.5));
+            let (classes, mode) = (self.half_classes, DirectionalMode::Diffuse);
+            prepare_and_splat(
+                tree,
+                rays,
+                &half,
+                classes,
+                mode,
+                scene,
+                acc,
+                Some(scene),
+                None,
+            );
         }
     }
 }

@@ -154,7 +154,8 @@ impl PhotonCore {
 
     /// This pass's values for the error estimate per pixel (docs/deviations.md §51): the
     /// splat kernels' bias, 4/3·(L(h) − L(h/2)) from the accumulators at h and those at h/2
-    /// (both shaded from irradiance alone), pooled over neighbouring pixels, the difference
+    /// (both shaded from irradiance alone; the eye samples' and what their traced lobes
+    /// reflect), pooled over neighbouring pixels, the difference
     /// L(h) − L(h/2) itself per pixel (for the photons' share of the variance), and the light
     /// splatted by photons (`film` less the eye side's direct light); empty unless the error is
     /// estimated.
@@ -173,6 +174,9 @@ impl PhotonCore {
         shade(&side.acc_indirect, &mut at_h);
         shade(&side.acc_direct, &mut at_h);
         shade(&side.acc_half, &mut at_half);
+        // The light the traced glossy lobes reflect carries the kernels' bias at their far
+        // end as much as the eye samples' own splat does.
+        self.lobes.add_estimate_means(&mut at_h, &mut at_half);
         let difference: Vec<f32> = at_h
             .iter()
             .zip(&at_half)
