@@ -364,6 +364,61 @@ fn fractions_take_three_comma_separated_numbers() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("three numbers"));
 }
 
+/// `bench --preview-scene`: the previewer's rows on another scene, lit as `--environment`
+/// says, named `preview_…@NAME` (here the room lit through a window under the uniform sky:
+/// every latency row, each a positive time); a scene that cannot be read is one `error:` line
+/// and exit status 3, before any row runs.
+#[test]
+fn bench_preview_rows_on_another_scene() {
+    let dir = tmp("bench_preview_scene");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = bin()
+        .args(["bench", "--only", "preview", "--runs", "1"])
+        .args(["--preview-scene", "no/such/scene.glb"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert_eq!(
+        err.lines().filter(|l| l.starts_with("error:")).count(),
+        1,
+        "{err}"
+    );
+    let json = dir.join("bench.json");
+    let out = bin()
+        .args(["bench", "--only", "preview", "--runs", "1"])
+        .args([
+            "--preview-scene",
+            "builtin:room",
+            "--environment",
+            "uniform",
+        ])
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    succeeded(&out);
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    for row in [
+        "first_image",
+        "resplat",
+        "resplat_full",
+        "camera",
+        "running_camera",
+        "running_camera_max",
+        "split_camera",
+        "split_camera_max",
+    ] {
+        let ms = &doc["rows"][format!("preview_{row}_ms@room")]["ms"];
+        assert!(ms.as_f64().is_some_and(|ms| ms > 0.0), "{row}: {ms}");
+        assert!(
+            doc["rows"].get(format!("preview_{row}_ms")).is_none(),
+            "{row} without @room"
+        );
+    }
+}
+
 /// `bench`'s quality-over-time rows (docs/benchmarks.md): without references `--only quality` is
 /// one clean line, a missing reference says how to make it, and with three (here constant) 500×500
 /// references a one-second run writes one row per scene and view (window and path-traced view, each

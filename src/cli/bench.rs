@@ -13,7 +13,7 @@ use raysplat::methods::{Budget, MethodStats, Timings, peak_rss_mb, render_method
 use raysplat::pipeline::cache::CacheParams;
 use raysplat::pipeline::directional::DirectionalMode;
 use raysplat::pipeline::photon::BandwidthParams;
-use raysplat::scene::{BuiltinScene, Scene};
+use raysplat::scene::{BuiltinScene, EnvironmentSettings, Scene};
 use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -58,6 +58,14 @@ pub struct BenchArgs {
     /// Run only these groups of rows (default: every group; quality needs its references).
     #[arg(long, value_delimiter = ',')]
     only: Vec<Group>,
+    /// The previewer's rows on this scene (a .gltf/.glb file or builtin:KEY, seen from its
+    /// first camera and lit as --environment says) instead of the embedded CORNELL BOX I; its
+    /// rows are named preview_…@NAME, NAME the file's stem or the key.
+    #[arg(long, value_name = "SCENE")]
+    preview_scene: Option<String>,
+    /// The light of --preview-scene.
+    #[command(flatten)]
+    env: super::args::EnvArgs,
 }
 
 /// Groups of rows.
@@ -211,7 +219,28 @@ pub fn run(args: BenchArgs) -> Result<(), CliError> {
         glossy_bench(&args, &mut rows)?;
     }
     if runs(Group::Preview) {
-        preview_bench(!args.fixed_eye_samples)?.report(&mut rows);
+        // The camera moves are CORNELL BOX I's 0.05 and 0.02 of its length units, scaled to
+        // the scene (a drag in the window moves in proportion to the scene).
+        let (scene, unit, suffix) = match args.preview_scene.as_deref() {
+            None => (Scene::default_scene(), 1.0, String::new()),
+            Some(arg) => {
+                let name = arg.strip_prefix("builtin:").map_or_else(
+                    || {
+                        Path::new(arg)
+                            .file_stem()
+                            .map(|s| s.to_string_lossy().into_owned())
+                    },
+                    |key| Some(key.to_string()),
+                );
+                let name = name.unwrap_or_else(|| arg.to_string());
+                let scene = super::load_scene_file(Some(arg))?;
+                let unit = scene.diagonal() / Scene::default_scene().diagonal();
+                (scene, unit, format!("@{name}"))
+            }
+        };
+        let environment = args.env.settings();
+        preview_bench(Arc::new(scene), environment, unit, !args.fixed_eye_samples)?
+            .report(&mut rows, &suffix);
     }
     let mut curves = Vec::new();
     if let Some(references) = quality_refs {
@@ -423,8 +452,14 @@ fn glossy_bench(args: &BenchArgs, rows: &mut Rows) -> Result<(), CliError> {
 }
 
 /// The previewer's latencies, driving the worker without a window (500×500×1, 20k photons per
-/// batch, the embedded CORNELL BOX I).
-fn preview_bench(progressive_eye: bool) -> Result<PreviewLatencies, String> {
+/// batch) on `scene` (the embedded CORNELL BOX I unless `--preview-scene`) lit by
+/// `environment`, the camera moved sideways by 0.05 and 0.02 times `unit`.
+fn preview_bench(
+    scene: Arc<Scene>,
+    environment: EnvironmentSettings,
+    unit: f32,
+    progressive_eye: bool,
+) -> Result<PreviewLatencies, String> {
     use raysplat::session::{Command as C, Frame, Session, SessionConfig};
     let timeout = Duration::from_secs(60);
     let wait = |s: &Session, pred: &dyn Fn(&Frame) -> bool| -> Result<Frame, String> {
@@ -438,10 +473,14 @@ fn preview_bench(progressive_eye: bool) -> Result<PreviewLatencies, String> {
         }
         Err("the worker published no frame in time".into())
     };
-    let mut config = SessionConfig::default();
-    config.settings.progressive_eye = progressive_eye;
+    let new_config = || {
+        let mut config = SessionConfig::default();
+        config.settings.progressive_eye = progressive_eye;
+        config.environment = environment.clone();
+        config
+    };
     let t = Instant::now();
-    let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+    let session = Session::spawn(scene.clone(), None, new_config(), None);
     wait(&session, &|f| f.stats.method.passes >= 1)?;
     let first_image = t.elapsed().as_secs_f64() * 1e3;
     // Store about 200k rays (with NEE, 70% of each batch's M is stored), then stop tracing.
@@ -474,16 +513,14 @@ fn preview_bench(progressive_eye: bool) -> Result<PreviewLatencies, String> {
         })?;
         Ok((t.elapsed().as_secs_f64() * 1e3, g))
     };
-    let (camera, _) = move_camera(&session, &g, 0.05)?;
+    let (camera, _) = move_camera(&session, &g, 0.05 * unit)?;
     drop(session);
     // While tracing, a command waits for the step in flight (a batch, or in the split view a
     // reference pass): camera moves at spaced moments, without and with the split view.
     let mut running_camera = [0.0; 2];
     let mut running_camera_max = [0.0; 2];
     for (k, split) in [false, true].into_iter().enumerate() {
-        let mut config = SessionConfig::default();
-        config.settings.progressive_eye = progressive_eye;
-        let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+        let session = Session::spawn(scene.clone(), None, new_config(), None);
         session.send(C::SetSplit(split));
         let mut f = wait(&session, &|f| {
             f.stats.method.passes >= 3 && !f.interactive && (!split || f.stats.reference_spp >= 2)
@@ -493,7 +530,7 @@ fn preview_bench(progressive_eye: bool) -> Result<PreviewLatencies, String> {
             // Spaced by an odd number of milliseconds, so the moves land at different points
             // of the steps in flight.
             std::thread::sleep(Duration::from_millis(137 + 61 * m as u64));
-            let (ms, g) = move_camera(&session, &f, 0.02)?;
+            let (ms, g) = move_camera(&session, &f, 0.02 * unit)?;
             times.push(ms);
             // The camera comes to rest: full size again, and the reference refining beside.
             session.send(C::SetCamera {
@@ -522,7 +559,7 @@ fn preview_bench(progressive_eye: bool) -> Result<PreviewLatencies, String> {
 
 impl PreviewLatencies {
     /// One line and one row (`{"ms": …}`) per latency.
-    fn report(&self, rows: &mut Rows) {
+    fn report(&self, rows: &mut Rows, suffix: &str) {
         for (name, ms) in [
             ("preview_first_image_ms", self.first_image),
             ("preview_resplat_ms", self.resplat),
@@ -533,8 +570,9 @@ impl PreviewLatencies {
             ("preview_split_camera_ms", self.running_camera[1]),
             ("preview_split_camera_max_ms", self.running_camera_max[1]),
         ] {
-            println!("{name:<24} {ms:8.0} ms");
-            rows.insert(name.to_string(), json!({ "ms": ms }));
+            let name = format!("{name}{suffix}");
+            println!("{name:<38} {ms:8.0} ms");
+            rows.insert(name, json!({ "ms": ms }));
         }
     }
 }
