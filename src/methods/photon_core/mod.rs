@@ -540,16 +540,15 @@ impl PhotonCore {
 
     /// `--c auto` (docs/deviations.md §51): from the finished passes' estimated kernel bias²
     /// A and photon variance V (the share a wider kernel smooths), and the bandwidths their
-    /// batches had, the model's
-    /// coefficients (bias ∝ h², variance ∝ 1/h² per batch) and from them the bandwidth h* that
-    /// minimises the error of an image of as many batches ([`BandwidthHistory::best_h`]); C
-    /// moves towards C·h*/h_last (h_last: the last batch's), by at most [`AUTO_C_STEP`] a pass
-    /// once the estimate is [`crate::film::estimate::ErrorEstimate::trusted`]. The target is absolute, made from every
-    /// batch's own bandwidth, so a C that moved does not feed back into it as a lagging
-    /// image bias would. Later batches are splatted with the new C (stored ones are not
-    /// re-splatted). The progressive schedule goes on (deviations §43): h* falls as W^(−1/6)
-    /// for constant coefficients where the schedule's h falls as W^(−1/3), so the chosen C
-    /// drifts up as W^(1/6), 5% over the last quarter of a render (§51).
+    /// batches had, the model's coefficients (bias ∝ h², variance ∝ 1/h² per batch) and from
+    /// them the C that every batch of an image of as many batches would best share, each at
+    /// C times the factor eq. 8 and the progressive schedule give it
+    /// ([`BandwidthHistory::best_c`]); C moves towards it by at most [`AUTO_C_STEP`] a pass
+    /// once the estimate is [`crate::film::estimate::ErrorEstimate::trusted`]. The target is
+    /// absolute, made from every batch's own bandwidth, so a C that moved does not feed back
+    /// into it as a lagging image bias would. Later batches are splatted with the new C
+    /// (stored ones are not re-splatted). Under the schedule (deviations §43) the best shared
+    /// C of a longer render is larger, as W^(1/6) for constant coefficients, and C follows it.
     fn choose_c(&mut self) {
         let Some(e) = self.earlier.estimate() else {
             return;
@@ -557,26 +556,23 @@ impl PhotonCore {
         if !e.trusted() {
             return;
         }
-        let history = &self.earlier.history;
         // Where the passes cannot tell the bias (or the splatted noise) from zero, the model
         // has nothing to weigh: C stays.
-        let Some(best) = history.best_h(e.bias2, e.variance_photons) else {
+        let Some(best) = self.earlier.history.best_c(e.bias2, e.variance_photons) else {
             return;
         };
-        if history.last <= 0.0 {
-            return;
-        }
         let c = self.settings.bandwidth.smoothness_c;
-        let ratio = ((best / history.last as f64) as f32).clamp(1.0 / AUTO_C_STEP, AUTO_C_STEP);
+        let ratio = ((best / c as f64) as f32).clamp(1.0 / AUTO_C_STEP, AUTO_C_STEP);
         let limit = crate::settings::limits::SMOOTHNESS_C;
         self.settings.bandwidth.smoothness_c = (c * ratio).clamp(limit.min, limit.max);
     }
 
     /// Note the bandwidth batch `m` was splatted with onto the current pass (its most
-    /// populous class's h_min, a fixed fraction R of its typical h).
+    /// populous class's h_min, a fixed fraction R of its typical h) and the C it had.
     pub(super) fn note_bandwidth(&mut self, bw: &[Bandwidth; 3], m: [u64; 3]) {
         let c = (0..3).max_by_key(|&c| m[c]).unwrap_or(0);
-        self.pass_history.add(bw[c].h_min);
+        let smoothness = self.settings.bandwidth.smoothness_c;
+        self.pass_history.add(bw[c].h_min, smoothness);
     }
 
     /// `film` of the current pass becomes the batch-weighted mean over every eye pass.
