@@ -14,17 +14,23 @@ use raysplat::settings::{DirectMode, MethodKind, RenderSettings};
 use serde_json::json;
 use std::sync::Arc;
 
-/// A Lambertian plane (`KHR_materials_specular` factor 0: the splatted irradiance shades it
-/// exactly as NEE does) under a point light of intensity 2 at height 1, seen from above over
-/// ±0.8 around the light's foot: E = I·cos θ/d² falls to a quarter across the view, so wide
-/// kernels are visibly biased at its peak.
-fn scene() -> Arc<Scene> {
+/// The Lambertian plane and the point light of [`scene`], without a camera.
+fn plane_under_lamp() -> GlbBuilder {
     let mut g = GlbBuilder::default();
     let m = g.material(json!({"name": "lambertian", "pbrMetallicRoughness": {
         "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
         "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}));
     common::plane(&mut g, 4.0, m);
     g.point_light("lamp", Vec3::Y, Vec3::ONE, 2.0);
+    g
+}
+
+/// A Lambertian plane (`KHR_materials_specular` factor 0: the splatted irradiance shades it
+/// exactly as NEE does) under a point light of intensity 2 at height 1, seen from above over
+/// ±0.8 around the light's foot: E = I·cos θ/d² falls to a quarter across the view, so wide
+/// kernels are visibly biased at its peak.
+fn scene() -> Arc<Scene> {
+    let mut g = plane_under_lamp();
     g.camera(
         "top",
         Vec3::Y * 2.0,
@@ -83,11 +89,7 @@ fn truth(scene: &Arc<Scene>) -> Vec<Vec3> {
 /// (docs/deviations.md §38): nearly every pixel's light is the plane's splatted irradiance
 /// reflected, the peak under the light and its fall-off to a third in view.
 fn mirror_scene() -> Arc<Scene> {
-    let mut g = GlbBuilder::default();
-    let m = g.material(json!({"name": "lambertian", "pbrMetallicRoughness": {
-        "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
-        "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}));
-    common::plane(&mut g, 4.0, m);
+    let mut g = plane_under_lamp();
     let mirror = g.material(json!({"name": "mirror", "pbrMetallicRoughness": {
         "baseColorFactor": [0.9, 0.9, 0.9, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.15}}));
     let p = [
@@ -98,7 +100,6 @@ fn mirror_scene() -> Arc<Scene> {
     ];
     // Counter-clockwise seen from +X.
     g.mesh("mirror", &p, &[Vec3::X; 4], &[0, 3, 2, 0, 2, 1], mirror);
-    g.point_light("lamp", Vec3::Y, Vec3::ONE, 2.0);
     // Its reflection of the plane from x = -0.9 to 1 fills the view (a virtual camera at
     // x = -2.3 sees them 49° to 26° below the horizon).
     g.camera(
