@@ -365,26 +365,37 @@ fn fractions_take_three_comma_separated_numbers() {
 }
 
 /// `bench --preview-scene`: the previewer's rows on another scene, lit as `--environment`
-/// says, named `preview_…@NAME` (here the room lit through a window under the uniform sky:
-/// every latency row, each a positive time); a scene that cannot be read is one `error:` line
-/// and exit status 3, before any row runs.
+/// says, named `preview_…@NAME` and carrying the scene's name (here the room lit through a
+/// window under the uniform sky: every latency row, each a positive time, none under the
+/// default names). Read before any row runs: a scene or an environment that cannot be read is
+/// one `error:` line and exit status 3; environment flags without the scene, or the scene
+/// with `--only` leaving the preview rows out, are refused (exit 2).
 #[test]
 fn bench_preview_rows_on_another_scene() {
     let dir = tmp("bench_preview_scene");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let out = bin()
-        .args(["bench", "--only", "preview", "--runs", "1"])
-        .args(["--preview-scene", "no/such/scene.glb"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(3), "{err}");
-    assert_eq!(
-        err.lines().filter(|l| l.starts_with("error:")).count(),
-        1,
-        "{err}"
-    );
+    let refused = |args: &[&str], code: i32| {
+        let out = bin().arg("bench").args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
+        assert_eq!(
+            err.lines().filter(|l| l.starts_with("error:")).count(),
+            1,
+            "{args:?}: {err}"
+        );
+        assert!(out.stdout.is_empty(), "{args:?}: a row ran");
+    };
+    refused(&["--preview-scene", "no/such/scene.glb"], 3);
+    let no_map = [
+        "--preview-scene",
+        "builtin:room",
+        "--environment",
+        "no/such.hdr",
+    ];
+    refused(&no_map, 3);
+    refused(&["--only", "preview", "--environment", "sky"], 2);
+    refused(&["--only", "glossy", "--preview-scene", "builtin:room"], 2);
     let json = dir.join("bench.json");
     let out = bin()
         .args(["bench", "--only", "preview", "--runs", "1"])
@@ -400,6 +411,7 @@ fn bench_preview_rows_on_another_scene() {
         .unwrap();
     succeeded(&out);
     let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let room = raysplat::scene::Scene::builtin(raysplat::scene::BuiltinScene::WindowRoom).name;
     for row in [
         "first_image",
         "resplat",
@@ -410,8 +422,9 @@ fn bench_preview_rows_on_another_scene() {
         "split_camera",
         "split_camera_max",
     ] {
-        let ms = &doc["rows"][format!("preview_{row}_ms@room")]["ms"];
-        assert!(ms.as_f64().is_some_and(|ms| ms > 0.0), "{row}: {ms}");
+        let r = &doc["rows"][format!("preview_{row}_ms@room")];
+        assert!(r["ms"].as_f64().is_some_and(|ms| ms > 0.0), "{row}: {r}");
+        assert_eq!(r["scene"], json!(room), "{row}: {r}");
         assert!(
             doc["rows"].get(format!("preview_{row}_ms")).is_none(),
             "{row} without @room"

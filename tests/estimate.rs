@@ -113,8 +113,9 @@ fn mirror_scene() -> Arc<Scene> {
 
 /// Over C from 0.4 to 2.5 and 8 to 64 batches (noise-dominated to bias-dominated images,
 /// true relMSE from 0.002 to 0.023), the estimate from the render's own eye passes is within
-/// a factor of 1.5 of the true relMSE (measured ratios 0.68–1.43 on 2026-11-29; 0.78–1.41
-/// when the test was written).
+/// a factor of 1.5 of the true relMSE (measured ratios 0.68–1.43 on 2026-11-29, the low one
+/// C 0.4 at 8 batches, whose 8 passes' spread is itself a noisy variance; 0.78–1.41 when the
+/// test was written).
 ///
 /// Left out: C = 1 at 64 batches, where the estimate is 0.62 of the truth (0.00103 against
 /// 0.00168). There the error left is an offset of the splatted direct photons against the

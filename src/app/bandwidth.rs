@@ -49,10 +49,11 @@ impl BandwidthPanel {
                     ui.checkbox(&mut auto, "Auto").on_hover_text(
                         "Choose C between eye passes to minimise the error the render estimates \
                          from its own passes (docs/deviations.md §51); the slider shows the \
-                         chosen value, and keeps it when Auto is turned off. It rises slowly as \
-                         batches come in: the progressive schedule shrinks the bandwidth faster \
-                         than the error's optimum, and Auto makes up the difference. Turning it \
-                         on re-splats the stored batches (the estimate needs a second splat)",
+                         chosen value, and keeps it when Auto is turned off. It is the C every \
+                         batch so far would best share, which rises slowly as batches come in: \
+                         the progressive schedule shrinks the bandwidth faster than the error's \
+                         optimum. Turning it on re-splats the stored batches (the estimate needs \
+                         a second splat)",
                     );
                 });
                 param_slider(

@@ -112,10 +112,50 @@ struct PreviewLatencies {
     /// [`RUNNING_MOVES`] moves, without and with the split view's reference beside them.
     running_camera: [f64; 2],
     running_camera_max: [f64; 2],
+    /// The scene's name (every row carries it).
+    scene: String,
 }
 
 /// Camera moves timed while the worker traces.
 const RUNNING_MOVES: usize = 6;
+
+/// The previewer rows' scene: the embedded CORNELL BOX I, or `--preview-scene` lit as the
+/// `--environment` flags say.
+struct PreviewScene {
+    scene: Arc<Scene>,
+    /// The camera moves' unit: CORNELL BOX I's 0.05 and 0.02 of its length units are scaled
+    /// by the scene's diagonal over the box's (a drag in the window moves the camera in
+    /// proportion to the scene).
+    unit: f32,
+    /// Appended to the rows' names: `@NAME`, the file's stem or the built-in key.
+    suffix: String,
+}
+
+impl PreviewScene {
+    fn load(arg: Option<&str>, env: &super::args::EnvArgs) -> Result<Self, CliError> {
+        let default = || Arc::new(Scene::default_scene());
+        let Some(arg) = arg else {
+            return Ok(Self {
+                scene: default(),
+                unit: 1.0,
+                suffix: String::new(),
+            });
+        };
+        let name = match arg.strip_prefix("builtin:") {
+            Some(key) => key.to_string(),
+            None => Path::new(arg)
+                .file_stem()
+                .map_or_else(|| arg.to_string(), |s| s.to_string_lossy().into_owned()),
+        };
+        let scene = super::load_scene(Some(arg), env)?;
+        let unit = scene.diagonal() / default().diagonal();
+        Ok(Self {
+            scene: Arc::new(scene),
+            unit,
+            suffix: format!("@{name}"),
+        })
+    }
+}
 
 /// Table 2's CORNELL BOX I settings: 500×500×4, M = 200,000, (0.3, 0.6, 0.1), C = 1, S = 0.4, R = 0.2.
 fn cornell1_settings(direct: DirectMode) -> RenderSettings {
@@ -160,6 +200,22 @@ pub fn run(args: BenchArgs) -> Result<(), CliError> {
         read_reference(reference.as_ref(), scene).map_err(CliError::Input)?;
     }
     let runs = |g: Group| args.only.is_empty() || args.only.contains(&g);
+    // The previewer's scene is read (and lit) before any row runs: a scene or an environment
+    // that cannot be read is one line, not the end of a long run.
+    let environment = args.env.settings();
+    if args.preview_scene.is_none() && environment != EnvironmentSettings::default() {
+        return Err(CliError::Usage(
+            "--environment, --env-strength, --env-rotation and --sun light --preview-scene: \
+             give one"
+                .into(),
+        ));
+    }
+    if args.preview_scene.is_some() && !runs(Group::Preview) {
+        return Err(CliError::Usage(
+            "--preview-scene names the preview rows' scene, and --only leaves them out".into(),
+        ));
+    }
+    let preview = PreviewScene::load(args.preview_scene.as_deref(), &args.env)?;
     let quality_refs = match &args.quality_references {
         Some(dir) if runs(Group::Quality) => Some(
             quality::SCENES
@@ -219,28 +275,13 @@ pub fn run(args: BenchArgs) -> Result<(), CliError> {
         glossy_bench(&args, &mut rows)?;
     }
     if runs(Group::Preview) {
-        // The camera moves are CORNELL BOX I's 0.05 and 0.02 of its length units, scaled to
-        // the scene (a drag in the window moves in proportion to the scene).
-        let (scene, unit, suffix) = match args.preview_scene.as_deref() {
-            None => (Scene::default_scene(), 1.0, String::new()),
-            Some(arg) => {
-                let name = arg.strip_prefix("builtin:").map_or_else(
-                    || {
-                        Path::new(arg)
-                            .file_stem()
-                            .map(|s| s.to_string_lossy().into_owned())
-                    },
-                    |key| Some(key.to_string()),
-                );
-                let name = name.unwrap_or_else(|| arg.to_string());
-                let scene = super::load_scene_file(Some(arg))?;
-                let unit = scene.diagonal() / Scene::default_scene().diagonal();
-                (scene, unit, format!("@{name}"))
-            }
-        };
-        let environment = args.env.settings();
-        preview_bench(Arc::new(scene), environment, unit, !args.fixed_eye_samples)?
-            .report(&mut rows, &suffix);
+        preview_bench(
+            preview.scene,
+            environment.clone(),
+            preview.unit,
+            !args.fixed_eye_samples,
+        )?
+        .report(&mut rows, &preview.suffix);
     }
     let mut curves = Vec::new();
     if let Some(references) = quality_refs {
@@ -554,6 +595,7 @@ fn preview_bench(
         camera,
         running_camera,
         running_camera_max,
+        scene: scene.name.clone(),
     })
 }
 
@@ -572,7 +614,7 @@ impl PreviewLatencies {
         ] {
             let name = format!("{name}{suffix}");
             println!("{name:<38} {ms:8.0} ms");
-            rows.insert(name, json!({ "ms": ms }));
+            rows.insert(name, json!({ "ms": ms, "scene": self.scene }));
         }
     }
 }
