@@ -8,7 +8,9 @@ use crate::methods::{MethodError, Timings};
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::{EyePass, EyeSamples, EyeSettings, SplatTargets, eye_pass_until};
+use crate::pipeline::photon::{Bandwidth, PhotonRay};
 use crate::pipeline::radiance_map::{Accumulators, Channel};
+use crate::pipeline::splat::prepare_and_splat;
 use crate::pipeline::splat_tree::{DomainCache, SplatTree};
 use crate::pipeline::{Stop, stopped};
 use crate::sampling::splitmix64;
@@ -35,6 +37,38 @@ pub enum TargetGeometry {
     Kept,
     /// Freed once the tree is built.
     Freed,
+}
+
+/// The error estimate's second splat (docs/deviations.md §51): `rays` of every class splatted
+/// at `bw` (`classes`, and the direct photons when `direct_photons` splats them on their
+/// own) splatted again onto `tree` at half the bandwidth (C/2 in eq. 8, its bounds with it),
+/// irradiance only, into `acc` (an [`EyeSide::acc_half`], or a traced lobe batch's). Its pairs
+/// are about a quarter of the first splat's; they are not counted as splats.
+#[allow(clippy::too_many_arguments)]
+pub fn splat_at_half_bandwidth(
+    tree: &SplatTree,
+    rays: &[PhotonRay],
+    bw: &[Bandwidth; 3],
+    classes: [bool; 3],
+    direct_photons: bool,
+    scene: &Scene,
+    acc: &mut Accumulators,
+) {
+    let half = bw.map(|b| b.scaled(0.5));
+    let [d, i, c] = classes;
+    let classes = [d || direct_photons, i, c];
+    let mode = DirectionalMode::Diffuse;
+    prepare_and_splat(
+        tree,
+        rays,
+        &half,
+        classes,
+        mode,
+        scene,
+        acc,
+        Some(scene),
+        None,
+    );
 }
 
 /// How to build an eye side.

@@ -6,7 +6,7 @@
 //! headless render of one batch is the same estimate as directions drawn in the eye pass.
 
 use crate::methods::Timings;
-use crate::methods::eye_side::EyeSide;
+use crate::methods::eye_side::{EyeSide, splat_at_half_bandwidth};
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::EyeSamples;
@@ -35,11 +35,10 @@ pub struct TracedLobes {
     batches: u32,
     /// Per entry of `pixels`, for the error estimate (docs/deviations.md §51): the splatted
     /// light seen through the traced lobes at the batches' bandwidth h and at h/2, both shaded
-    /// from irradiance alone as the eye side's two splats are; empty unless it is estimated.
+    /// from irradiance alone as the eye side's two splats are, over every batch of `batches`
+    /// (the estimate is on or off for a whole eye side); empty unless it is estimated.
     at_h: Vec<Vec3>,
     at_half: Vec<Vec3>,
-    /// Batches in `at_h` and `at_half`.
-    half_batches: u32,
     /// Directions drawn so far (never reset: every draw is a new random stream).
     draws: u64,
     /// Contributions dropped as NaN or infinite.
@@ -76,7 +75,6 @@ impl TracedLobes {
         self.at_h.fill(Vec3::ZERO);
         self.at_half.fill(Vec3::ZERO);
         self.batches = 0;
-        self.half_batches = 0;
         self.invalid = 0;
     }
 
@@ -129,13 +127,9 @@ impl TracedLobes {
         timings: &mut Timings,
     ) -> Option<LobeBatch> {
         self.batches += 1;
-        if !side.acc_half.is_empty() {
-            // This batch's light at h and h/2 is in the estimate's sums, whatever it reaches.
-            if self.at_h.len() != self.pixels.len() {
-                self.at_h = vec![Vec3::ZERO; self.pixels.len()];
-                self.at_half = vec![Vec3::ZERO; self.pixels.len()];
-            }
-            self.half_batches += 1;
+        if !side.acc_half.is_empty() && self.at_h.len() != self.pixels.len() {
+            self.at_h = vec![Vec3::ZERO; self.pixels.len()];
+            self.at_half = vec![Vec3::ZERO; self.pixels.len()];
         }
         if !side.eye.any_lobe_traced() {
             return None;
@@ -177,16 +171,12 @@ impl TracedLobes {
         let mode = settings.radiance_map;
         let acc = |on: bool| on.then(|| Accumulators::for_tree(&tree, &pass.targets.glossy, mode));
         let direct_photons = settings.direct == DirectMode::Photons;
-        // The error estimate's second splat at h/2, of every class splatted at h (as the eye
-        // side's, `splat_rays`).
-        let half_classes = [classes[0] || direct_photons, classes[1], classes[2]];
-        let half = (!side.acc_half.is_empty() && half_classes != [false; 3])
+        let half = (!side.acc_half.is_empty() && (classes != [false; 3] || direct_photons))
             .then(|| Accumulators::for_tree(&tree, &pass.targets.glossy, DirectionalMode::Diffuse));
         Some(LobeBatch {
             classes,
             indirect: acc(classes != [false; 3]),
             direct: acc(direct_photons),
-            half_classes,
             half,
             samples: pass.samples,
             tree,
@@ -233,13 +223,12 @@ impl TracedLobes {
     /// Add the mean over batches of the splatted light through traced lobes at h and at h/2
     /// (shaded from irradiance alone) to the per-pixel `at_h` and `at_half` of the error
     /// estimate's pass values (docs/deviations.md §51): a glossy reflection of splatted light
-    /// carries the kernels' bias of the surfaces it reflects. Nothing unless every batch of
-    /// the sums had its second splat.
+    /// carries the kernels' bias of the surfaces it reflects. Nothing unless it is estimated.
     pub fn add_estimate_means(&self, at_h: &mut [Vec3], at_half: &mut [Vec3]) {
-        if self.half_batches == 0 || self.half_batches != self.batches {
+        if self.batches == 0 || self.at_h.is_empty() {
             return;
         }
-        let b = self.half_batches as f32;
+        let b = self.batches as f32;
         for (k, &p) in self.pixels.iter().enumerate() {
             at_h[p as usize] += self.at_h[k] / b;
             at_half[p as usize] += self.at_half[k] / b;
@@ -272,8 +261,6 @@ pub struct LobeBatch {
     indirect: Option<Accumulators>,
     /// Direct photons at their targets (with `--direct photons`).
     direct: Option<Accumulators>,
-    /// Classes gathered into `half`.
-    half_classes: [bool; 3],
     /// Every class of `indirect` and `direct` at half the bandwidth, irradiance only (the
     /// error estimate's second splat, docs/deviations.md §51; None unless it is estimated).
     half: Option<Accumulators>,
@@ -294,19 +281,8 @@ impl LobeBatch {
             }
         }
         if let Some(acc) = &mut self.half {
-            let half = bw.map(|b| b.scaled(0.5));
-            let (classes, mode) = (self.half_classes, DirectionalMode::Diffuse);
-            prepare_and_splat(
-                tree,
-                rays,
-                &half,
-                classes,
-                mode,
-                scene,
-                acc,
-                Some(scene),
-                None,
-            );
+            let direct_photons = self.direct.is_some();
+            splat_at_half_bandwidth(tree, rays, bw, self.classes, direct_photons, scene, acc);
         }
     }
 }

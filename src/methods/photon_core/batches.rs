@@ -3,7 +3,7 @@
 
 use super::PhotonCore;
 use crate::methods::Step;
-use crate::methods::eye_side::{EyeSide, LobeDraws};
+use crate::methods::eye_side::{EyeSide, LobeDraws, splat_at_half_bandwidth};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::photon::{Bandwidth, LightPassSettings, PhotonRay, plan_light_pass};
 use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
@@ -269,22 +269,8 @@ fn splat_rays(
         );
     }
     if !side.acc_half.is_empty() {
-        // The error estimate's second splat: every class splatted above, at half the
-        // bandwidth (C/2 in eq. 8, its bounds with it), irradiance only (deviations §51). Its
-        // pairs are about a quarter of the first splat's; they are not counted as splats.
-        let half = bw.map(|b| b.scaled(0.5));
-        let [d, i, c] = classes;
-        prepare_and_splat(
-            &side.tree,
-            rays,
-            &half,
-            [d || direct_photons, i, c],
-            DirectionalMode::Diffuse,
-            scene,
-            &mut side.acc_half,
-            Some(scene),
-            None,
-        );
+        let acc = &mut side.acc_half;
+        splat_at_half_bandwidth(&side.tree, rays, bw, classes, direct_photons, scene, acc);
     }
     counters
 }
