@@ -747,3 +747,55 @@ fn the_split_view_shows_the_reference_right_of_a_draggable_divider() {
         "the drag moved the camera"
     );
 }
+
+/// A scene the command line lit (`raysplat view FILE --environment uniform --env-strength 2`)
+/// opens lit that way: the window's environment setting takes the scene's (a persisted
+/// "Automatic" had the worker relight a file with lights of its own by none), and the
+/// worker reports it so.
+#[test]
+fn a_scene_lit_on_the_command_line_stays_lit_so() {
+    use raysplat::app::LoadedScene;
+    use raysplat::scene::{EnvironmentKind, EnvironmentSettings, Scene};
+    let mut scene = Scene::builtin(BuiltinScene::CornellClassic);
+    let asked = EnvironmentSettings {
+        kind: EnvironmentKind::Uniform,
+        strength: 2.0,
+        ..EnvironmentSettings::default()
+    };
+    scene.set_environment(&asked).unwrap();
+    let defaults = UiSettings::default();
+    let settings = UiSettings {
+        render: RenderSettings {
+            width: 64,
+            height: 64,
+            spp: 1,
+            photons: 4_000,
+            ..defaults.render.clone()
+        },
+        snapshot_dir: tmp("lit_on_the_command_line"),
+        ..defaults
+    };
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1100.0, 800.0))
+        .build_eframe(move |cc| {
+            App::new(
+                cc,
+                AppOptions {
+                    loaded: Some(LoadedScene {
+                        scene: std::sync::Arc::new(scene),
+                        path: None,
+                    }),
+                    settings: Some(settings),
+                    ..AppOptions::default()
+                },
+            )
+        });
+    assert_eq!(h.state().settings().environment, asked);
+    run_until(&mut h, 60, "the worker's report", |app| {
+        app.lit_by().is_some()
+    });
+    assert_eq!(
+        h.state().lit_by().map(|e| e.kind.clone()),
+        Some(EnvironmentKind::Uniform)
+    );
+}

@@ -114,7 +114,14 @@ impl App {
         let mut settings = settings.within_limits();
         let mut messages = Messages::default();
         let (scene, path) = match (options.loaded, &options.scene) {
-            (Some(l), _) => (l.scene, l.path),
+            (Some(l), _) => {
+                // The command line lit it (`--environment`): the window's setting takes that
+                // instead of the one it kept, which the worker would relight it by.
+                if !l.scene.environment_is_auto() {
+                    settings.environment = l.scene.requested_environment().clone();
+                }
+                (l.scene, l.path)
+            }
             (None, Some(p)) => match Scene::load(p) {
                 Ok(s) => (Arc::new(s), Some(p.clone())),
                 Err(e) => {
@@ -181,6 +188,11 @@ impl App {
     /// The window's settings as the widgets show them.
     pub fn settings(&self) -> &UiSettings {
         &self.settings
+    }
+
+    /// The environment lighting the scene, as the worker last reported it (resolved).
+    pub fn lit_by(&self) -> Option<&crate::scene::EnvironmentSettings> {
+        self.environment.lit_by.as_ref()
     }
 
     /// The name of the scene the worker has loaded (empty before it reports one).

@@ -340,6 +340,11 @@ impl Scene {
         self.requested == EnvironmentSettings::default()
     }
 
+    /// The environment the scene was last lit with, as asked (before `Auto` is resolved).
+    pub fn requested_environment(&self) -> &EnvironmentSettings {
+        &self.requested
+    }
+
     /// Radiance arriving along a ray that leaves the scene in direction `d` (the
     /// environment's; black without one).
     #[inline]

@@ -647,7 +647,8 @@ impl Worker {
 /// `scene` lit by `env` (itself when it already is: the `Auto` default on a freshly loaded
 /// scene), or `scene` unchanged with the one-line reason it cannot be.
 fn lit(scene: Arc<Scene>, env: &EnvironmentSettings) -> (Arc<Scene>, Option<String>) {
-    if *env == EnvironmentSettings::default() && scene.environment_is_auto() {
+    // Already lit as asked (as it loaded, or by the command line that loaded it).
+    if scene.requested_environment() == env {
         return (scene, None);
     }
     let mut relit = (*scene).clone();
