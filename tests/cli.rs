@@ -13,6 +13,21 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_raysplat"))
 }
 
+/// Run `bench` with `args` and `--json` into `dir`, assert that it succeeded, and return the
+/// JSON it wrote.
+fn bench_json(args: &[&str], dir: &Path) -> serde_json::Value {
+    let json = dir.join("bench.json");
+    let out = bin()
+        .arg("bench")
+        .args(args)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    succeeded(&out);
+    serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap()
+}
+
 /// Assert that a run of the binary succeeded, showing its stderr if not.
 fn succeeded(out: &std::process::Output) {
     assert!(
@@ -396,21 +411,19 @@ fn bench_preview_rows_on_another_scene() {
     refused(&no_map, 3);
     refused(&["--only", "preview", "--environment", "sky"], 2);
     refused(&["--only", "glossy", "--preview-scene", "builtin:room"], 2);
-    let json = dir.join("bench.json");
-    let out = bin()
-        .args(["bench", "--only", "preview", "--runs", "1"])
-        .args([
+    let doc = bench_json(
+        &[
+            "--only",
+            "preview",
+            "--runs",
+            "1",
             "--preview-scene",
             "builtin:room",
             "--environment",
             "uniform",
-        ])
-        .arg("--json")
-        .arg(&json)
-        .output()
-        .unwrap();
-    succeeded(&out);
-    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        ],
+        &dir,
+    );
     let room = raysplat::scene::Scene::builtin(raysplat::scene::BuiltinScene::WindowRoom).name;
     for row in [
         "first_image",
@@ -464,17 +477,12 @@ fn bench_quality_rows_and_plot() {
         )
         .unwrap();
     }
-    let json = dir.join("bench.json");
-    let out = bin()
-        .args(["bench", "--only", "quality", "--quality-seconds", "1"])
-        .arg("--quality-references")
-        .arg(&dir)
-        .arg("--json")
-        .arg(&json)
-        .output()
-        .unwrap();
-    succeeded(&out);
-    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let refs = dir.to_str().unwrap();
+    let quality = ["--only", "quality", "--quality-seconds", "1"];
+    let doc = bench_json(
+        &[&quality[..], &["--quality-references", refs]].concat(),
+        &dir,
+    );
     for stem in ["classic", "cornell1", "cornell2"] {
         for view in ["window", "pt_view"] {
             let row = &doc["rows"][format!("quality_{stem}_{view}")];
