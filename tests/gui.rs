@@ -24,10 +24,11 @@ fn harness(snapshot_dir: PathBuf) -> Harness<'static, App> {
     harness_on(None, snapshot_dir)
 }
 
-/// [`harness`] opening `scene` (a .glb) instead of the embedded default.
-fn harness_on(scene: Option<PathBuf>, snapshot_dir: PathBuf) -> Harness<'static, App> {
+/// The tests' window settings: a 64×64 view of one eye sample a pixel, 4,000 photons a
+/// batch, snapshots into `snapshot_dir`.
+fn small_settings(snapshot_dir: PathBuf) -> UiSettings {
     let defaults = UiSettings::default();
-    let settings = UiSettings {
+    UiSettings {
         render: RenderSettings {
             width: 64,
             height: 64,
@@ -37,7 +38,12 @@ fn harness_on(scene: Option<PathBuf>, snapshot_dir: PathBuf) -> Harness<'static,
         },
         snapshot_dir,
         ..defaults
-    };
+    }
+}
+
+/// [`harness`] opening `scene` (a .glb) instead of the embedded default.
+fn harness_on(scene: Option<PathBuf>, snapshot_dir: PathBuf) -> Harness<'static, App> {
+    let settings = small_settings(snapshot_dir);
     Harness::builder()
         .with_size(egui::vec2(1100.0, 800.0))
         .build_eframe(move |cc| {
@@ -763,18 +769,7 @@ fn a_scene_lit_on_the_command_line_stays_lit_so() {
         ..EnvironmentSettings::default()
     };
     scene.set_environment(&asked).unwrap();
-    let defaults = UiSettings::default();
-    let settings = UiSettings {
-        render: RenderSettings {
-            width: 64,
-            height: 64,
-            spp: 1,
-            photons: 4_000,
-            ..defaults.render.clone()
-        },
-        snapshot_dir: tmp("lit_on_the_command_line"),
-        ..defaults
-    };
+    let settings = small_settings(tmp("lit_on_the_command_line"));
     let mut h = Harness::builder()
         .with_size(egui::vec2(1100.0, 800.0))
         .build_eframe(move |cc| {
