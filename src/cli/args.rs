@@ -210,7 +210,7 @@ pub struct RunArgs {
     #[arg(long, conflicts_with = "batches")]
     pub until_error: Option<f64>,
     /// rs: estimate the image's error from its own eye passes (variance from their spread,
-    /// bias from a second splat at half the bandwidth) and report it in the stats
+    /// bias from a second splat at a quarter of the bandwidth) and report it in the stats
     /// (docs/deviations.md §51).
     #[arg(long)]
     pub estimate_error: bool,

@@ -298,6 +298,7 @@ fn stats_json(
         "directional_bytes_per_glossy_target": s.directional_bytes as f64 / s.glossy_targets.max(1) as f64,
         "estimated_rel_mse": film.estimate.as_ref().map(|e| e.rel_mse),
         "estimated_bias2": film.estimate.as_ref().map(|e| e.bias2),
+        "estimated_bias2_smooth": film.estimate.as_ref().map(|e| e.bias2_smooth),
         "estimated_variance": film.estimate.as_ref().map(|e| e.variance),
         "estimated_variance_splatted": film.estimate.as_ref().map(|e| e.variance_splatted),
         "estimated_variance_photons": film.estimate.as_ref().map(|e| e.variance_photons),

@@ -1,6 +1,6 @@
 //! The error of a progressive image estimated from its own eye passes (issue 32,
 //! docs/deviations.md §51): variance from the spread between passes, kernel bias from each
-//! pass's splat at two bandwidths, h and h/2.
+//! pass's splat at two bandwidths, h and h/k ([`FINE_SCALE`] k = 4).
 //!
 //! Each finished eye pass i holds a film x_i, weighted by its batches w_i; the image is the
 //! weighted mean x̄ = Σ w_i x_i / W. The passes are independent (new eye samples, new photons),
@@ -9,16 +9,20 @@
 //! needs no common σ²; with equal weights the textbook s²/n).
 //!
 //! For a second-order kernel (the Epanechnikov kernel, §6) the bias of a density estimate
-//! grows as h² (b(h) ≈ c·h²), so the estimates at h and at h/2 differ by 3/4 of b(h):
-//! b(h) ≈ 4/3 · (L(h) − L(h/2)). h/2 rather than the issue's 2h: the pairs within h/2 are a
-//! quarter of those within h, so the second splat costs a fraction of the first, where 2h
-//! would cost four times as much. Each pass's bias estimate b_i is averaged like the image, and
-//! its own noise, Var(b̄), is taken off its square: bias² ≈ b̄² − Var(b̄) (summed over pixels
-//! before clamping at zero, so the noise does not add up as a positive bias).
+//! grows as h² (b(h) ≈ c·h²), so the estimates at h and at h/k differ by (1 − 1/k²) of b(h):
+//! b(h) ≈ k²/(k² − 1) · (L(h) − L(h/k)). A finer scale rather than the issue's 2h: the pairs
+//! within h/k are 1/k² of those within h, so the second splat costs a fraction of the first,
+//! where 2h would cost four times as much. k = 4 rather than 2: where a feature (a narrow
+//! shadow) is narrower than h/2, L(h) and L(h/2) both read its surroundings and their
+//! difference misses the bias, which h/4 still resolves (docs/deviations.md §51, measured on
+//! Šibenik's apse and the apartment). Each pass's bias estimate b_i is averaged like the image,
+//! and its own noise, Var(b̄), is taken off its square: bias² ≈ b̄² − Var(b̄) (summed over
+//! pixels before clamping at zero, so the noise does not add up as a positive bias).
 //!
 //! All of it is per pixel on luminance (eleven sums a pixel, in f64 against cancellation); a
 //! pixel's relative error is applied to each channel as `compare`'s relMSE weighs it,
-//! (x − r)² / (r² + 0.01), with the image's own value in place of the reference.
+//! (x − r)² / (r² + 0.01), with the image less its estimated bias in place of the reference r
+//! (the bias counted only where the passes show it above their noise, [`BIAS_SIGNIFICANCE`]).
 
 use crate::film::Film;
 use crate::sampling::luminance;
@@ -31,6 +35,11 @@ pub struct ErrorEstimate {
     pub rel_mse: f64,
     /// Its kernel-bias part (bias² with its own noise taken off).
     pub bias2: f64,
+    /// The part of the bias² that follows the bandwidth as h⁴, for `--c auto`: the bias
+    /// averaged over [`BIAS_POOL_SMOOTH`] before it is squared, which keeps the bias that changes
+    /// on the kernels' scale and cancels that of features narrower than the box, where the
+    /// kernel is saturated and a smaller C barely changes it (docs/deviations.md §51).
+    pub bias2_smooth: f64,
     /// Its variance part (everything the passes' spread shows: splatted light, direct light,
     /// anti-aliasing).
     pub variance: f64,
@@ -38,7 +47,7 @@ pub struct ErrorEstimate {
     /// samples both).
     pub variance_splatted: f64,
     /// The photons' share of the variance, the part a wider kernel smooths (for `--c auto`):
-    /// from the spread of L(h) − L(h/2), in which the eye samples' noise cancels
+    /// from the spread of L(h) − L(h/k), in which the eye samples' noise cancels
     /// ([`DIFFERENCE_VARIANCE`]).
     pub variance_photons: f64,
     /// Eye passes the estimate is made from.
@@ -56,38 +65,74 @@ impl ErrorEstimate {
     }
 }
 
-/// Per pixel: Σw²y, Σw²y², Σw·s, Σw²s, Σw²s², Σw·b, Σw²b, Σw²b², Σw·d, Σw²d, Σw²d² (y: the
-/// film's luminance, s: the splatted light's, b: the pass's bias estimate, d: its
-/// L(h) − L(h/2) unpooled).
-const SUMS: usize = 11;
+/// Per pixel: Σw²y, Σw²y², Σw·s, Σw²s, Σw²s², Σw·b, Σw²b, Σw²b², Σw·d, Σw²d, Σw²d², Σw·a,
+/// Σw²a, Σw²a² (y: the film's luminance, s: the splatted light's, b: the pass's bias
+/// estimate, d: its L(h) − L(h/k) unpooled, a: its bias averaged over the wider box).
+const SUMS: usize = 14;
 
-/// Var(L(h) − L(h/2)) over Var(L(h)) for the same photons under the Epanechnikov kernel in
+/// Bytes a pixel of the estimate holds: the finished passes' sums and the current pass's
+/// [`PassError`] (for the memory estimate).
+pub const BYTES_PER_PIXEL: usize =
+    SUMS * std::mem::size_of::<f64>() + std::mem::size_of::<PassError>();
+
+/// k: the error estimate's second splat is at h/k, every bandwidth of the batch divided by it
+/// (C/k in eq. 8, its bounds with it; docs/deviations.md §51).
+pub const FINE_SCALE: f32 = 4.0;
+
+/// k²/(k² − 1): b(h) ≈ BIAS_FACTOR · (L(h) − L(h/k)) for a bias that grows as h².
+pub const BIAS_FACTOR: f64 = {
+    let k2 = (FINE_SCALE * FINE_SCALE) as f64;
+    k2 / (k2 - 1.0)
+};
+
+/// Var(L(h) − L(h/k)) over Var(L(h)) for the same photons under the Epanechnikov kernel in
 /// two dimensions, for one evaluation point where the photons' density is locally uniform and
 /// neither bandwidth is clamped (a pixel of several eye samples, or rays at h_min, depart from
-/// it), K_h = 2/(πh²)·(1 − r²/h²): ∫K_h² = (4/3)/(πh²), ∫K_{h/2}² = (16/3)/(πh²),
-/// ∫K_h·K_{h/2} = (11/6)/(πh²), so the difference has (4/3 + 16/3 − 11/3)/(4/3) = 9/4 times
-/// the photons' variance at h (docs/deviations.md §51).
-pub const DIFFERENCE_VARIANCE: f64 = 2.25;
+/// it), K_h = 2/(πh²)·(1 − r²/h²): ∫K_h² = (4/3)/(πh²), ∫K_{h/k}² = k²·(4/3)/(πh²), and
+/// ∫K_h·K_{h/k} = (2 − 2/(3k²))/(πh²) (the integral over r < h/k), so the difference has
+/// (4/3 + 4k²/3 − 4 + 4/(3k²))/(4/3) = (k − 1/k)² times the photons' variance at h: 9/4 at
+/// k = 2, 225/16 at k = 4 (docs/deviations.md §51).
+pub const DIFFERENCE_VARIANCE: f64 = {
+    let k = FINE_SCALE as f64;
+    (k - 1.0 / k) * (k - 1.0 / k)
+};
+
+/// z: a pixel's mean bias estimate b̄ moves the reference that relMSE divides by only as far
+/// as it stands out of its noise, sign(b̄)·√max(0, b̄² − z²·Var(b̄)). Noise alone then almost
+/// never moves it (|b̄| > 3σ for 0.3% of pixels without bias), where the unbiased b̄² − Var(b̄)
+/// (z = 1) let it move in a third of them and, through relMSE's 1/(r² + 0.01), multiplied a
+/// noisy image's estimate up to 10× (docs/deviations.md §51).
+pub const BIAS_SIGNIFICANCE: f64 = 3.0;
 
 /// One pass's error-estimate values at a pixel ([`Film::pass_error`]), luminance.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PassError {
-    /// The splat kernels' bias, 4/3·(L(h) − L(h/2)), pooled over [`BIAS_POOL`].
+    /// The splat kernels' bias, [`BIAS_FACTOR`]·(L(h) − L(h/k)), pooled over [`BIAS_POOL`].
     pub bias: f32,
-    /// L(h) − L(h/2) at this pixel alone (its spread measures the photons' noise).
+    /// The same pooled over [`BIAS_POOL_SMOOTH`] (for `--c auto`).
+    pub bias_smooth: f32,
+    /// L(h) − L(h/k) at this pixel alone (its spread measures the photons' noise).
     pub difference: f32,
     /// The light splatted by photons (what a wider kernel smooths).
     pub splatted: f32,
 }
 
 /// Each pass's bias estimate is averaged over a box of (2·BIAS_POOL + 1)² pixels before its
-/// spread is taken: the kernels' bias changes on the scale of their footprint, many pixels
-/// wide, while the difference of two splats is noisy per pixel (docs/deviations.md §51).
-pub const BIAS_POOL: usize = 3;
+/// spread is taken: the difference of two splats is noisy per pixel. Only 3 × 3: the bias of a
+/// feature narrower than the box (a narrow shadow) and that of the ring around it have
+/// opposite signs, so a wider box cancels it (7 × 7 saw half of Šibenik's apse's bias that
+/// 3 × 3 sees; docs/deviations.md §51).
+pub const BIAS_POOL: usize = 1;
+
+/// The box (2·BIAS_POOL_SMOOTH + 1)² over which `--c auto`'s bias is averaged
+/// ([`ErrorEstimate::bias2_smooth`]): 7 × 7, as the whole estimate was before the finer
+/// scale.
+pub const BIAS_POOL_SMOOTH: usize = 3;
 
 /// `bias` (one value per pixel of a `width`-wide image) averaged over a box of
-/// (2·[`BIAS_POOL`] + 1)² pixels, clipped at the borders: two running-sum passes.
-pub fn pool_bias(bias: &mut [f32], width: usize) {
+/// (2·`radius` + 1)² pixels ([`BIAS_POOL`], [`BIAS_POOL_SMOOTH`]), clipped at the borders: two
+/// running-sum passes.
+pub fn pool_bias(bias: &mut [f32], width: usize, radius: usize) {
     if width == 0 || bias.is_empty() {
         return;
     }
@@ -95,12 +140,13 @@ pub fn pool_bias(bias: &mut [f32], width: usize) {
     let mut tmp = vec![0.0f32; bias.len()];
     let mut prefix = vec![0.0f64; width.max(height) + 1];
     // Rows into `tmp`, then columns back: element i of line `start` + i·`stride`.
-    box_lines(bias, &mut tmp, height, width, width, 1, &mut prefix);
-    box_lines(&tmp, bias, width, height, 1, width, &mut prefix);
+    box_lines(bias, &mut tmp, height, width, width, 1, radius, &mut prefix);
+    box_lines(&tmp, bias, width, height, 1, width, radius, &mut prefix);
 }
 
-/// A running-sum box of radius [`BIAS_POOL`] along `lines` lines of `n` values each, line l
-/// starting at l·`line_step` with its values `stride` apart, from `src` into `dst`.
+/// A running-sum box of radius `r` along `lines` lines of `n` values each, line l starting at
+/// l·`line_step` with its values `stride` apart, from `src` into `dst`.
+#[allow(clippy::too_many_arguments)]
 fn box_lines(
     src: &[f32],
     dst: &mut [f32],
@@ -108,9 +154,9 @@ fn box_lines(
     n: usize,
     line_step: usize,
     stride: usize,
+    r: usize,
     prefix: &mut [f64],
 ) {
-    let r = BIAS_POOL;
     for l in 0..lines {
         let at = |i: usize| l * line_step + i * stride;
         for i in 0..n {
@@ -125,9 +171,11 @@ fn box_lines(
 
 /// A pixel of colour `c` with a squared luminance error `e`, in `compare`'s relMSE units: its
 /// relative error e/y² applied to each channel as relMSE weighs it, (x − r)²/(r² + 0.01), with
-/// the pixel's own value in place of the reference's; 0 where the pixel is black.
+/// `reference` times the pixel's own value in place of the reference's r (the image less its
+/// estimated bias, as a share of the image; 1 for an unbiased image); 0 where the pixel is
+/// black.
 #[inline]
-fn weigh(e: f64, c: Vec3) -> f64 {
+fn weigh(e: f64, c: Vec3, reference: f64) -> f64 {
     let y = luminance(c) as f64;
     if y <= 0.0 {
         return 0.0;
@@ -136,7 +184,8 @@ fn weigh(e: f64, c: Vec3) -> f64 {
     (0..3)
         .map(|k| {
             let x = c[k] as f64;
-            rel * x * x / (x * x + 0.01)
+            let r = reference * x;
+            rel * x * x / (r * r + 0.01)
         })
         .sum::<f64>()
         / 3.0
@@ -161,7 +210,7 @@ pub fn of_independent_samples(
     for (c, &s2) in mean.iter().zip(sum_sq) {
         let y = luminance(*c) as f64;
         let v = ((s2 - n * y * y) / (n * (n - 1.0))).max(0.0);
-        variance += weigh(v, *c);
+        variance += weigh(v, *c, 1.0);
         map.push(if y > 0.0 {
             (v / (y * y)).sqrt() as f32
         } else {
@@ -208,22 +257,23 @@ impl<'a> PassValues<'a> {
         }
     }
 
-    /// The values at pixel `p` (luminance, splatted light, bias, difference).
+    /// The values at pixel `p` (luminance, splatted light, bias, difference, smooth bias).
     #[inline]
-    fn at(&self, p: usize) -> [f64; 4] {
+    fn at(&self, p: usize) -> [f64; 5] {
         let e = self.pass.get(p).copied().unwrap_or_default();
         [
             luminance(self.rgb[p]) as f64,
             e.splatted as f64,
             e.bias as f64,
             e.difference as f64,
+            e.bias_smooth as f64,
         ]
     }
 }
 
-/// Add pass values y, s, b, d with weight `w` to a pixel's sums.
+/// Add pass values y, s, b, d, a with weight `w` to a pixel's sums.
 #[inline]
-fn add_to(s: &mut [f64; SUMS], w: f64, [y, i, b, d]: [f64; 4]) {
+fn add_to(s: &mut [f64; SUMS], w: f64, [y, i, b, d, a]: [f64; 5]) {
     let w2 = w * w;
     s[0] += w2 * y;
     s[1] += w2 * y * y;
@@ -236,6 +286,9 @@ fn add_to(s: &mut [f64; SUMS], w: f64, [y, i, b, d]: [f64; 4]) {
     s[8] += w * d;
     s[9] += w2 * d;
     s[10] += w2 * d * d;
+    s[11] += w * a;
+    s[12] += w2 * a;
+    s[13] += w2 * a * a;
 }
 
 impl PassSpread {
@@ -295,6 +348,7 @@ impl PassSpread {
             m.reserve(self.sums.len());
         }
         let (mut bias2, mut variance, mut splatted, mut photons) = (0.0f64, 0.0, 0.0, 0.0);
+        let mut bias2_smooth = 0.0f64;
         let mut lit = false;
         for (p, s) in self.sums.iter().enumerate() {
             let mut s = *s;
@@ -314,12 +368,29 @@ impl PassSpread {
             let vb = spread(s[6], s[7], b_mean);
             let b2 = b_mean * b_mean - vb;
             let vd = spread(s[9], s[10], s[8] / w);
+            let a_mean = s[11] / w;
+            let a2 = a_mean * a_mean - spread(s[12], s[13], a_mean);
+            // The reference relMSE divides by: the image less its bias where the bias stands
+            // out of its noise.
+            let z2 = BIAS_SIGNIFICANCE * BIAS_SIGNIFICANCE;
+            let bias = b_mean.signum() * (b_mean * b_mean - z2 * vb).max(0.0).sqrt();
+            let reference = if y > 0.0 {
+                (1.0 - bias / y).max(0.0)
+            } else {
+                1.0
+            };
             // The pixel's relative error, applied to each channel as relMSE weighs it.
-            let weigh = |e: f64| weigh(e, c);
+            let weigh_own = |e: f64| weigh(e, c, 1.0);
+            let weigh = |e: f64| weigh(e, c, reference);
             bias2 += weigh(b2);
+            // `--c auto`'s two terms keep the image's own value as the reference: the
+            // estimated reference is lowest where the kernels are saturated (a narrow shadow
+            // 4× too bright), and weighing those pixels up would ask a smaller C to mend a
+            // bias that a smaller C barely changes (docs/deviations.md §51).
+            bias2_smooth += weigh_own(a2);
             variance += weigh(v);
             splatted += weigh(vs);
-            photons += weigh(vd / DIFFERENCE_VARIANCE);
+            photons += weigh_own(vd / DIFFERENCE_VARIANCE);
             if let Some(m) = map.as_deref_mut() {
                 let rel = if y > 0.0 {
                     ((b2.max(0.0) + v) / (y * y)).sqrt()
@@ -337,10 +408,12 @@ impl PassSpread {
         }
         let n = self.sums.len().max(1) as f64;
         let bias2 = (bias2 / n).max(0.0);
+        let bias2_smooth = (bias2_smooth / n).max(0.0);
         let variance = variance / n;
         Some(ErrorEstimate {
             rel_mse: bias2 + variance,
             bias2,
+            bias2_smooth,
             variance,
             variance_splatted: splatted / n,
             variance_photons: photons / n,
@@ -353,26 +426,68 @@ impl PassSpread {
 mod tests {
     use super::*;
 
-    /// The box keeps a constant, spreads a spike evenly over (2r + 1)² pixels inside the
-    /// image, and clips at the border (a corner pixel averages (r + 1)² pixels).
+    /// Each box (the reported bias's and auto's) keeps a constant, spreads a spike evenly over
+    /// (2r + 1)² pixels inside the image, and clips at the border (a corner pixel averages
+    /// (r + 1)² pixels).
     #[test]
-    fn the_bias_pool_is_a_clipped_box() {
+    fn the_bias_pools_are_clipped_boxes() {
         let (w, h) = (20, 15);
-        let mut c = vec![0.5f32; w * h];
-        pool_bias(&mut c, w);
-        assert!(c.iter().all(|v| (v - 0.5).abs() < 1e-6));
-        let mut spike = vec![0.0f32; w * h];
-        spike[7 * w + 9] = 49.0;
-        pool_bias(&mut spike, w);
-        let k = (2 * BIAS_POOL + 1) as f32;
-        assert!((spike[7 * w + 9] - 49.0 / (k * k)).abs() < 1e-5);
-        assert!((spike[(7 + BIAS_POOL) * w + 9 - BIAS_POOL] - 1.0).abs() < 1e-5);
-        assert_eq!(spike[(7 + BIAS_POOL + 1) * w + 9], 0.0);
-        let mut corner = vec![0.0f32; w * h];
-        corner[0] = 16.0;
-        pool_bias(&mut corner, w);
-        let m = (BIAS_POOL + 1) as f32;
-        assert!((corner[0] - 16.0 / (m * m)).abs() < 1e-5);
+        for r in [BIAS_POOL, BIAS_POOL_SMOOTH] {
+            let mut c = vec![0.5f32; w * h];
+            pool_bias(&mut c, w, r);
+            assert!(c.iter().all(|v| (v - 0.5).abs() < 1e-6));
+            let k = (2 * r + 1) as f32;
+            let mut spike = vec![0.0f32; w * h];
+            spike[7 * w + 9] = k * k;
+            pool_bias(&mut spike, w, r);
+            assert!((spike[7 * w + 9] - 1.0).abs() < 1e-5);
+            assert!((spike[(7 + r) * w + 9 - r] - 1.0).abs() < 1e-5);
+            assert_eq!(spike[(7 + r + 1) * w + 9], 0.0);
+            let m = (r + 1) as f32;
+            let mut corner = vec![0.0f32; w * h];
+            corner[0] = m * m;
+            pool_bias(&mut corner, w, r);
+            assert!((corner[0] - 1.0).abs() < 1e-5);
+        }
+    }
+
+    /// relMSE divides by the reference: a pixel whose every pass reads 0.2 with a bias of
+    /// 0.16 (a narrow shadow, truly 0.04) has its bias² weighed against 0.04, 0.16²/(0.04² +
+    /// 0.01) = 2.207, not against its own 0.2 (0.512). A bias that is only noise (±0.16 about
+    /// zero) leaves the reference at the image's value.
+    #[test]
+    fn a_bias_above_its_noise_moves_the_reference() {
+        let n = 4;
+        let grey = vec![Vec3::splat(0.2); n];
+        let run = |biases: &[f32]| {
+            let mut spread = PassSpread::default();
+            for &b in biases {
+                let e = vec![
+                    PassError {
+                        bias: b,
+                        ..PassError::default()
+                    };
+                    n
+                ];
+                spread.add(
+                    PassValues {
+                        rgb: &grey,
+                        pass: &e,
+                    },
+                    1,
+                );
+            }
+            spread.estimate(|_| Vec3::splat(0.2), None, None).unwrap()
+        };
+        let certain = run(&[0.16; 8]);
+        assert!(
+            (certain.bias2 - 0.0256 / 0.0116).abs() < 1e-4,
+            "{certain:?}"
+        );
+        let noise = run(&[0.16, -0.16, 0.16, -0.16, 0.16, -0.16, 0.16, -0.16]);
+        assert_eq!(noise.bias2, 0.0, "{noise:?}");
+        // The variance (the passes agree: none) and auto's own-value terms are untouched.
+        assert_eq!(certain.variance, 0.0);
     }
 
     /// Two grey samples 1 and 3 per pixel: mean 2, variance of the mean s²/n = 2/2 = 1,

@@ -4,6 +4,7 @@
 //! photon rays are splatted into. Photon rays do not depend on it, so a new view builds a new
 //! eye side and re-splats the stored rays.
 
+use crate::film::estimate::FINE_SCALE;
 use crate::methods::{MethodError, Timings};
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::directional::DirectionalMode;
@@ -41,11 +42,12 @@ pub enum TargetGeometry {
 
 /// The error estimate's second splat (docs/deviations.md §51): `rays` of every class splatted
 /// at `bw` (`classes`, and the direct photons when `direct_photons` splats them on their
-/// own) splatted again onto `tree` at half the bandwidth (C/2 in eq. 8, its bounds with it),
-/// irradiance only, into `acc` (an [`EyeSide::acc_half`], or a traced lobe batch's). Its pairs
-/// are about a quarter of the first splat's; they are not counted as splats.
+/// own) splatted again onto `tree` at the fine bandwidth h/k ([`FINE_SCALE`]: C/k in eq. 8,
+/// its bounds with it), irradiance only, into `acc` (an [`EyeSide::acc_fine`], or a traced
+/// lobe batch's). Its pairs are about 1/k² of the first splat's; they are not counted as
+/// splats.
 #[allow(clippy::too_many_arguments)]
-pub fn splat_at_half_bandwidth(
+pub fn splat_at_fine_bandwidth(
     tree: &SplatTree,
     rays: &[PhotonRay],
     bw: &[Bandwidth; 3],
@@ -54,14 +56,14 @@ pub fn splat_at_half_bandwidth(
     scene: &Scene,
     acc: &mut Accumulators,
 ) {
-    let half = bw.map(|b| b.scaled(0.5));
+    let fine = bw.map(|b| b.scaled(1.0 / FINE_SCALE));
     let [d, i, c] = classes;
     let classes = [d || direct_photons, i, c];
     let mode = DirectionalMode::Diffuse;
     prepare_and_splat(
         tree,
         rays,
-        &half,
+        &fine,
         classes,
         mode,
         scene,
@@ -104,9 +106,9 @@ pub struct EyeSide {
     pub acc_indirect: Accumulators,
     /// Accumulators for direct photons (empty unless `--direct photons`).
     pub acc_direct: Accumulators,
-    /// Every splatted class again at half the bandwidth, irradiance only (empty unless the
+    /// Every splatted class again at the fine bandwidth h/k, irradiance only (empty unless the
     /// error is estimated: docs/deviations.md §51).
-    pub acc_half: Accumulators,
+    pub acc_fine: Accumulators,
     /// The eye pass's settings (for drawing traced lobes anew, [`crate::pipeline::eye::trace_lobes`]).
     pub eye_settings: EyeSettings,
 }
@@ -219,7 +221,7 @@ impl EyeSide {
             Accumulators::default()
         };
         let acc_indirect = Accumulators::for_tree(&tree, &targets.glossy, mode);
-        let acc_half = if settings.estimate_error {
+        let acc_fine = if settings.estimate_error {
             Accumulators::for_tree(&tree, &targets.glossy, DirectionalMode::Diffuse)
         } else {
             Accumulators::default()
@@ -234,7 +236,7 @@ impl EyeSide {
             invalid_direct,
             acc_indirect,
             acc_direct,
-            acc_half,
+            acc_fine,
             eye_settings,
         }))
     }
@@ -257,7 +259,7 @@ impl EyeSide {
         self.targets = SplatTargets::default();
         self.acc_indirect = Accumulators::default();
         self.acc_direct = Accumulators::default();
-        self.acc_half = Accumulators::default();
+        self.acc_fine = Accumulators::default();
         self.emitted = Vec::new();
         self.nee = Vec::new();
         self.nee_draws = 0;
@@ -306,7 +308,7 @@ impl EyeSide {
     pub fn clear(&mut self) {
         self.acc_indirect.clear();
         self.acc_direct.clear();
-        self.acc_half.clear();
+        self.acc_fine.clear();
     }
 
     /// Bytes held by eye samples, splat tree and accumulators.
@@ -315,7 +317,7 @@ impl EyeSide {
             + self.tree.memory_bytes()
             + self.acc_indirect.memory_bytes()
             + self.acc_direct.memory_bytes()
-            + self.acc_half.memory_bytes()
+            + self.acc_fine.memory_bytes()
     }
 
     /// Bytes of directional radiance-map records (§8.1) and the glossy splat targets owning

@@ -6,7 +6,7 @@
 //! headless render of one batch is the same estimate as directions drawn in the eye pass.
 
 use crate::methods::Timings;
-use crate::methods::eye_side::{EyeSide, splat_at_half_bandwidth};
+use crate::methods::eye_side::{EyeSide, splat_at_fine_bandwidth};
 use crate::pipeline::direct::{direct_light, traced_lobe_direct_light};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::EyeSamples;
@@ -34,11 +34,11 @@ pub struct TracedLobes {
     /// Batches in the sums.
     batches: u32,
     /// Per entry of `pixels`, for the error estimate (docs/deviations.md §51): the splatted
-    /// light seen through the traced lobes at the batches' bandwidth h and at h/2, both shaded
+    /// light seen through the traced lobes at the batches' bandwidth h and at h/k, both shaded
     /// from irradiance alone as the eye side's two splats are, over every batch of `batches`
     /// (the estimate is on or off for a whole eye side); empty unless it is estimated.
     at_h: Vec<Vec3>,
-    at_half: Vec<Vec3>,
+    at_fine: Vec<Vec3>,
     /// Directions drawn so far (never reset: every draw is a new random stream).
     draws: u64,
     /// Contributions dropped as NaN or infinite.
@@ -73,14 +73,14 @@ impl TracedLobes {
         self.direct.fill(Vec3::ZERO);
         self.indirect.fill(Vec3::ZERO);
         self.at_h.fill(Vec3::ZERO);
-        self.at_half.fill(Vec3::ZERO);
+        self.at_fine.fill(Vec3::ZERO);
         self.batches = 0;
         self.invalid = 0;
     }
 
     /// Bytes held by the sums and their pixel index.
     pub fn memory_bytes(&self) -> usize {
-        (self.direct.len() + self.indirect.len() + self.at_h.len() + self.at_half.len())
+        (self.direct.len() + self.indirect.len() + self.at_h.len() + self.at_fine.len())
             * std::mem::size_of::<Vec3>()
             + self.pixels.len() * 4
     }
@@ -127,9 +127,9 @@ impl TracedLobes {
         timings: &mut Timings,
     ) -> Option<LobeBatch> {
         self.batches += 1;
-        if !side.acc_half.is_empty() && self.at_h.len() != self.pixels.len() {
+        if !side.acc_fine.is_empty() && self.at_h.len() != self.pixels.len() {
             self.at_h = vec![Vec3::ZERO; self.pixels.len()];
-            self.at_half = vec![Vec3::ZERO; self.pixels.len()];
+            self.at_fine = vec![Vec3::ZERO; self.pixels.len()];
         }
         if !side.eye.any_lobe_traced() {
             return None;
@@ -171,13 +171,13 @@ impl TracedLobes {
         let mode = settings.radiance_map;
         let acc = |on: bool| on.then(|| Accumulators::for_tree(&tree, &pass.targets.glossy, mode));
         let direct_photons = settings.direct == DirectMode::Photons;
-        let half = (!side.acc_half.is_empty() && (classes != [false; 3] || direct_photons))
+        let fine = (!side.acc_fine.is_empty() && (classes != [false; 3] || direct_photons))
             .then(|| Accumulators::for_tree(&tree, &pass.targets.glossy, DirectionalMode::Diffuse));
         Some(LobeBatch {
             classes,
             indirect: acc(classes != [false; 3]),
             direct: acc(direct_photons),
-            half,
+            fine,
             samples: pass.samples,
             tree,
         })
@@ -201,7 +201,7 @@ impl TracedLobes {
                     add_radiance_at(samples, target_slot, acc, 1, sums, at, Shading::Records);
             }
         }
-        let Some(half) = &batch.half else {
+        let Some(fine) = &batch.fine else {
             return;
         };
         // add_radiance_at leaves non-finite values out; they were counted above.
@@ -212,26 +212,26 @@ impl TracedLobes {
         add_radiance_at(
             samples,
             target_slot,
-            half,
+            fine,
             1,
-            &mut self.at_half,
+            &mut self.at_fine,
             at,
             shading,
         );
     }
 
-    /// Add the mean over batches of the splatted light through traced lobes at h and at h/2
-    /// (shaded from irradiance alone) to the per-pixel `at_h` and `at_half` of the error
+    /// Add the mean over batches of the splatted light through traced lobes at h and at h/k
+    /// (shaded from irradiance alone) to the per-pixel `at_h` and `at_fine` of the error
     /// estimate's pass values (docs/deviations.md §51): a glossy reflection of splatted light
     /// carries the kernels' bias of the surfaces it reflects. Nothing unless it is estimated.
-    pub fn add_estimate_means(&self, at_h: &mut [Vec3], at_half: &mut [Vec3]) {
+    pub fn add_estimate_means(&self, at_h: &mut [Vec3], at_fine: &mut [Vec3]) {
         if self.batches == 0 || self.at_h.is_empty() {
             return;
         }
         let b = self.batches as f32;
         for (k, &p) in self.pixels.iter().enumerate() {
             at_h[p as usize] += self.at_h[k] / b;
-            at_half[p as usize] += self.at_half[k] / b;
+            at_fine[p as usize] += self.at_fine[k] / b;
         }
     }
 
@@ -261,9 +261,9 @@ pub struct LobeBatch {
     indirect: Option<Accumulators>,
     /// Direct photons at their targets (with `--direct photons`).
     direct: Option<Accumulators>,
-    /// Every class of `indirect` and `direct` at half the bandwidth, irradiance only (the
+    /// Every class of `indirect` and `direct` at the fine bandwidth h/k, irradiance only (the
     /// error estimate's second splat, docs/deviations.md §51; None unless it is estimated).
-    half: Option<Accumulators>,
+    fine: Option<Accumulators>,
 }
 
 impl LobeBatch {
@@ -280,9 +280,9 @@ impl LobeBatch {
                 prepare_and_splat(tree, rays, bw, classes, mode, scene, acc, Some(scene), None);
             }
         }
-        if let Some(acc) = &mut self.half {
+        if let Some(acc) = &mut self.fine {
             let direct_photons = self.direct.is_some();
-            splat_at_half_bandwidth(tree, rays, bw, self.classes, direct_photons, scene, acc);
+            splat_at_fine_bandwidth(tree, rays, bw, self.classes, direct_photons, scene, acc);
         }
     }
 }

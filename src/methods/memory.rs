@@ -2,6 +2,7 @@
 //! allocated, so that an image size or sample count that cannot fit is refused with one line
 //! instead of aborting the process.
 
+use crate::film::estimate;
 use crate::methods::MethodError;
 use crate::pipeline::eye::EYE_SAMPLE_BYTES;
 use crate::pipeline::photon::PhotonRay;
@@ -18,7 +19,7 @@ const PER_EYE_SAMPLE: u64 = EYE_SAMPLE_BYTES as u64 + 32 + 16 + 2 * 28 + 48 * 4;
 /// (8 bytes) and rs's per-batch lobe sums (24); the eye samples its lobe paths reach (one per
 /// second eye sample, `eye::trace_lobes`) are counted with the eye samples.
 const TRACED_LOBES_PER_PIXEL: u64 = 8 + 24;
-/// Per pixel for the traced lobes' sums at h and h/2 when the error is estimated (§51).
+/// Per pixel for the traced lobes' sums at h and h/k when the error is estimated (§51).
 const TRACED_LOBES_ESTIMATE_PER_PIXEL: u64 = 24;
 /// Per pixel for rs's finished eye passes (docs/deviations.md §41): rgb, direct and indirect
 /// sums; and the current pass's sum of NEE draws beside its emission (§50).
@@ -62,7 +63,9 @@ pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
                     TRACED_LOBES_PER_PIXEL + EARLIER_PASSES_PER_PIXEL + PER_EYE_SAMPLE,
                 ))
                 .saturating_add(if settings.estimate_error {
-                    pixels.saturating_mul(TRACED_LOBES_ESTIMATE_PER_PIXEL)
+                    pixels.saturating_mul(
+                        TRACED_LOBES_ESTIMATE_PER_PIXEL + estimate::BYTES_PER_PIXEL as u64,
+                    )
                 } else {
                     0
                 })

@@ -154,7 +154,7 @@ pub struct RenderSettings {
     #[serde(default = "yes")]
     pub guided_emission: bool,
     /// rs: estimate the image's error from its own eye passes (variance from their spread,
-    /// kernel bias from a second splat of each batch at half the bandwidth;
+    /// kernel bias from a second splat of each batch at a quarter of the bandwidth;
     /// docs/deviations.md §51). Needed by `--c auto` and `--until-error`; costs that splat.
     #[serde(default)]
     pub estimate_error: bool,

@@ -3,7 +3,7 @@
 
 use super::PhotonCore;
 use crate::methods::Step;
-use crate::methods::eye_side::{EyeSide, LobeDraws, splat_at_half_bandwidth};
+use crate::methods::eye_side::{EyeSide, LobeDraws, splat_at_fine_bandwidth};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::photon::{Bandwidth, LightPassSettings, PhotonRay, plan_light_pass};
 use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
@@ -268,9 +268,9 @@ fn splat_rays(
             reach,
         );
     }
-    if !side.acc_half.is_empty() {
-        let acc = &mut side.acc_half;
-        splat_at_half_bandwidth(&side.tree, rays, bw, classes, direct_photons, scene, acc);
+    if !side.acc_fine.is_empty() {
+        let acc = &mut side.acc_fine;
+        splat_at_fine_bandwidth(&side.tree, rays, bw, classes, direct_photons, scene, acc);
     }
     counters
 }

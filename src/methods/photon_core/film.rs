@@ -3,7 +3,7 @@
 
 use super::PhotonCore;
 use crate::film::Film;
-use crate::film::estimate::{PassError, pool_bias};
+use crate::film::estimate::{BIAS_FACTOR, BIAS_POOL, BIAS_POOL_SMOOTH, PassError, pool_bias};
 use crate::pipeline::cache::{PixelGeometry, sample_values};
 use crate::pipeline::filter::filter_samples;
 use crate::pipeline::radiance_map::{Interpolated, RadianceMap, Shading, add_radiance_at};
@@ -153,15 +153,15 @@ impl PhotonCore {
     }
 
     /// This pass's values for the error estimate per pixel (docs/deviations.md §51): the
-    /// splat kernels' bias, 4/3·(L(h) − L(h/2)) from the accumulators at h and those at h/2
+    /// splat kernels' bias, k²/(k² − 1)·(L(h) − L(h/k)) from the accumulators at h and those at h/k
     /// (both shaded from irradiance alone; the eye samples' and what their traced lobes
     /// reflect), pooled over neighbouring pixels, the difference
-    /// L(h) − L(h/2) itself per pixel (for the photons' share of the variance), and the light
+    /// L(h) − L(h/k) itself per pixel (for the photons' share of the variance), and the light
     /// splatted by photons (`film` less the eye side's direct light); empty unless the error is
     /// estimated.
     fn pass_error(&self, film: &Film, batches: u32) -> Vec<PassError> {
         let side = &self.side;
-        if side.acc_half.is_empty() || side.emitted.is_empty() {
+        if side.acc_fine.is_empty() || side.emitted.is_empty() {
             return Vec::new();
         }
         let n = side.emitted.len();
@@ -170,34 +170,41 @@ impl PhotonCore {
         let shade = |acc, out: &mut [Vec3]| {
             add_radiance_at(eye, slots, acc, batches, out, pixel, Shading::Irradiance)
         };
-        let (mut at_h, mut at_half) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        let (mut at_h, mut at_fine) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
         shade(&side.acc_indirect, &mut at_h);
         shade(&side.acc_direct, &mut at_h);
-        shade(&side.acc_half, &mut at_half);
+        shade(&side.acc_fine, &mut at_fine);
         // The light the traced glossy lobes reflect carries the kernels' bias at their far
         // end as much as the eye samples' own splat does.
-        self.lobes.add_estimate_means(&mut at_h, &mut at_half);
+        self.lobes.add_estimate_means(&mut at_h, &mut at_fine);
         let difference: Vec<f32> = at_h
             .iter()
-            .zip(&at_half)
+            .zip(&at_fine)
             .map(|(h, half)| {
                 let d = luminance(*h) - luminance(*half);
                 if d.is_finite() { d } else { 0.0 }
             })
             .collect();
-        let mut bias: Vec<f32> = difference.iter().map(|d| 4.0 / 3.0 * d).collect();
-        pool_bias(&mut bias, self.settings.width as usize);
+        let mut bias: Vec<f32> = difference.iter().map(|d| BIAS_FACTOR as f32 * d).collect();
+        let mut bias_smooth = bias.clone();
+        let width = self.settings.width as usize;
+        pool_bias(&mut bias, width, BIAS_POOL);
+        pool_bias(&mut bias_smooth, width, BIAS_POOL_SMOOTH);
         // The eye side's own direct light (emission, NEE) is what is not splatted.
         let mut eye_direct = vec![Vec3::ZERO; n];
         side.direct_into(&mut eye_direct);
         bias.iter()
+            .zip(&bias_smooth)
             .zip(&difference)
             .zip(film.rgb.iter().zip(&eye_direct))
-            .map(|((&bias, &difference), (rgb, d))| PassError {
-                bias,
-                difference,
-                splatted: luminance(*rgb - *d).max(0.0),
-            })
+            .map(
+                |(((&bias, &bias_smooth), &difference), (rgb, d))| PassError {
+                    bias,
+                    bias_smooth,
+                    difference,
+                    splatted: luminance(*rgb - *d).max(0.0),
+                },
+            )
             .collect()
     }
 }

@@ -539,7 +539,8 @@ impl PhotonCore {
     }
 
     /// `--c auto` (docs/deviations.md §51): from the finished passes' estimated kernel bias²
-    /// A and photon variance V (the share a wider kernel smooths), and the bandwidths their
+    /// A (its smooth part, [`crate::film::estimate::ErrorEstimate::bias2_smooth`], the bias
+    /// that follows h²) and photon variance V (the share a wider kernel smooths), and the bandwidths their
     /// batches had, the model's coefficients (bias ∝ h², variance ∝ 1/h² per batch) and from
     /// them the C that every batch of an image of as many batches would best share, each at
     /// C times the factor eq. 8 and the progressive schedule give it
@@ -558,7 +559,11 @@ impl PhotonCore {
         }
         // Where the passes cannot tell the bias (or the splatted noise) from zero, the model
         // has nothing to weigh: C stays.
-        let Some(best) = self.earlier.history.best_c(e.bias2, e.variance_photons) else {
+        let Some(best) = self
+            .earlier
+            .history
+            .best_c(e.bias2_smooth, e.variance_photons)
+        else {
             return;
         };
         let c = self.settings.bandwidth.smoothness_c;
@@ -663,7 +668,7 @@ impl PhotonCore {
             let result = self.set_view(self.camera.clone(), w, h, spp);
             if result.is_err() {
                 self.settings.radiance_map = self.side.acc_indirect.mode;
-                self.settings.estimate_error = !self.side.acc_half.is_empty();
+                self.settings.estimate_error = !self.side.acc_fine.is_empty();
             }
             return result;
         }

@@ -32,7 +32,7 @@ impl PhotonCore {
             splat_tree: side.tree.memory_bytes() + self.domains.memory_bytes(),
             accumulators: side.acc_indirect.memory_bytes()
                 + side.acc_direct.memory_bytes()
-                + side.acc_half.memory_bytes()
+                + side.acc_fine.memory_bytes()
                 - directional,
             directional_records: directional,
             photon_rays: self.store.memory_bytes(),
