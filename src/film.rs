@@ -52,8 +52,9 @@ pub struct Film {
     pub pass_error: Vec<estimate::PassError>,
     /// The image's estimated error ([`estimate`]), once two eye passes give a spread.
     pub estimate: Option<estimate::ErrorEstimate>,
-    /// Per pixel, the estimated relative RMS error √((bias² + variance)/L²) behind
-    /// [`Film::estimate`] (the window's error view); empty without an estimate.
+    /// Per pixel, the estimated relative RMS error √(bias² + variance)/r against the estimated
+    /// reference r behind [`Film::estimate`] (the window's error view); empty without an
+    /// estimate.
     pub estimated_error: Vec<f32>,
     /// Contributions dropped on the way to this film because they were NaN or infinite
     /// (photon rays, light samples, eye-sample resolves, pixels), like Mitsuba's

@@ -131,10 +131,15 @@ fn the_estimated_error_tracks_the_true_error() {
     for (c, batches) in cases {
         let (estimated, actual) = estimated_and_true(&scene, &truth, c, batches);
         assert!(
-            estimated / actual < 1.5 && actual / estimated < 1.5,
+            within_factor(estimated, actual, 1.5),
             "C {c}, {batches} batches: estimated {estimated} vs true {actual}"
         );
     }
+}
+
+/// `a` and `b` within a factor `f` of each other (the 1.5).
+fn within_factor(a: f64, b: f64, f: f64) -> bool {
+    a < f * b && b < f * a
 }
 
 /// The estimated and the true relMSE of an rs render of `scene` at C = `c` after `batches`.
@@ -172,19 +177,18 @@ fn the_estimate_sees_the_bias_reflected_by_a_traced_lobe() {
     for c in [0.4f32, 1.0, 2.5] {
         let (estimated, actual) = estimated_and_true(&scene, &truth, c, 64);
         assert!(
-            estimated / actual < 1.5 && actual / estimated < 1.5,
+            within_factor(estimated, actual, 1.5),
             "C {c}, 64 batches: estimated {estimated} vs true {actual}"
         );
     }
 }
 
-/// `--c auto` settles and the image converges: over the last quarter of 240 batches the
-/// chosen C stays within 10% of its median (the stability; the best shared C grows as
-/// W^(1/6) under the progressive schedule, docs/deviations.md §51: measured 1.363..1.557
-/// around 1.498; with the estimate's second splat at h/2 it was 1.46..1.57 over the last
-/// quarter of 160, where the finer splat's noisier photon variance still swings from 1.65 to
-/// 1.38), the true error after 240 batches is below half its error after 20 (consistent), and
-/// within 10% of the best fixed C's at the same batches.
+/// `--c auto` settles and the image converges: over the last quarter of 160 batches of 4,000
+/// photons the chosen C stays within 10% (the stability; the best shared C grows as
+/// W^(1/6) under the progressive schedule, docs/deviations.md §51: measured 1.238..1.284; with
+/// the estimate's second splat at h/2 and batches of 1,000, 1.46..1.57), the true error after
+/// 160 batches is below half its error after 20 (consistent), and within 10% of the best
+/// fixed C's at the same batches.
 #[test]
 fn auto_c_settles_and_the_image_converges() {
     let scene = scene();
@@ -193,15 +197,20 @@ fn auto_c_settles_and_the_image_converges() {
     // as it learns (docs/deviations.md §51, "With the emission guide": here auto is 0.00048
     // against the best fixed C's 0.00042 with the guide): emission by power, here and for the
     // fixed Cs below.
+    // 4,000 photons a batch: at the 1,000 of the estimate tests the fine splat (h/4) reaches
+    // so few pairs a pixel that the photon variance auto reads is heavy-tailed, and its C
+    // swung from 1.65 to 1.36 over the last quarter of 240 batches (docs/deviations.md §51).
+    let photons = 4_000;
     let s = RenderSettings {
         auto_c: true,
         guided_emission: false,
+        photons,
         ..settings(1.0)
     };
     let mut m = methods::build(scene.clone(), s).unwrap();
     let mut cs = Vec::new();
     let mut early = 0.0;
-    let total = 240;
+    let total = 160;
     for b in 1..=total {
         m.step();
         cs.push(m.settings().bandwidth.smoothness_c);
@@ -210,26 +219,25 @@ fn auto_c_settles_and_the_image_converges() {
         }
     }
     let late = rel_mse(&m.film().rgb, &truth);
-    let mut tail = cs[cs.len() * 3 / 4..].to_vec();
-    tail.sort_by(f32::total_cmp);
-    let (lo, median, hi) = (tail[0], tail[tail.len() / 2], tail[tail.len() - 1]);
+    let tail = &cs[cs.len() * 3 / 4..];
+    let (lo, hi) = tail
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(lo, hi), &c| (lo.min(c), hi.max(c)));
     eprintln!(
-        "C chosen: {:?} … last quarter {lo:.3}..{hi:.3} (median {median:.3}); relMSE after 20 batches {early:.5}, after {total} {late:.5}",
+        "C chosen: {:?} … last quarter {lo:.3}..{hi:.3}; relMSE after 20 batches {early:.5}, after {total} {late:.5}",
         &cs[..12]
     );
     assert!(cs.iter().any(|&c| c != 1.0), "auto C never moved");
-    assert!(
-        hi <= 1.1 * median && lo >= median / 1.1,
-        "C over the last quarter: {lo}..{hi}, median {median}"
-    );
+    assert!(hi <= 1.1 * lo, "C over the last quarter: {lo}..{hi}");
     assert!(late < 0.5 * early, "relMSE {early} -> {late}");
     // As good as the best fixed C at the same batches (the 10%; measured: auto
-    // 0.00069 against the best fixed C's 0.00067).
+    // 0.00027 against the best fixed C's 0.00026).
     let best = [0.6f32, 1.0, 1.4, 2.0]
         .map(|c| {
             let s = RenderSettings {
                 estimate_error: false,
                 guided_emission: false,
+                photons,
                 ..settings(c)
             };
             let r = render_method(&scene, MethodKind::Rs, &s, Budget::Passes(total)).unwrap();

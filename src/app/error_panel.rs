@@ -35,8 +35,8 @@ impl ErrorPanel {
                 ui.add_enabled(rs && !auto, egui::Checkbox::new(on, "Estimate the error"))
                     .on_hover_text(
                         "Estimate the image's relMSE from its own eye passes: variance from their \
-                         spread, kernel bias from a second splat at a quarter of the bandwidth (about a \
-                         fifth more splat time; docs/deviations.md §51). Automatic C needs it.",
+                         spread, kernel bias from a second splat at a quarter of the bandwidth (a fifth \
+                         to a third more splat time; docs/deviations.md §51). Automatic C needs it.",
                     );
             },
             |&on| Command::SetErrorEstimate(on),

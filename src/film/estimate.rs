@@ -19,7 +19,7 @@
 //! and its own noise, Var(b̄), is taken off its square: bias² ≈ b̄² − Var(b̄) (summed over
 //! pixels before clamping at zero, so the noise does not add up as a positive bias).
 //!
-//! All of it is per pixel on luminance (eleven sums a pixel, in f64 against cancellation); a
+//! All of it is per pixel on luminance (fourteen sums a pixel, in f64 against cancellation); a
 //! pixel's relative error is applied to each channel as `compare`'s relMSE weighs it,
 //! (x − r)² / (r² + 0.01), with the image less its estimated bias in place of the reference r
 //! (the bias counted only where the passes show it above their noise, [`BIAS_SIGNIFICANCE`]).
@@ -70,10 +70,12 @@ impl ErrorEstimate {
 /// estimate, d: its L(h) − L(h/k) unpooled, a: its bias averaged over the wider box).
 const SUMS: usize = 14;
 
-/// Bytes a pixel of the estimate holds: the finished passes' sums and the current pass's
-/// [`PassError`] (for the memory estimate).
-pub const BYTES_PER_PIXEL: usize =
-    SUMS * std::mem::size_of::<f64>() + std::mem::size_of::<PassError>();
+/// Bytes a pixel of the estimate holds: the finished passes' sums, the current pass's
+/// [`PassError`] and the error map (for the memory estimate; the pass's values are made from
+/// temporary per-pixel buffers of about 52 bytes, freed before the next pass).
+pub const BYTES_PER_PIXEL: usize = SUMS * std::mem::size_of::<f64>()
+    + std::mem::size_of::<PassError>()
+    + std::mem::size_of::<f32>();
 
 /// k: the error estimate's second splat is at h/k, every bandwidth of the batch divided by it
 /// (C/k in eq. 8, its bounds with it; docs/deviations.md §51).
@@ -98,10 +100,13 @@ pub const DIFFERENCE_VARIANCE: f64 = {
 };
 
 /// z: a pixel's mean bias estimate b̄ moves the reference that relMSE divides by only as far
-/// as it stands out of its noise, sign(b̄)·√max(0, b̄² − z²·Var(b̄)). Noise alone then almost
-/// never moves it (|b̄| > 3σ for 0.3% of pixels without bias), where the unbiased b̄² − Var(b̄)
-/// (z = 1) let it move in a third of them and, through relMSE's 1/(r² + 0.01), multiplied a
-/// noisy image's estimate up to 10× (docs/deviations.md §51).
+/// as it stands out of its noise, sign(b̄)·√max(0, b̄² − z²·Var(b̄)). Noise alone then seldom
+/// moves it, where the unbiased b̄² − Var(b̄) (z = 1) let it move in a third of the pixels and,
+/// through relMSE's 1/(r² + 0.01), multiplied a noisy image's estimate up to 19×
+/// (docs/deviations.md §51). Var(b̄) is itself estimated from n passes, so b̄/σ̂ follows
+/// Student's t with n − 1 degrees of freedom: a pixel without bias passes 3 in 5.8% of cases
+/// at 4 passes ([`TRUSTED_PASSES`]), 2.0% at 8, 0.9% at 16 (0.3% for a known σ), and the
+/// weight, which then depends on b̄, leaves a small upward bias in a noisy image's estimate.
 pub const BIAS_SIGNIFICANCE: f64 = 3.0;
 
 /// One pass's error-estimate values at a pixel ([`Film::pass_error`]), luminance.
@@ -273,22 +278,22 @@ impl<'a> PassValues<'a> {
 
 /// Add pass values y, s, b, d, a with weight `w` to a pixel's sums.
 #[inline]
-fn add_to(s: &mut [f64; SUMS], w: f64, [y, i, b, d, a]: [f64; 5]) {
+fn add_to(s: &mut [f64; SUMS], w: f64, [y, values @ ..]: [f64; 5]) {
     let w2 = w * w;
     s[0] += w2 * y;
     s[1] += w2 * y * y;
-    s[2] += w * i;
-    s[3] += w2 * i;
-    s[4] += w2 * i * i;
-    s[5] += w * b;
-    s[6] += w2 * b;
-    s[7] += w2 * b * b;
-    s[8] += w * d;
-    s[9] += w2 * d;
-    s[10] += w2 * d * d;
-    s[11] += w * a;
-    s[12] += w2 * a;
-    s[13] += w2 * a * a;
+    for (k, x) in values.into_iter().enumerate() {
+        let t = &mut s[triple(k)];
+        t[0] += w * x;
+        t[1] += w2 * x;
+        t[2] += w2 * x * x;
+    }
+}
+
+/// Where value k of s, b, d, a (0–3) keeps its Σw·x, Σw²x, Σw²x² in a pixel's sums (the
+/// luminance's two come first).
+const fn triple(k: usize) -> std::ops::Range<usize> {
+    2 + 3 * k..5 + 3 * k
 }
 
 impl PassSpread {
@@ -323,7 +328,8 @@ impl PassSpread {
     /// pass `current` of `batches` batches counted as one more pass (none: the finished passes
     /// alone, `blended` then being their mean). None before two passes, and for a black image
     /// (nothing to be wrong about: a camera outside the scene). `map`, when given, receives
-    /// each pixel's relative RMS error √((b² + v)/y²) (0 where the image is black).
+    /// each pixel's relative RMS error √(b² + v)/r against the estimated reference r (the
+    /// image less its bias where the bias stands out of its noise; 0 where the image is black).
     pub fn estimate(
         &self,
         blended: impl Fn(usize) -> Vec3,
@@ -363,13 +369,18 @@ impl PassSpread {
                 ((sxx - 2.0 * mean * sx + mean * mean * w2) * inv_w2 * correction).max(0.0)
             };
             let v = spread(s[0], s[1], y);
-            let vs = spread(s[3], s[4], s[2] / w);
-            let b_mean = s[5] / w;
-            let vb = spread(s[6], s[7], b_mean);
+            // Value k's mean over the passes and the spread of that mean.
+            let mean_spread = |k: usize| {
+                let t = &s[triple(k)];
+                let mean = t[0] / w;
+                (mean, spread(t[1], t[2], mean))
+            };
+            let (_, vs) = mean_spread(0);
+            let (b_mean, vb) = mean_spread(1);
             let b2 = b_mean * b_mean - vb;
-            let vd = spread(s[9], s[10], s[8] / w);
-            let a_mean = s[11] / w;
-            let a2 = a_mean * a_mean - spread(s[12], s[13], a_mean);
+            let (_, vd) = mean_spread(2);
+            let (a_mean, va) = mean_spread(3);
+            let a2 = a_mean * a_mean - va;
             // The reference relMSE divides by: the image less its bias where the bias stands
             // out of its noise.
             let z2 = BIAS_SIGNIFICANCE * BIAS_SIGNIFICANCE;
@@ -392,8 +403,13 @@ impl PassSpread {
             splatted += weigh(vs);
             photons += weigh_own(vd / DIFFERENCE_VARIANCE);
             if let Some(m) = map.as_deref_mut() {
-                let rel = if y > 0.0 {
-                    ((b2.max(0.0) + v) / (y * y)).sqrt()
+                // Relative to the estimated reference, as the error against a reference is
+                // (`film::error::relative_errors`: 1 where the reference is black).
+                let r = reference * y;
+                let rel = if r > 1e-6 {
+                    (b2.max(0.0) + v).sqrt() / r
+                } else if y > 0.0 {
+                    1.0
                 } else {
                     0.0
                 };
@@ -453,8 +469,8 @@ mod tests {
 
     /// relMSE divides by the reference: a pixel whose every pass reads 0.2 with a bias of
     /// 0.16 (a narrow shadow, truly 0.04) has its bias² weighed against 0.04, 0.16²/(0.04² +
-    /// 0.01) = 2.207, not against its own 0.2 (0.512). A bias that is only noise (±0.16 about
-    /// zero) leaves the reference at the image's value.
+    /// 0.01) = 2.207, not against its own 0.2 (0.512, which `--c auto`'s smooth bias² keeps).
+    /// A bias that is only noise (±0.16 about zero) leaves the reference at the image's value.
     #[test]
     fn a_bias_above_its_noise_moves_the_reference() {
         let n = 4;
@@ -465,6 +481,7 @@ mod tests {
                 let e = vec![
                     PassError {
                         bias: b,
+                        bias_smooth: b,
                         ..PassError::default()
                     };
                     n
@@ -477,15 +494,28 @@ mod tests {
                     1,
                 );
             }
-            spread.estimate(|_| Vec3::splat(0.2), None, None).unwrap()
+            let mut map = Vec::new();
+            let e = spread
+                .estimate(|_| Vec3::splat(0.2), None, Some(&mut map))
+                .unwrap();
+            (e, map)
         };
-        let certain = run(&[0.16; 8]);
+        let (certain, map) = run(&[0.16; 8]);
         assert!(
             (certain.bias2 - 0.0256 / 0.0116).abs() < 1e-4,
             "{certain:?}"
         );
-        let noise = run(&[0.16, -0.16, 0.16, -0.16, 0.16, -0.16, 0.16, -0.16]);
+        // `--c auto`'s bias² keeps the image's own value: 0.16²/(0.2² + 0.01).
+        assert!(
+            (certain.bias2_smooth - 0.0256 / 0.05).abs() < 1e-4,
+            "{certain:?}"
+        );
+        // The error map, like the error against a reference, is relative to it: 0.16/0.04.
+        assert!(map.iter().all(|&m| (m - 4.0).abs() < 1e-4), "{map:?}");
+        let (noise, map) = run(&[0.16, -0.16, 0.16, -0.16, 0.16, -0.16, 0.16, -0.16]);
         assert_eq!(noise.bias2, 0.0, "{noise:?}");
+        // A bias that is only noise, and passes that agree: no error in the map.
+        assert!(map.iter().all(|&m| m == 0.0), "{map:?}");
         // The variance (the passes agree: none) and auto's own-value terms are untouched.
         assert_eq!(certain.variance, 0.0);
     }

@@ -180,8 +180,8 @@ impl PhotonCore {
         let difference: Vec<f32> = at_h
             .iter()
             .zip(&at_fine)
-            .map(|(h, half)| {
-                let d = luminance(*h) - luminance(*half);
+            .map(|(h, fine)| {
+                let d = luminance(*h) - luminance(*fine);
                 if d.is_finite() { d } else { 0.0 }
             })
             .collect();
