@@ -540,6 +540,20 @@ fn until_error_stops_when_the_estimate_is_below_it() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("need --method rs"), "{err}");
+    // A negative or infinite threshold is a value out of range, named as one (a negative
+    // one was taken for a flag: "unexpected argument '-0'").
+    for bad in ["-0.5", "inf"] {
+        let out = bin()
+            .args(["render", "builtin:classic", "--until-error", bad])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{bad}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("--until-error must be a finite relMSE above 0"),
+            "{bad}: {err}"
+        );
+    }
 }
 
 /// Every built-in scene is named in the help of the commands that open one (the window's

@@ -205,9 +205,10 @@ pub struct RunArgs {
     #[arg(long, conflicts_with = "time_budget")]
     pub batches: Option<u64>,
     /// rs: stop once the error the render estimates from its own eye passes (relMSE, as
-    /// `compare` reports it) falls below this; with --time-budget, at whichever comes first
-    /// (docs/deviations.md §51).
-    #[arg(long, conflicts_with = "batches")]
+    /// `compare` reports it, read every 0.5 s) falls below this; with --time-budget, at
+    /// whichever comes first; without it, it runs until then or until interrupted. Not with
+    /// --batches (docs/deviations.md §51) [range: a finite relMSE above 0]
+    #[arg(long, conflicts_with = "batches", allow_negative_numbers = true)]
     pub until_error: Option<f64>,
     /// rs: estimate the image's error from its own eye passes (variance from their spread,
     /// bias from a second splat at a quarter of the bandwidth) and report it in the stats
@@ -322,7 +323,9 @@ impl SettingsArgs {
         if let Some(e) = self.run.until_error
             && !(e > 0.0 && e.is_finite())
         {
-            return Err(format!("--until-error must be a relMSE above 0, got {e}"));
+            return Err(format!(
+                "--until-error must be a finite relMSE above 0, got {e}"
+            ));
         }
         Ok(RenderSettings {
             width: image.width,

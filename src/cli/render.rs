@@ -122,9 +122,14 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
             format!("{} passes", e.passes)
         } else {
             format!(
-                "{} eye passes, C {:.3}",
+                "{} eye passes, C {:.3}{}",
                 e.passes,
-                m.settings().bandwidth.smoothness_c
+                m.settings().bandwidth.smoothness_c,
+                if m.settings().auto_c {
+                    " (chosen by --c auto)"
+                } else {
+                    ""
+                }
             )
         };
         println!(
@@ -134,7 +139,7 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
             e.variance,
             match until {
                 Some(t) if reached => format!("; below --until-error {t}"),
-                Some(t) => format!("; --until-error {t} not reached"),
+                Some(t) => format!("; --until-error {t} not reached before the render ended"),
                 None => String::new(),
             }
         );
