@@ -205,7 +205,8 @@ pub struct RunArgs {
     #[arg(long, conflicts_with = "time_budget")]
     pub batches: Option<u64>,
     /// rs: stop once the error the render estimates from its own eye passes (relMSE, as
-    /// `compare` reports it, read every 0.5 s) falls below this; with --time-budget, at
+    /// `compare` reports it, read every 0.5 s from the fourth eye pass on) falls below this;
+    /// `render` only; with --time-budget, at
     /// whichever comes first; without it, it runs until then or until interrupted. Not with
     /// --batches (docs/deviations.md §51) [range: a finite relMSE above 0]
     #[arg(long, conflicts_with = "batches", allow_negative_numbers = true)]

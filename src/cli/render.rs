@@ -92,7 +92,9 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
             checked = Instant::now();
             if let Some(e) = m.film().estimate {
                 progress.set_message(format!("pass {}, est. relMSE {:.4}", m.passes(), e.rel_mse));
-                if e.rel_mse < target {
+                // Only an estimate of enough passes to act on, as the window's pause and
+                // --c auto (two passes' spread is itself too noisy to stop on).
+                if e.trusted() && e.rel_mse < target {
                     reached = true;
                     return false;
                 }

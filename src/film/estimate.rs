@@ -55,7 +55,8 @@ pub struct ErrorEstimate {
 }
 
 /// The spread of fewer passes says little (a blotchy two-pass image read 0.0001 in the
-/// window): `--c auto` and the window's pause wait for this many ([`ErrorEstimate::trusted`]).
+/// window): `--c auto`, the window's pause and `--until-error` wait for this many
+/// ([`ErrorEstimate::trusted`]).
 pub const TRUSTED_PASSES: u32 = 4;
 
 impl ErrorEstimate {
@@ -125,8 +126,8 @@ pub struct PassError {
 /// Each pass's bias estimate is averaged over a box of (2·BIAS_POOL + 1)² pixels before its
 /// spread is taken: the difference of two splats is noisy per pixel. Only 3 × 3: the bias of a
 /// feature narrower than the box (a narrow shadow) and that of the ring around it have
-/// opposite signs, so a wider box cancels it (7 × 7 saw half of Šibenik's apse's bias that
-/// 3 × 3 sees; docs/deviations.md §51).
+/// opposite signs, so a wider box cancels it (at h/4, 7 × 7 saw two thirds of the bias of
+/// Šibenik's apse that 3 × 3 sees, three quarters of the apartment's; docs/deviations.md §51).
 pub const BIAS_POOL: usize = 1;
 
 /// The box (2·BIAS_POOL_SMOOTH + 1)² over which `--c auto`'s bias is averaged
@@ -423,6 +424,14 @@ impl PassSpread {
             return None;
         }
         let n = self.sums.len().max(1) as f64;
+        if !(bias2 + bias2_smooth + variance + splatted + photons).is_finite() {
+            // A non-finite pixel (the film's guards make it unlikely): no estimate rather than
+            // one that no threshold is ever below.
+            if let Some(m) = map {
+                m.clear();
+            }
+            return None;
+        }
         let bias2 = (bias2 / n).max(0.0);
         let bias2_smooth = (bias2_smooth / n).max(0.0);
         let variance = variance / n;
