@@ -33,7 +33,9 @@ pub struct CompareArgs {
     /// Paths per pixel of the path-traced reference.
     #[arg(long, default_value_t = 512)]
     ref_spp: u32,
-    /// Paths per pixel of the pt method in the comparison (without --time-budget).
+    /// Paths per pixel of the pt method in the comparison. With --time-budget or --batches it
+    /// traces one path per pixel a step instead (the settings then record 1), as many steps as
+    /// the budget or the batches give.
     #[arg(long, default_value_t = 16)]
     pt_spp: u32,
     /// The folder for every method's EXR and error map, the reference, the montage and
