@@ -133,10 +133,11 @@ struct PreviewScene {
 
 impl PreviewScene {
     fn load(arg: Option<&str>, env: &super::args::EnvArgs) -> Result<Self, CliError> {
-        let default = || Arc::new(Scene::default_scene());
+        // Built once: the rows' scene, or the yardstick of another scene's camera moves.
+        let default = Scene::default_scene();
         let Some(arg) = arg else {
             return Ok(Self {
-                scene: default(),
+                scene: Arc::new(default),
                 unit: 1.0,
                 suffix: String::new(),
             });
@@ -148,7 +149,7 @@ impl PreviewScene {
                 .map_or_else(|| arg.to_string(), |s| s.to_string_lossy().into_owned()),
         };
         let scene = super::load_scene(Some(arg), env)?;
-        let unit = scene.diagonal() / default().diagonal();
+        let unit = scene.diagonal() / default.diagonal();
         Ok(Self {
             scene: Arc::new(scene),
             unit,
