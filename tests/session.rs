@@ -716,3 +716,45 @@ fn a_pause_does_not_count_as_elapsed_time() {
     );
     assert!(later.stats.elapsed_s > first.stats.elapsed_s);
 }
+
+/// The dragged views are sized to the drag budget from what the views before them cost
+/// (adaptive resolution, docs/deviations.md §62): with a budget no frame can meet they go to
+/// the smallest size, a quarter; with one every frame meets they keep the configured half.
+#[test]
+fn dragged_views_are_sized_to_their_budget() {
+    let _w = Watchdog::new(180);
+    for (budget, divisor) in [
+        (Duration::from_micros(1), 4),
+        (Duration::from_secs(1000), 2),
+    ] {
+        let mut config = small_config();
+        config.settings.width = 96;
+        config.settings.height = 64;
+        config.drag_frame_budget = budget;
+        let w = config.settings.width;
+        let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+        let mut f = wait(&session, 60, |f| {
+            f.stats.method.passes >= 2 && !f.interactive
+        });
+        // The first drag may be sized by the view at rest; the second by the first drag.
+        for k in 1..=2 {
+            let mut camera = f.camera.clone();
+            camera.position += camera.right() * (0.01 * k as f32);
+            session.send(Command::SetCamera {
+                camera,
+                interactive: true,
+            });
+            let generation = f.generation;
+            f = wait(&session, 60, |g| {
+                g.interactive && g.generation > generation && g.stats.method.passes >= 1
+            });
+        }
+        assert_eq!(
+            f.settings.width,
+            w / divisor,
+            "budget {budget:?}: a dragged view of {}",
+            f.settings.width
+        );
+    }
+    assert_eq!(raysplat::session::MAX_DRAG_DIVISOR, 4.0);
+}

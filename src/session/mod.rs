@@ -29,6 +29,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+/// A dragged view is never smaller than the full size divided by this (the coarse first
+/// image's quarter): beyond it the frame is too coarse to steer the camera by.
+pub const MAX_DRAG_DIVISOR: f32 = 4.0;
+
 /// Something the UI asks of the worker.
 #[derive(Clone, Debug)]
 pub enum Command {
@@ -215,8 +219,14 @@ pub struct SessionConfig {
     pub max_stored_rays: usize,
     /// Least time between two frames published while tracing (changes publish at once).
     pub publish_interval: Duration,
-    /// Interactive views divide width and height by this and use 1 sample per pixel.
+    /// Interactive views divide width and height by at least this and use 1 sample per
+    /// pixel; a dragged view divides by more (up to [`MAX_DRAG_DIVISOR`]) when its frames
+    /// take longer than `drag_frame_budget`.
     pub interactive_divisor: u32,
+    /// What a dragged view's frame (its eye side and the newest batch's re-splat) may take:
+    /// the worker sizes the dragged views to it from the last ones' cost (adaptive resolution,
+    /// docs/deviations.md §62).
+    pub drag_frame_budget: Duration,
     /// The coarse first image divides width and height by this (1: none), with the
     /// interactive views' samples and half a batch; full size follows at once.
     pub first_divisor: u32,
@@ -239,6 +249,9 @@ impl Default for SessionConfig {
             max_stored_rays: 4_000_000,
             publish_interval: Duration::from_millis(100),
             interactive_divisor: 2,
+            // Two thirds of the window's 300 ms camera target: the rest is the step in flight
+            // a move waits for (a batch's piece, 50–125 ms on CORNELL BOX I at 500×500).
+            drag_frame_budget: Duration::from_millis(200),
             // A quarter of the size: with the visible domains' probes (16 per eye sample) at
             // half size the first image took 560–640 ms (docs/benchmarks.md "The previewer").
             first_divisor: 4,

@@ -1,7 +1,7 @@
 //! The worker thread: drains commands, applies them at the batch boundary, steps the method,
 //! and publishes frames.
 
-use super::{Command, Event, Frame, Notify, SessionConfig, SessionStats};
+use super::{Command, Event, Frame, MAX_DRAG_DIVISOR, Notify, SessionConfig, SessionStats};
 use crate::methods::{self, Method, Step};
 use crate::scene::{Camera, EnvironmentSettings, Scene};
 use crate::settings::{Changes, Effect, MethodKind, RenderSettings, limits};
@@ -75,6 +75,8 @@ pub(super) struct Worker {
     /// Raised by the session with a command that brings a new view; lowered here before the
     /// commands are read ([`crate::methods::Method::set_stop`]).
     stop: Option<Arc<AtomicBool>>,
+    /// The size of the dragged views, from what the last ones cost.
+    drag: DragSize,
 }
 
 impl Worker {
@@ -89,6 +91,7 @@ impl Worker {
     ) -> Self {
         let camera = scene.cameras[0].clone();
         let (scene, lighting_error) = lit(scene, &config.environment);
+        let drag = DragSize::new(config.interactive_divisor, config.drag_frame_budget);
         let mut w = Self {
             scene,
             scene_path,
@@ -96,6 +99,7 @@ impl Worker {
             config,
             camera,
             interactive: false,
+            drag,
             failed: None,
             renderer: None,
             coarse_start: false,
@@ -202,6 +206,11 @@ impl Worker {
                     // An eye side drawn (or given up again) for a new view: the method's
                     // time, but not a splat's.
                     Step::Side => self.t_method += t.elapsed().as_secs_f64(),
+                }
+                // A view's first frame with its light: what it cost sizes the dragged views.
+                if matches!(step, Step::Resplatted | Step::Traced) {
+                    let s = &self.config.settings;
+                    self.drag.end(s.width as u64 * s.height as u64);
                 }
                 // The stats show a whole batch's splat time, its pieces added up.
                 if step != Step::Side {
@@ -411,8 +420,11 @@ impl Worker {
             // The reference shows the current view at its size only.
             self.reference = None;
             let v = if self.interactive {
-                interactive_view(s, self.config.interactive_divisor)
+                let v = interactive_view(s, self.drag.divisor);
+                self.drag.begin(v.width as u64 * v.height as u64, true);
+                v
             } else {
+                self.drag.begin(s.width as u64 * s.height as u64, false);
                 s.clone()
             };
             // The light samples are a `Resolve` setting: the update only adopts them.
@@ -497,9 +509,9 @@ impl Worker {
         self.reference = None;
         self.coarse_start = self.config.first_divisor > 1;
         let mut settings = if self.interactive {
-            interactive_view(&self.config.settings, self.config.interactive_divisor)
+            interactive_view(&self.config.settings, self.drag.divisor)
         } else if self.coarse_start {
-            interactive_view(&self.config.settings, self.config.first_divisor)
+            interactive_view(&self.config.settings, self.config.first_divisor as f32)
         } else {
             self.config.settings.clone()
         };
@@ -665,16 +677,17 @@ fn lit(scene: Arc<Scene>, env: &EnvironmentSettings) -> (Arc<Scene>, Option<Stri
 }
 
 /// The settings of an interactive view (a camera being dragged, the coarse first image): the
-/// configured size divided by `divisor`, one eye sample per pixel and one light sample each
+/// configured size divided by `divisor` (rounded), one eye sample per pixel and one light sample each
 /// (the configured 4 cost the first image 60–70 ms and a camera move 25–60 ms,
 /// docs/benchmarks.md "The previewer"). The view at rest gets the configured ones back: the
 /// size and samples by `set_view`, the light samples by the update that ends the coarse
 /// image's half batch or by the view branch of `apply`.
-fn interactive_view(s: &RenderSettings, divisor: u32) -> RenderSettings {
-    let d = divisor.max(1);
+fn interactive_view(s: &RenderSettings, divisor: f32) -> RenderSettings {
+    let d = divisor.max(1.0);
+    let size = |n: u32| limits::RESOLUTION.clamp((n as f32 / d).round() as u32);
     RenderSettings {
-        width: limits::RESOLUTION.clamp(s.width / d),
-        height: limits::RESOLUTION.clamp(s.height / d),
+        width: size(s.width),
+        height: size(s.height),
         spp: 1,
         nee_samples: 1,
         ..s.clone()
@@ -704,5 +717,108 @@ impl RunClock {
             self.running += now - self.last;
         }
         self.last = now;
+    }
+}
+
+/// The size of the dragged views (adaptive resolution, as production viewports lower theirs
+/// while the camera moves; docs/deviations.md §62): the full size divided by `divisor`, at
+/// least the configured interactive divisor and at most [`MAX_DRAG_DIVISOR`], chosen so that
+/// a dragged view's first frame with its light (its eye side, then the newest stored batch
+/// re-splatted onto it) takes about the budget. Early in a render, or in a scene of wide
+/// kernels, a batch splats onto many more targets per ray: a half-size view of CORNELL BOX I
+/// took 370 ms a few batches in, 230 ms after fifteen (docs/benchmarks.md, "The previewer").
+struct DragSize {
+    divisor: f32,
+    least: f32,
+    /// Seconds a dragged frame may take.
+    budget: f64,
+    /// Seconds per pixel of the last dragged frames, each new one weighing half; before the
+    /// first drag, a view at rest's.
+    per_pixel: Option<f64>,
+    /// The view under way: when it was applied, its pixels, and whether it is dragged.
+    pending: Option<(Instant, u64, bool)>,
+}
+
+impl DragSize {
+    fn new(least: u32, budget: Duration) -> Self {
+        let least = (least.max(1) as f32).min(MAX_DRAG_DIVISOR);
+        Self {
+            divisor: least,
+            least,
+            budget: budget.as_secs_f64(),
+            per_pixel: None,
+            pending: None,
+        }
+    }
+
+    /// A view of `pixels` is being applied (its eye side is drawn next), `dragged` or at rest.
+    fn begin(&mut self, pixels: u64, dragged: bool) {
+        self.pending = Some((Instant::now(), pixels, dragged));
+    }
+
+    /// The view's first frame with its light is ready: its cost per pixel sizes the next
+    /// dragged views of a view of `full_pixels` at rest. The eye side, the splat tree and
+    /// the splat all follow the pixel count, so the divisor whose view costs the budget is
+    /// √(cost · full / budget), in quarter steps (a size that changed with every frame would
+    /// flicker). A view at rest counts only until the first drag has been measured: it takes
+    /// more of its visible domains from the last pass's probes (71–76% against a dragged
+    /// view's 24%, docs/deviations.md §40), so it would size the dragged views too large,
+    /// but it sizes the first one better than nothing (a half-size first move in the
+    /// apartment under the sky took 405 ms).
+    fn end(&mut self, full_pixels: u64) {
+        let Some((t, pixels, dragged)) = self.pending.take() else {
+            return;
+        };
+        if !dragged && self.per_pixel.is_some() {
+            return;
+        }
+        let cost = t.elapsed().as_secs_f64() / pixels.max(1) as f64;
+        let c = self.per_pixel.map_or(cost, |p| 0.5 * (p + cost));
+        self.per_pixel = Some(c);
+        if self.budget > 0.0 {
+            let d = (c * full_pixels as f64 / self.budget).sqrt() as f32;
+            self.divisor = ((d * 4.0).ceil() / 4.0).clamp(self.least, MAX_DRAG_DIVISOR);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The divisor follows the measured cost per pixel: a frame at the budget keeps the size,
+    /// one at four times the budget halves each side, and it never leaves [least, max].
+    #[test]
+    fn the_dragged_view_is_sized_to_its_budget() {
+        let mut d = DragSize::new(2, Duration::from_millis(200));
+        let full = 500 * 500;
+        let pixels = 250 * 250;
+        let measure = |d: &mut DragSize, secs: f64| {
+            d.pending = Some((Instant::now() - Duration::from_secs_f64(secs), pixels, true));
+            d.end(full);
+        };
+        measure(&mut d, 0.2);
+        assert!((d.divisor - 2.0).abs() < 0.26, "{}", d.divisor);
+        // The smoothed cost: (0.2 + 0.8)/2 per view, 2.5× the budget's at half size.
+        measure(&mut d, 0.8);
+        assert!((d.divisor - 3.25).abs() < 0.01, "{}", d.divisor);
+        for _ in 0..8 {
+            measure(&mut d, 5.0);
+        }
+        assert_eq!(d.divisor, MAX_DRAG_DIVISOR);
+        for _ in 0..8 {
+            measure(&mut d, 0.001);
+        }
+        assert_eq!(d.divisor, 2.0);
+        // Once a drag was measured, a view at rest measures nothing.
+        d.pending = Some((Instant::now() - Duration::from_secs(5), full, false));
+        d.end(full);
+        assert_eq!(d.divisor, 2.0);
+        // Before, it sizes the first drag.
+        let mut first = DragSize::new(2, Duration::from_millis(200));
+        first.pending = Some((Instant::now() - Duration::from_secs_f64(1.79), full, false));
+        first.end(full);
+        // A full-size view at just under 9× the budget: a third of each side.
+        assert!((first.divisor - 3.0).abs() < 0.01, "{}", first.divisor);
     }
 }
