@@ -12,6 +12,7 @@ use crate::settings::{MethodKind, RenderSettings};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// Russian roulette starts after this many bounces.
@@ -77,6 +78,9 @@ pub struct PathTracer {
     /// Contributions dropped because they were NaN or infinite.
     pub invalid: u64,
     timings: Timings,
+    /// The window's flag for a new view ([`Method::set_stop`]): a step under way stops
+    /// between rows, since the new view starts the reference again.
+    stop: Option<Arc<AtomicBool>>,
 }
 
 impl PathTracer {
@@ -125,12 +129,17 @@ impl PathTracer {
             spp: 0,
             invalid: 0,
             timings: Timings::default(),
+            stop: None,
         }
     }
 
-    /// Trace `n` more paths through every pixel.
+    /// Trace `n` more paths through every pixel. Given up between rows when the stop flag is
+    /// raised: the rows would hold part of a pass, so it starts again from no paths (the
+    /// window drops such a reference for the new view anyway).
     pub fn add_samples(&mut self, n: u32) {
         let s = self.settings;
+        let stop = self.stop.as_deref();
+        let cut = AtomicBool::new(false);
         let aspect = s.width as f32 / s.height as f32;
         let first = self.spp;
         let (scene, camera) = (&*self.scene, &self.camera);
@@ -142,6 +151,10 @@ impl PathTracer {
             .enumerate()
             .map(|(y, (row, row_sq))| {
                 let mut bad = 0;
+                if stop.is_some_and(|f| f.load(Ordering::Relaxed)) {
+                    cut.store(true, Ordering::Relaxed);
+                    return bad;
+                }
                 for (x, (acc, acc_sq)) in row.iter_mut().zip(row_sq.iter_mut()).enumerate() {
                     let pixel = (y as u64) * s.width as u64 + x as u64;
                     for k in first..first + n {
@@ -173,7 +186,19 @@ impl PathTracer {
             })
             .sum();
         self.invalid += invalid;
-        self.spp += n;
+        if cut.into_inner() {
+            self.clear();
+        } else {
+            self.spp += n;
+        }
+    }
+
+    /// No paths yet.
+    fn clear(&mut self) {
+        self.sum.fill(Vec3::ZERO);
+        self.sum_sq.fill(0.0);
+        self.spp = 0;
+        self.invalid = 0;
     }
 
     /// The mean radiance per pixel so far, with its own variance as the film's estimate (from
@@ -203,6 +228,10 @@ impl Method for PathTracer {
 
     fn camera(&self) -> &Camera {
         &self.camera
+    }
+
+    fn set_stop(&mut self, stop: Arc<AtomicBool>) {
+        self.stop = Some(stop);
     }
 
     fn step(&mut self) -> Step {
@@ -391,4 +420,32 @@ pub fn radiance(
         dir = s.wi;
     }
     l
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::BuiltinScene;
+
+    /// A pass under way with the window's stop flag raised is given up and leaves no paths
+    /// (part of a pass in some rows would show as bands); with the flag lowered the next pass
+    /// is the one a never-stopped tracer draws first, pixel for pixel.
+    #[test]
+    fn a_pass_given_up_for_a_new_view_leaves_no_paths() {
+        let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
+        let camera = scene.cameras[0].clone();
+        let settings = PtSettings::matching(24, 16, 3, [1.0; 3]);
+        let mut plain = PathTracer::new(scene.clone(), camera.clone(), settings);
+        let mut stopped = PathTracer::new(scene, camera, settings);
+        let stop = Arc::new(AtomicBool::new(true));
+        stopped.set_stop(stop.clone());
+        stopped.step();
+        assert_eq!(stopped.passes(), 0);
+        assert!(stopped.film().rgb.iter().all(|c| *c == Vec3::ZERO));
+        stop.store(false, Ordering::Relaxed);
+        stopped.step();
+        plain.step();
+        assert_eq!(stopped.passes(), 1);
+        assert_eq!(stopped.film().rgb, plain.film().rgb);
+    }
 }

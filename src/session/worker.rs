@@ -484,7 +484,12 @@ impl Worker {
                 ..r.settings().clone()
             };
             match methods::build_for(self.scene.clone(), settings, r.camera().clone()) {
-                Ok(pt) => {
+                Ok(mut pt) => {
+                    // A new view gives up the reference's pass under way: the view drops
+                    // the reference (`apply`), so a move need not wait for its paths.
+                    if let Some(stop) = &self.stop {
+                        pt.set_stop(stop.clone());
+                    }
                     self.reference = Some(pt);
                     self.t_method = 0.0;
                     self.t_reference = 0.0;
