@@ -133,6 +133,10 @@ fn moving_the_c_slider_reaches_the_worker_and_changes_the_image() {
         a.frame().is_some_and(|f| f.stats.method.passes >= 2) && a.shown().is_some()
     });
     pause(&mut h);
+    // The render chooses C by default (the Auto box); a user who sets it by hand turns
+    // that off first, and the slider comes alive.
+    assert!(h.state().settings().render.auto_c);
+    click(&mut h, "Auto");
     h.step();
     let before = h.state().shown().unwrap().rgba.clone();
     let generation = h.state().frame().unwrap().generation;
@@ -664,12 +668,18 @@ fn the_stats_line_counts_eye_passes() {
     h.get_by_label(&format!("memory {:.0} MB", m.total() as f64 / 1e6));
 }
 
-/// The Auto box beside the C slider reaches the worker: the render chooses C from its own
-/// error estimate, and the disabled slider shows the C it chose.
+/// The Auto box beside the C slider, on by default, reaches the worker: the render chooses C
+/// from its own error estimate, and the disabled slider shows the C it chose.
 #[test]
 fn the_auto_box_lets_the_render_choose_c_and_the_slider_shows_it() {
     let mut h = harness(tmp("auto_c"));
     run_until(&mut h, 60, "the first image", |a| a.frame().is_some());
+    assert!(h.state().settings().render.auto_c, "Auto is the default");
+    // Off and on again: the box reaches the worker both ways.
+    click(&mut h, "Auto");
+    run_until(&mut h, 60, "a frame with C of the slider", |a| {
+        a.frame().is_some_and(|f| !f.settings.auto_c)
+    });
     click(&mut h, "Auto");
     run_until(&mut h, 150, "a C of the render's own", |a| {
         a.frame().is_some_and(|f| {

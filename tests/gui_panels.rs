@@ -34,11 +34,17 @@ struct State<P, R = ()> {
     returned: Vec<R>,
 }
 
+/// The panels' settings: the window's defaults with C set by hand (Auto off, the estimate
+/// off), so that the C slider and the estimate's box are live; the tests that need Auto turn
+/// it on (the window's default, `gui::the_auto_box_lets_the_render_choose_c_and_the_slider_shows_it`).
 fn settings() -> UiSettings {
-    UiSettings {
+    let mut s = UiSettings {
         snapshot_dir: PathBuf::from("/tmp/snapshots"),
         ..UiSettings::default()
-    }
+    };
+    s.render.auto_c = false;
+    s.render.estimate_error = false;
+    s
 }
 
 /// A harness drawing `draw` over a fresh [`State`]; it runs a few frames and checks that
@@ -740,6 +746,15 @@ fn persisted_settings_load_or_fall_back_to_the_defaults() {
         (loaded.render.photons, loaded.defaults),
         (7_000, UiSettings::DEFAULTS)
     );
+    // Saved under the second defaults (C by hand): the render chooses C now, with the
+    // estimate; a C set by hand after today's defaults stays by hand (the round trip above).
+    let mut second = settings();
+    second.render.bandwidth.smoothness_c = 0.7;
+    second.defaults = 1;
+    second.save(&mut storage);
+    let loaded = UiSettings::from_storage(&storage).expect("loads");
+    assert!(loaded.render.auto_c && loaded.render.estimate_error);
+    assert_eq!(loaded.render.bandwidth.smoothness_c, 0.7);
     // Values beyond the limits are moved into them.
     storage.set_string_for_test("(exposure: 100.0, ray_budget: 1)");
     let loaded = UiSettings::from_storage(&storage).expect("loads");

@@ -70,8 +70,9 @@ impl UiSettings {
 
     /// The defaults' version. 1 (2026-11-26): emission guided by what reached the eye samples
     /// and 4 light samples per eye sample (docs/deviations.md §44, §50); a window saved
-    /// before had them off and 1, and would have kept them.
-    pub const DEFAULTS: u32 = 1;
+    /// before had them off and 1, and would have kept them. 2 (2026-11-29): C chosen by the
+    /// render (the Auto box, docs/deviations.md §51) and the error estimate on.
+    pub const DEFAULTS: u32 = 2;
 
     /// The persisted settings, moved into [`limits`] and onto the current defaults where
     /// those changed since they were saved; `None` when nothing is stored or the stored value
@@ -87,6 +88,11 @@ impl UiSettings {
             let d = SessionConfig::default().settings;
             self.render.guided_emission = d.guided_emission;
             self.render.nee_samples = d.nee_samples;
+        }
+        if self.defaults < 2 {
+            let d = SessionConfig::default().settings;
+            self.render.auto_c = d.auto_c;
+            self.render.estimate_error |= d.estimate_error;
         }
         self.defaults = Self::DEFAULTS;
         self

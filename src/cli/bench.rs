@@ -55,6 +55,11 @@ pub struct BenchArgs {
     /// batch (as the window did before its eye passes, docs/deviations.md §41), for comparison.
     #[arg(long)]
     fixed_eye_samples: bool,
+    /// Quality and previewer rows with the window's C fixed at Table 2's value (Auto off), as
+    /// the window was before it chose C itself by default (docs/deviations.md §51), for
+    /// comparison.
+    #[arg(long)]
+    fixed_c: bool,
     /// Run only these groups of rows (default: every group; quality needs its references).
     #[arg(long, value_delimiter = ',')]
     only: Vec<Group>,
@@ -275,18 +280,17 @@ pub fn run(args: BenchArgs) -> Result<(), CliError> {
     if runs(Group::Glossy) {
         glossy_bench(&args, &mut rows)?;
     }
+    let window = quality::Window {
+        progressive_eye: !args.fixed_eye_samples,
+        auto_c: !args.fixed_c,
+    };
     if runs(Group::Preview) {
-        preview_bench(
-            preview.scene,
-            environment.clone(),
-            preview.unit,
-            !args.fixed_eye_samples,
-        )?
-        .report(&mut rows, &preview.suffix);
+        preview_bench(preview.scene, environment.clone(), preview.unit, window)?
+            .report(&mut rows, &preview.suffix);
     }
     let mut curves = Vec::new();
     if let Some(references) = quality_refs {
-        curves = quality::run_curves(&references, args.quality_seconds, !args.fixed_eye_samples);
+        curves = quality::run_curves(&references, args.quality_seconds, window);
         rows.extend(quality::rows(&curves));
     }
     if let Some(path) = &args.json {
@@ -500,7 +504,7 @@ fn preview_bench(
     scene: Arc<Scene>,
     environment: EnvironmentSettings,
     unit: f32,
-    progressive_eye: bool,
+    window: quality::Window,
 ) -> Result<PreviewLatencies, String> {
     use raysplat::session::{Command as C, Frame, Session, SessionConfig};
     let timeout = Duration::from_secs(60);
@@ -517,7 +521,7 @@ fn preview_bench(
     };
     let new_config = || {
         let mut config = SessionConfig::default();
-        config.settings.progressive_eye = progressive_eye;
+        window.apply(&mut config);
         config.environment = environment.clone();
         config
     };
@@ -529,8 +533,10 @@ fn preview_bench(
     let f = wait(&session, &|f| f.stats.method.photon_rays >= 200_000)?;
     session.send(C::Pause);
     let f = wait(&session, &|g| g.stats.paused && g.seq > f.seq)?;
+    // S, not C: with Auto (the window's default) C is the render's own, and a C sent is
+    // only where it starts (`--fixed-c` moves S too, so that the rows compare).
     let mut params = f.settings.bandwidth;
-    params.smoothness_c = 0.7;
+    params.sensitivity_s = 0.35;
     let t = Instant::now();
     session.send(C::SetBandwidth(params));
     let g = wait(&session, &|g| g.generation > f.generation)?;

@@ -71,13 +71,33 @@ pub fn reference_path(dir: &Path, stem: &str) -> Result<PathBuf, String> {
     ))
 }
 
+/// The window's defaults a bench row may turn off to compare with what they replaced.
+#[derive(Clone, Copy, Debug)]
+pub struct Window {
+    /// Eye passes drawn anew as batches go on (docs/deviations.md §41).
+    pub progressive_eye: bool,
+    /// C chosen by the render (the window's Auto box, §51); off: Table 2's C.
+    pub auto_c: bool,
+}
+
+impl Window {
+    /// Turn off in `config` what this variant turns off.
+    pub fn apply(&self, config: &mut SessionConfig) {
+        config.settings.progressive_eye &= self.progressive_eye;
+        if !self.auto_c {
+            config.settings.auto_c = false;
+            config.settings.estimate_error = false;
+        }
+    }
+}
+
 /// Run every curve for `seconds` (checkpoints beyond it are dropped), print one line each.
-pub fn run_curves(references: &[Vec<Vec3>], seconds: f64, progressive_eye: bool) -> Vec<Curve> {
+pub fn run_curves(references: &[Vec<Vec3>], seconds: f64, window: Window) -> Vec<Curve> {
     let mut curves = Vec::new();
     for ((stem, which), reference) in SCENES.iter().zip(references) {
         let scene = Arc::new(Scene::builtin(*which));
         for shown in [Shown::Splatted, Shown::PathTraced] {
-            let rel_mse = curve(scene.clone(), shown, reference, seconds, progressive_eye);
+            let rel_mse = curve(scene.clone(), shown, reference, seconds, window);
             let cells: Vec<String> = rel_mse
                 .iter()
                 .map(|e| e.map_or("—".into(), |e| format!("{e:.4}")))
@@ -104,10 +124,10 @@ fn curve(
     shown: Shown,
     reference: &[Vec3],
     seconds: f64,
-    progressive_eye: bool,
+    window: Window,
 ) -> Vec<Option<f64>> {
     let mut config = SessionConfig::default();
-    config.settings.progressive_eye = progressive_eye;
+    window.apply(&mut config);
     // Not the references' seed: the path tracer's streams depend on seed, pixel and sample
     // only, so with the same seed the path-traced view would replay the reference's own first
     // paths and its error would come out too small.

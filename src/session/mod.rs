@@ -244,6 +244,11 @@ impl Default for SessionConfig {
                 spp: 1,
                 photons: 20_000,
                 nee_samples: crate::settings::FRONT_END_NEE_SAMPLES,
+                // The render chooses C from its own error estimate (docs/deviations.md §51):
+                // the best C differs between scenes and between cameras of one scene, and
+                // a user should not have to find it. The estimate comes with it.
+                auto_c: true,
+                estimate_error: true,
                 ..RenderSettings::default()
             },
             max_stored_rays: 4_000_000,
