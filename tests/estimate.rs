@@ -111,28 +111,48 @@ fn mirror_scene() -> Arc<Scene> {
     Arc::new(Scene::from_glb_bytes(&g.to_glb(), "plane in a mirror").unwrap())
 }
 
-/// Over C from 0.4 to 2.5 and 8 to 64 batches (noise-dominated to bias-dominated images,
-/// true relMSE from 0.002 to 0.023), the estimate from the render's own eye passes is within
-/// a factor of 1.5 of the true relMSE (measured ratios 0.89–1.41 with the second splat at h/4,
-/// 2026-11-29; 0.68–1.43 at h/2 with the 7 × 7 pool). At 8 batches the fine splat's noise is
-/// large on this 40×40 image of 1,000 photons a batch: at C = 1 seeds 2–4 read 0.57, 2.0 and
-/// 3.0 (seed 1, this test's, 1.41), where the h/2 estimate read 0.56–1.17
-/// (docs/deviations.md §51, "A finer second splat").
+/// Over C from 0.4 to 2.5 and 8 to 64 batches of 4,000 photons (noise-dominated to
+/// bias-dominated images), the estimate from the render's own eye passes is within a factor
+/// of 1.5 of the true relMSE in the median of four seeds, and within a factor of 2 in each.
+/// Measured (2026-11-29, seeds 1–4): C 0.4 at 8 batches 1.01, 0.79, 1.06, 1.31; C 1 at 8
+/// 0.81, 1.02, 0.61, 0.74; C 2.5 at 8 1.15, 1.52, 1.21, 1.22; C 2.5 at 64 0.95, 1.27, 1.25,
+/// 0.90; C 0.4 at 64 1.06, 0.98, 0.96, 0.96. One render's estimate is itself a random
+/// number: with one seed (as this test had) the bound held or failed by the seed. At the
+/// 1,000 photons a batch this test ran before, the fine splat (h/4) reaches few photons on
+/// this 40×40 image and C 1 at 8 batches read 1.41, 2.03, 0.56, 2.99 (docs/deviations.md
+/// §51, "A finer second splat").
 ///
 /// Left out: C = 1 at 64 batches, where the estimate is 0.62 of the truth (0.00103 against
-/// 0.00168). There the error left is an offset of the splatted direct photons against the
-/// point light's exact NEE that does not change with h (the image mean +0.8%; the same at
-/// C = 0.4), which no comparison of two bandwidths can see (docs/deviations.md §51).
+/// 0.00168, at 1,000 photons a batch). There the error left is an offset of the splatted
+/// direct photons against the point light's exact NEE that does not change with h (the image
+/// mean +0.8%; the same at C = 0.4), which no comparison of two bandwidths can see
+/// (docs/deviations.md §51).
 #[test]
 fn the_estimated_error_tracks_the_true_error() {
     let scene = scene();
     let truth = truth(&scene);
     let cases = [(0.4f32, 8u64), (0.4, 64), (1.0, 8), (2.5, 8), (2.5, 64)];
     for (c, batches) in cases {
-        let (estimated, actual) = estimated_and_true(&scene, &truth, c, batches);
+        let mut ratios: Vec<f64> = (1..=4)
+            .map(|seed| {
+                let s = RenderSettings {
+                    photons: 4_000,
+                    seed,
+                    ..settings(c)
+                };
+                let (estimated, actual) = estimated_and_true(&scene, &truth, &s, batches);
+                assert!(
+                    within_factor(estimated, actual, 2.0),
+                    "C {c}, {batches} batches, seed {seed}: estimated {estimated} vs true {actual}"
+                );
+                estimated / actual
+            })
+            .collect();
+        ratios.sort_by(f64::total_cmp);
+        let median = (ratios[1] * ratios[2]).sqrt();
         assert!(
-            within_factor(estimated, actual, 1.5),
-            "C {c}, {batches} batches: estimated {estimated} vs true {actual}"
+            within_factor(median, 1.0, 1.5),
+            "C {c}, {batches} batches: estimated over true {ratios:.2?}, median {median:.2}"
         );
     }
 }
@@ -142,9 +162,15 @@ fn within_factor(a: f64, b: f64, f: f64) -> bool {
     a < f * b && b < f * a
 }
 
-/// The estimated and the true relMSE of an rs render of `scene` at C = `c` after `batches`.
-fn estimated_and_true(scene: &Arc<Scene>, truth: &[Vec3], c: f32, batches: u64) -> (f64, f64) {
-    let r = render_method(scene, MethodKind::Rs, &settings(c), Budget::Passes(batches)).unwrap();
+/// The estimated and the true relMSE of an rs render of `scene` with `s` after `batches`.
+fn estimated_and_true(
+    scene: &Arc<Scene>,
+    truth: &[Vec3],
+    s: &RenderSettings,
+    batches: u64,
+) -> (f64, f64) {
+    let c = s.bandwidth.smoothness_c;
+    let r = render_method(scene, MethodKind::Rs, s, Budget::Passes(batches)).unwrap();
     let e = r
         .film
         .estimate
@@ -175,7 +201,7 @@ fn the_estimate_sees_the_bias_reflected_by_a_traced_lobe() {
     let scene = mirror_scene();
     let truth = truth_at(&scene, 8);
     for c in [0.4f32, 1.0, 2.5] {
-        let (estimated, actual) = estimated_and_true(&scene, &truth, c, 64);
+        let (estimated, actual) = estimated_and_true(&scene, &truth, &settings(c), 64);
         assert!(
             within_factor(estimated, actual, 1.5),
             "C {c}, 64 batches: estimated {estimated} vs true {actual}"

@@ -25,6 +25,13 @@ pub struct RenderArgs {
     /// The method: rs, rc, pm, pt, rs-fg or pm-fg.
     #[arg(long, default_value = RenderSettings::default().method.name(), value_parser = choice::<MethodKind>())]
     pub method: MethodKind,
+    /// rs: stop once the error the render estimates from its own eye passes (relMSE, as
+    /// `compare` reports it, read every 0.5 s from the fourth eye pass on) falls below this;
+    /// with --time-budget, at whichever comes first; without it, it runs until then or until
+    /// interrupted. Not with --batches (docs/deviations.md §51) [range: a finite relMSE above
+    /// 0]
+    #[arg(long, conflicts_with = "batches", allow_negative_numbers = true)]
+    pub until_error: Option<f64>,
     #[command(flatten)]
     pub output: OutputArgs,
 }
@@ -204,13 +211,6 @@ pub struct RunArgs {
     /// passes): a deterministic multi-batch image, where a time budget's count varies.
     #[arg(long, conflicts_with = "time_budget")]
     pub batches: Option<u64>,
-    /// rs: stop once the error the render estimates from its own eye passes (relMSE, as
-    /// `compare` reports it, read every 0.5 s from the fourth eye pass on) falls below this;
-    /// `render` only; with --time-budget, at
-    /// whichever comes first; without it, it runs until then or until interrupted. Not with
-    /// --batches (docs/deviations.md §51) [range: a finite relMSE above 0]
-    #[arg(long, conflicts_with = "batches", allow_negative_numbers = true)]
-    pub until_error: Option<f64>,
     /// rs: estimate the image's error from its own eye passes (variance from their spread,
     /// bias from a second splat at a quarter of the bandwidth) and report it in the stats
     /// (docs/deviations.md §51).
@@ -293,7 +293,7 @@ impl RenderArgs {
     pub fn settings(&self) -> Result<RenderSettings, String> {
         let (run, c) = (&self.settings.run, self.settings.photons.c);
         if self.method != MethodKind::Rs
-            && (run.until_error.is_some() || run.estimate_error || c == Smoothness::Auto)
+            && (self.until_error.is_some() || run.estimate_error || c == Smoothness::Auto)
         {
             return Err(format!(
                 "--until-error, --estimate-error and --c auto need --method rs (the error is \
@@ -301,7 +301,26 @@ impl RenderArgs {
                 self.method.name()
             ));
         }
-        self.settings.settings(self.method)
+        if let Some(e) = self.until_error
+            && !(e > 0.0 && e.is_finite())
+        {
+            return Err(format!(
+                "--until-error must be a finite relMSE above 0, got {e}"
+            ));
+        }
+        let mut settings = self.settings.settings(self.method)?;
+        // A stop at an error reads the estimate.
+        settings.estimate_error |= self.until_error.is_some();
+        Ok(settings)
+    }
+
+    /// `--time-budget` seconds, `--batches` units of work, one fixed batch, or no bound of
+    /// its own under `--until-error` (it stops when the estimate says so).
+    pub fn budget(&self) -> Budget {
+        match self.settings.run.budget() {
+            Budget::Fixed if self.until_error.is_some() => Budget::Seconds(f64::INFINITY),
+            b => b,
+        }
     }
 }
 
@@ -321,13 +340,6 @@ impl SettingsArgs {
                 spp
             ));
         }
-        if let Some(e) = self.run.until_error
-            && !(e > 0.0 && e.is_finite())
-        {
-            return Err(format!(
-                "--until-error must be a finite relMSE above 0, got {e}"
-            ));
-        }
         Ok(RenderSettings {
             width: image.width,
             height: image.height,
@@ -342,13 +354,11 @@ impl SettingsArgs {
             merge_targets: !method.no_merge,
             splat_visibility: !method.no_splat_visibility,
             guided_emission: !method.emission_by_power,
-            // rs only (`compare` runs other methods beside it): auto C and a stop at an error
-            // read the estimate.
+            // rs only (`compare` runs other methods beside it): auto C reads the estimate
+            // (and `render`'s stop at an error, `RenderArgs::settings`).
             auto_c: kind == MethodKind::Rs && self.photons.c == Smoothness::Auto,
             estimate_error: kind == MethodKind::Rs
-                && (self.run.estimate_error
-                    || self.run.until_error.is_some()
-                    || self.photons.c == Smoothness::Auto),
+                && (self.run.estimate_error || self.photons.c == Smoothness::Auto),
             progressive_eye: !method.fixed_eye_samples,
             progressive_bandwidth: !method.paper_bandwidth_rate,
             method: kind,
@@ -445,8 +455,6 @@ impl RunArgs {
         match (self.time_budget, self.batches) {
             (Some(b), _) => Budget::Seconds(b),
             (None, Some(n)) => Budget::Passes(n),
-            // Until the estimate says so: no bound of its own.
-            (None, None) if self.until_error.is_some() => Budget::Seconds(f64::INFINITY),
             (None, None) => Budget::Fixed,
         }
     }
@@ -493,6 +501,6 @@ mod tests {
                 ..d
             }
         );
-        assert_eq!(args.settings.run.budget(), Budget::Fixed);
+        assert_eq!(args.budget(), Budget::Fixed);
     }
 }

@@ -84,14 +84,6 @@ pub fn run(args: CompareArgs) -> Result<(), CliError> {
         .copied()
         .find(|&m| m != MethodKind::Pt)
         .unwrap_or(MethodKind::Pt);
-    if args.settings.run.until_error.is_some() {
-        // Its methods run to a budget; a threshold on one method's estimate would stop
-        // nothing (and without --time-budget they would run until interrupted).
-        return Err(CliError::Usage(
-            "--until-error is render's: compare runs its methods to --time-budget or --batches"
-                .into(),
-        ));
-    }
     let settings = args.settings.settings(kind).map_err(CliError::Usage)?;
     // Every file compare writes, checked before any work; the reference is never overwritten.
     let mut files: Vec<PathBuf> = vec![

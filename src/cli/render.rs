@@ -68,14 +68,14 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
     let start = Instant::now();
     let mut m = methods::build(scene.clone(), settings)?;
     progress.set_message("rendering");
-    let until = args.settings.run.until_error;
+    let until = args.until_error;
     // The path tracer stops at a --spp given with its budget, if that comes first.
     let path_cap = (m.kind() == MethodKind::Pt)
         .then(|| args.settings.pt_path_cap())
         .flatten();
     let mut checked = Instant::now();
     let mut reached = false;
-    methods::run(m.as_mut(), args.settings.run.budget(), |m| {
+    methods::run(m.as_mut(), args.budget(), |m| {
         if let Some(b) = time_budget {
             let spent = start.elapsed().as_secs_f64();
             progress.set_position((spent * 1000.0).min(b * 1000.0) as u64);
