@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Rooms lit from outside (issue 30), at the window's settings (one eye sample per pixel with
 # 4 light samples each, 20,000 photons a batch, emission guided by what reached the eye
-# samples: deviations §44, §50) against the built-in path tracer at equal wall time: 2, 10 and
+# samples, C chosen by the render: deviations §44, §50, §51) against the built-in path tracer at equal wall time: 2, 10 and
 # 30 s. References: the path tracer at 4,096 paths per pixel (the room is Lambertian, so it
 # agrees with Cycles: docs/results.md), rendered once into each folder with a seed of their
 # own (with the compared runs' seed the path tracer would replay the reference's first paths). Run from the
@@ -21,7 +21,7 @@ room() {
     fi
     for t in 2 10 30; do
         mkdir -p "$OUT/${name}_${t}s"
-        $R compare "$@" --spp 1 --nee-samples 4 --photons 20000 --time-budget $t --methods rs,pt \
+        $R compare "$@" --spp 1 --nee-samples 4 --photons 20000 --c auto --time-budget $t --methods rs,pt \
             --reference "$OUT/$name/reference.exr" --out-dir "$OUT/${name}_${t}s" | tail -3
     done
 }
