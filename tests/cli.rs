@@ -544,8 +544,8 @@ fn until_error_stops_when_the_estimate_is_below_it() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("need --method rs"), "{err}");
     // compare runs its methods to a budget: the threshold is render's argument alone (it ran
-    // until interrupted without --time-budget, and ignored it with one), refused with one
-    // line.
+    // until interrupted without --time-budget, and ignored it with one), refused by the
+    // argument parser.
     let out = bin()
         .args(["compare", "builtin:classic", "--until-error", "0.02"])
         .output()

@@ -192,7 +192,14 @@ fn snapshot_button_writes_png_exr_and_json() {
     assert_eq!(ext, ["exr", "json", "png"]);
     let meta: SnapshotMeta = serde_json::from_slice(&std::fs::read(&files[1]).unwrap()).unwrap();
     let app = h.state();
-    assert_eq!(meta.settings.bandwidth, app.settings().render.bandwidth);
+    // With Auto (the default) C moves with the render: the snapshot holds its frame's C,
+    // which a later frame may have moved in the window.
+    let (m, a) = (&meta.settings.bandwidth, &app.settings().render.bandwidth);
+    assert_eq!(
+        (m.sensitivity_s, m.max_bandwidth_r),
+        (a.sensitivity_s, a.max_bandwidth_r)
+    );
+    assert!(meta.settings.auto_c && m.smoothness_c > 0.0);
     assert!((meta.settings.bandwidth.sensitivity_s - 0.55).abs() < 1e-6);
     assert_eq!(meta.settings.width, 64);
     assert_eq!(meta.view_mode, app.settings().view_mode);
@@ -679,6 +686,14 @@ fn the_auto_box_lets_the_render_choose_c_and_the_slider_shows_it() {
     click(&mut h, "Auto");
     run_until(&mut h, 60, "a frame with C of the slider", |a| {
         a.frame().is_some_and(|f| !f.settings.auto_c)
+    });
+    // C back to 1 by hand, so that a C other than 1 below is one chosen after Auto is on
+    // again.
+    h.get_by_role_and_label(Role::Slider, "C")
+        .set_value_accesskit(1.0);
+    run_until(&mut h, 60, "C = 1 at the worker", |a| {
+        a.frame()
+            .is_some_and(|f| !f.settings.auto_c && f.settings.bandwidth.smoothness_c == 1.0)
     });
     click(&mut h, "Auto");
     run_until(&mut h, 150, "a C of the render's own", |a| {

@@ -718,8 +718,11 @@ fn a_pause_does_not_count_as_elapsed_time() {
 }
 
 /// The dragged views are sized to the drag budget from what the views before them cost
-/// (adaptive resolution, docs/deviations.md §62): with a budget no frame can meet they go to
-/// the smallest size, a quarter; with one every frame meets they keep the configured half.
+/// (adaptive resolution, docs/deviations.md §62), end to end through the worker: with a
+/// budget no frame can meet they go to the smallest size, a quarter (the view at rest sizes
+/// the first drag, the drags the next: either way a quarter here); with one every frame
+/// meets they keep the configured half. The averaging and the steps in between are
+/// `session::worker::tests::the_dragged_view_is_sized_to_its_budget`'s.
 #[test]
 fn dragged_views_are_sized_to_their_budget() {
     let _w = Watchdog::new(180);

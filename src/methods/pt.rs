@@ -78,9 +78,84 @@ pub struct PathTracer {
     /// Contributions dropped because they were NaN or infinite.
     pub invalid: u64,
     timings: Timings,
-    /// The window's flag for a new view ([`Method::set_stop`]): a step under way stops
-    /// between rows, since the new view starts the reference again.
+    /// The window's flag for a new view ([`Method::set_stop`]): a pass under way stops
+    /// between rows, since the new view starts the paths again.
     stop: Option<Arc<AtomicBool>>,
+    /// With a stop flag, the pass being traced (sum and squared luminance per pixel), added
+    /// to the sums once whole; kept between passes.
+    pass: (Vec<Vec3>, Vec<f64>),
+}
+
+/// What one pass of the path tracer reads.
+#[derive(Clone, Copy)]
+struct View<'a> {
+    scene: &'a Scene,
+    camera: &'a Camera,
+    settings: PtSettings,
+    /// Paths per pixel already traced: the pass's streams start after them.
+    first: u32,
+}
+
+/// Add `n` paths per pixel of `view` into `sum` and `sum_sq` (row by row, in parallel);
+/// the count of NaN or infinite contributions dropped, or None when `stop` was raised before
+/// the last row (the rows are then part of a pass).
+fn trace_rows(
+    view: View,
+    sum: &mut [Vec3],
+    sum_sq: &mut [f64],
+    n: u32,
+    stop: Option<&AtomicBool>,
+) -> Option<u64> {
+    let View {
+        scene,
+        camera,
+        settings: s,
+        first,
+    } = view;
+    let cut = AtomicBool::new(false);
+    let aspect = s.width as f32 / s.height as f32;
+    let w = s.width as usize;
+    let invalid: u64 = sum
+        .par_chunks_mut(w)
+        .zip(sum_sq.par_chunks_mut(w))
+        .enumerate()
+        .map(|(y, (row, row_sq))| {
+            let mut bad = 0;
+            if stop.is_some_and(|f| f.load(Ordering::Relaxed)) {
+                cut.store(true, Ordering::Relaxed);
+                return bad;
+            }
+            for (x, (acc, acc_sq)) in row.iter_mut().zip(row_sq.iter_mut()).enumerate() {
+                let pixel = (y as u64) * s.width as u64 + x as u64;
+                for k in first..first + n {
+                    let mut rng = Rng::new(s.seed ^ 0x7074_7261_6365, (pixel << 32) | k as u64);
+                    let j = rng.next_2d();
+                    let d = camera.direction(
+                        (x as f32 + j.x) / s.width as f32,
+                        (y as f32 + j.y) / s.height as f32,
+                        aspect,
+                    );
+                    let l = radiance(
+                        scene,
+                        camera.position,
+                        d,
+                        &mut rng,
+                        s.max_depth,
+                        s.max_diffuse_vertices,
+                    );
+                    if l.is_finite() {
+                        *acc += l;
+                        let lum = luminance(l) as f64;
+                        *acc_sq += lum * lum;
+                    } else {
+                        bad += 1;
+                    }
+                }
+            }
+            bad
+        })
+        .sum();
+    (!cut.into_inner()).then_some(invalid)
 }
 
 impl PathTracer {
@@ -130,75 +205,52 @@ impl PathTracer {
             invalid: 0,
             timings: Timings::default(),
             stop: None,
+            pass: (Vec::new(), Vec::new()),
         }
     }
 
-    /// Trace `n` more paths through every pixel. Given up between rows when the stop flag is
-    /// raised: the rows would hold part of a pass, so it starts again from no paths (the
-    /// window drops such a reference for the new view anyway).
+    /// Trace `n` more paths through every pixel. With the window's stop flag
+    /// ([`Method::set_stop`]) a pass is traced into sums of its own and added only once whole:
+    /// raised, it is given up between rows and the paths so far stay as they were (part of a
+    /// pass in some rows would show as bands).
     pub fn add_samples(&mut self, n: u32) {
-        let s = self.settings;
-        let stop = self.stop.as_deref();
-        let cut = AtomicBool::new(false);
-        let aspect = s.width as f32 / s.height as f32;
-        let first = self.spp;
-        let (scene, camera) = (&*self.scene, &self.camera);
-        let w = s.width as usize;
-        let invalid: u64 = self
-            .sum
-            .par_chunks_mut(w)
-            .zip(self.sum_sq.par_chunks_mut(w))
-            .enumerate()
-            .map(|(y, (row, row_sq))| {
-                let mut bad = 0;
-                if stop.is_some_and(|f| f.load(Ordering::Relaxed)) {
-                    cut.store(true, Ordering::Relaxed);
-                    return bad;
-                }
-                for (x, (acc, acc_sq)) in row.iter_mut().zip(row_sq.iter_mut()).enumerate() {
-                    let pixel = (y as u64) * s.width as u64 + x as u64;
-                    for k in first..first + n {
-                        let mut rng = Rng::new(s.seed ^ 0x7074_7261_6365, (pixel << 32) | k as u64);
-                        let j = rng.next_2d();
-                        let d = camera.direction(
-                            (x as f32 + j.x) / s.width as f32,
-                            (y as f32 + j.y) / s.height as f32,
-                            aspect,
-                        );
-                        let l = radiance(
-                            scene,
-                            camera.position,
-                            d,
-                            &mut rng,
-                            s.max_depth,
-                            s.max_diffuse_vertices,
-                        );
-                        if l.is_finite() {
-                            *acc += l;
-                            let lum = luminance(l) as f64;
-                            *acc_sq += lum * lum;
-                        } else {
-                            bad += 1;
-                        }
-                    }
-                }
-                bad
-            })
-            .sum();
-        self.invalid += invalid;
-        if cut.into_inner() {
-            self.clear();
-        } else {
+        let Some(stop) = self.stop.clone() else {
+            let view = View {
+                scene: &self.scene,
+                camera: &self.camera,
+                settings: self.settings,
+                first: self.spp,
+            };
+            let invalid = trace_rows(view, &mut self.sum, &mut self.sum_sq, n, None);
+            self.invalid += invalid.unwrap_or(0);
+            self.spp += n;
+            return;
+        };
+        let (mut sum, mut sum_sq) = std::mem::take(&mut self.pass);
+        sum.clear();
+        sum.resize(self.sum.len(), Vec3::ZERO);
+        sum_sq.clear();
+        sum_sq.resize(self.sum.len(), 0.0);
+        if let Some(invalid) = trace_rows(self.view(), &mut sum, &mut sum_sq, n, Some(&stop)) {
+            self.sum.iter_mut().zip(&sum).for_each(|(a, b)| *a += *b);
+            self.sum_sq
+                .iter_mut()
+                .zip(&sum_sq)
+                .for_each(|(a, b)| *a += *b);
+            self.invalid += invalid;
             self.spp += n;
         }
+        self.pass = (sum, sum_sq);
     }
 
-    /// No paths yet.
-    fn clear(&mut self) {
-        self.sum.fill(Vec3::ZERO);
-        self.sum_sq.fill(0.0);
-        self.spp = 0;
-        self.invalid = 0;
+    /// What a pass reads: the scene, camera, settings and the paths already traced.
+    fn view(&self) -> View<'_> {
+        View {
+            scene: &self.scene,
+            camera: &self.camera,
+            settings: self.settings,
+            first: self.spp,
+        }
     }
 
     /// The mean radiance per pixel so far, with its own variance as the film's estimate (from
@@ -236,9 +288,15 @@ impl Method for PathTracer {
 
     fn step(&mut self) -> Step {
         let t = Instant::now();
+        let before = self.spp;
         self.add_samples(self.render.pt_spp.max(1));
         self.timings.t_splat += t.elapsed().as_secs_f64();
-        Step::Traced
+        if self.spp == before {
+            // Given up for a new view: nothing new to show.
+            Step::Side
+        } else {
+            Step::Traced
+        }
     }
 
     /// Paths depend on the view: a new one starts from no paths.
@@ -427,11 +485,12 @@ mod tests {
     use super::*;
     use crate::scene::BuiltinScene;
 
-    /// A pass under way with the window's stop flag raised is given up and leaves no paths
-    /// (part of a pass in some rows would show as bands); with the flag lowered the next pass
-    /// is the one a never-stopped tracer draws first, pixel for pixel.
+    /// A pass under way with the window's stop flag raised is given up and leaves the paths
+    /// as they were (no rows of part of a pass); lowered, the next pass is the one a
+    /// never-stopped tracer draws next, pixel for pixel; and a tracer without the flag (a
+    /// headless render) renders as before.
     #[test]
-    fn a_pass_given_up_for_a_new_view_leaves_no_paths() {
+    fn a_pass_given_up_for_a_new_view_leaves_the_paths_as_they_were() {
         let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
         let camera = scene.cameras[0].clone();
         let settings = PtSettings::matching(24, 16, 3, [1.0; 3]);
@@ -446,6 +505,16 @@ mod tests {
         stopped.step();
         plain.step();
         assert_eq!(stopped.passes(), 1);
+        assert_eq!(stopped.film().rgb, plain.film().rgb);
+        // A second pass given up: the first pass's image stays.
+        stop.store(true, Ordering::Relaxed);
+        stopped.step();
+        assert_eq!(stopped.passes(), 1);
+        assert_eq!(stopped.film().rgb, plain.film().rgb);
+        stop.store(false, Ordering::Relaxed);
+        stopped.step();
+        plain.step();
+        assert_eq!(stopped.passes(), 2);
         assert_eq!(stopped.film().rgb, plain.film().rgb);
     }
 }

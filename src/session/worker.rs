@@ -178,13 +178,13 @@ impl Worker {
             // The reference mode waits for a batch in pieces to be whole.
             let whole_batch = self.renderer.as_ref().is_some_and(|r| !r.mid_step());
             if self.reference_on && !self.paused && whole_batch {
-                self.reference_step();
-                traced = true;
+                // The method is not stepped: a view applied now is never measured.
+                self.drag.cancel();
+                traced = self.reference_step();
             } else if self.reference_turn() {
                 let t = Instant::now();
-                self.reference_step();
+                traced = self.reference_step();
                 self.t_reference += t.elapsed().as_secs_f64();
-                traced = true;
             } else if let Some(r) = self.renderer.as_mut()
                 && (r.catching_up() || r.mid_step() || !self.paused)
             {
@@ -437,6 +437,7 @@ impl Worker {
                 }
             }
             if let Err(e) = r.set_view(self.camera.clone(), v.width, v.height, v.spp) {
+                self.drag.cancel();
                 self.emit(Event::Error(e.to_string()));
                 return;
             }
@@ -473,9 +474,11 @@ impl Worker {
     }
 
     /// Add one path per pixel to the reference of the current view.
-    fn reference_step(&mut self) {
+    /// Step the reference (built for the method's view when there is none); true when it
+    /// traced a pass (a pass given up for a new view adds nothing).
+    fn reference_step(&mut self) -> bool {
         let Some(r) = self.renderer.as_ref() else {
-            return;
+            return false;
         };
         if self.reference.is_none() {
             let settings = RenderSettings {
@@ -485,9 +488,11 @@ impl Worker {
             };
             match methods::build_for(self.scene.clone(), settings, r.camera().clone()) {
                 Ok(mut pt) => {
-                    // A new view gives up the reference's pass under way: the view drops
-                    // the reference (`apply`), so a move need not wait for its paths.
-                    if let Some(stop) = &self.stop {
+                    // A new view gives up the pass under way of a view at rest's reference:
+                    // the view drops the reference (`apply`), so a move need not wait for its
+                    // paths. A dragged view's passes finish, as its eye sides do: each shows
+                    // the moving view.
+                    if let Some(stop) = self.stop.as_ref().filter(|_| !self.interactive) {
                         pt.set_stop(stop.clone());
                     }
                     self.reference = Some(pt);
@@ -497,17 +502,19 @@ impl Worker {
                 Err(e) => {
                     self.reference_on = false;
                     self.emit(Event::Error(e.to_string()));
-                    return;
+                    return false;
                 }
             }
         }
-        if let Some(pt) = self.reference.as_mut() {
-            pt.step();
-        }
+        self.reference
+            .as_mut()
+            .is_some_and(|pt| pt.step() == Step::Traced)
     }
 
     fn restart(&mut self) {
         self.run_clock = RunClock::new();
+        // A new scene, lighting or trace: its costs are measured anew.
+        self.drag.reset();
         // The last batch's time belongs to the render before the restart.
         (self.last_splat_ms, self.splat_ms_sum) = (0.0, 0.0);
         // The reference shows the scene and settings of the method it is beside.
@@ -572,7 +579,12 @@ impl Worker {
         };
         let film = r.film();
         let m = r.stats();
-        let reference = self.reference.as_mut().map(|p| p.film());
+        // A reference of no paths yet (its first pass given up) is no image.
+        let reference = self
+            .reference
+            .as_mut()
+            .filter(|p| p.passes() > 0)
+            .map(|p| p.film());
         let reference_rel_mse = reference
             .as_ref()
             .filter(|f| (f.width, f.height) == (film.width, film.height))
@@ -735,6 +747,7 @@ impl RunClock {
 struct DragSize {
     divisor: f32,
     least: f32,
+    most: f32,
     /// Seconds a dragged frame may take.
     budget: f64,
     /// Seconds per pixel of the last dragged frames, each new one weighing half; before the
@@ -746,14 +759,25 @@ struct DragSize {
 
 impl DragSize {
     fn new(least: u32, budget: Duration) -> Self {
-        let least = (least.max(1) as f32).min(MAX_DRAG_DIVISOR);
+        let least = least.max(1) as f32;
         Self {
             divisor: least,
             least,
+            most: MAX_DRAG_DIVISOR.max(least),
             budget: budget.as_secs_f64(),
             per_pixel: None,
             pending: None,
         }
+    }
+
+    /// Nothing measured: a new scene, lighting or trace starts at the least divisor.
+    fn reset(&mut self) {
+        (self.divisor, self.per_pixel, self.pending) = (self.least, None, None);
+    }
+
+    /// The view under way will not be measured (its frame comes from elsewhere, or it failed).
+    fn cancel(&mut self) {
+        self.pending = None;
     }
 
     /// A view of `pixels` is being applied (its eye side is drawn next), `dragged` or at rest.
@@ -769,20 +793,33 @@ impl DragSize {
     /// more of its visible domains from the last pass's probes (71–76% against a dragged
     /// view's 24%, docs/deviations.md §40), so it would size the dragged views too large,
     /// but it sizes the first one better than nothing (a half-size first move in the
-    /// apartment under the sky took 405 ms).
+    /// apartment under the sky took 405–408 ms).
     fn end(&mut self, full_pixels: u64) {
-        let Some((t, pixels, dragged)) = self.pending.take() else {
+        if let Some((t, ..)) = self.pending {
+            self.end_after(t.elapsed(), full_pixels);
+        }
+    }
+
+    /// [`DragSize::end`] for a frame that took `elapsed`. The divisor goes up at once to the
+    /// quarter step at or above the one the cost asks for, and down only once the cost asks
+    /// for a divisor a whole step below the current step's lower end (a cost near a step
+    /// would otherwise flip the size between frames).
+    fn end_after(&mut self, elapsed: Duration, full_pixels: u64) {
+        let Some((_, pixels, dragged)) = self.pending.take() else {
             return;
         };
         if !dragged && self.per_pixel.is_some() {
             return;
         }
-        let cost = t.elapsed().as_secs_f64() / pixels.max(1) as f64;
+        let cost = elapsed.as_secs_f64() / pixels.max(1) as f64;
         let c = self.per_pixel.map_or(cost, |p| 0.5 * (p + cost));
         self.per_pixel = Some(c);
         if self.budget > 0.0 {
             let d = (c * full_pixels as f64 / self.budget).sqrt() as f32;
-            self.divisor = ((d * 4.0).ceil() / 4.0).clamp(self.least, MAX_DRAG_DIVISOR);
+            let step = ((d * 4.0).ceil() / 4.0).clamp(self.least, self.most);
+            if step > self.divisor || d <= self.divisor - 0.5 {
+                self.divisor = step;
+            }
         }
     }
 }
@@ -792,21 +829,26 @@ mod tests {
     use super::*;
 
     /// The divisor follows the measured cost per pixel: a frame at the budget keeps the size,
-    /// one at four times the budget halves each side, and it never leaves [least, max].
+    /// dearer ones make it smaller at once, cheaper ones larger only past a quarter step, and
+    /// it never leaves [least, most]; a view at rest sizes only the first drag.
     #[test]
     fn the_dragged_view_is_sized_to_its_budget() {
         let mut d = DragSize::new(2, Duration::from_millis(200));
         let full = 500 * 500;
         let pixels = 250 * 250;
         let measure = |d: &mut DragSize, secs: f64| {
-            d.pending = Some((Instant::now() - Duration::from_secs_f64(secs), pixels, true));
-            d.end(full);
+            d.begin(pixels, true);
+            d.end_after(Duration::from_secs_f64(secs), full);
         };
-        measure(&mut d, 0.2);
-        assert!((d.divisor - 2.0).abs() < 0.26, "{}", d.divisor);
-        // The smoothed cost: (0.2 + 0.8)/2 per view, 2.5× the budget's at half size.
+        measure(&mut d, 0.199);
+        assert_eq!(d.divisor, 2.0);
+        // The smoothed cost: (0.199 + 0.8)/2 a view, 2.5× the budget's at half size: √10.
         measure(&mut d, 0.8);
-        assert!((d.divisor - 3.25).abs() < 0.01, "{}", d.divisor);
+        assert_eq!(d.divisor, 3.25);
+        // A little cheaper (smoothed 0.42 s, √8.5 = 2.92, whose step is 3.0): the same size,
+        // where a cost near 3.0 would flip it between 3.0 and 3.25.
+        measure(&mut d, 0.35);
+        assert_eq!(d.divisor, 3.25);
         for _ in 0..8 {
             measure(&mut d, 5.0);
         }
@@ -816,14 +858,22 @@ mod tests {
         }
         assert_eq!(d.divisor, 2.0);
         // Once a drag was measured, a view at rest measures nothing.
-        d.pending = Some((Instant::now() - Duration::from_secs(5), full, false));
-        d.end(full);
+        d.begin(full, false);
+        d.end_after(Duration::from_secs(5), full);
         assert_eq!(d.divisor, 2.0);
-        // Before, it sizes the first drag.
+        // Before, it sizes the first drag: a full-size view at just under 9× the budget, a
+        // third of each side.
         let mut first = DragSize::new(2, Duration::from_millis(200));
-        first.pending = Some((Instant::now() - Duration::from_secs_f64(1.79), full, false));
-        first.end(full);
-        // A full-size view at just under 9× the budget: a third of each side.
-        assert!((first.divisor - 3.0).abs() < 0.01, "{}", first.divisor);
+        first.begin(full, false);
+        first.end_after(Duration::from_secs_f64(1.79), full);
+        assert_eq!(first.divisor, 3.0);
+        // A reset forgets it; a cancelled view measures nothing.
+        first.reset();
+        first.begin(pixels, true);
+        first.cancel();
+        first.end_after(Duration::from_secs(5), full);
+        assert_eq!((first.divisor, first.per_pixel), (2.0, None));
+        // A configured least above the most is kept.
+        assert_eq!(DragSize::new(8, Duration::from_millis(200)).most, 8.0);
     }
 }

@@ -11,10 +11,46 @@ use crate::scene::Scene;
 use crate::settings::DirectMode;
 use std::time::Instant;
 
-/// A paced render (the window) splats a new batch in this many pieces, one per step, so that a
-/// command (a camera move, a slider) waits for a piece rather than a whole batch
+/// A paced render (the window) splats a new batch in at least this many pieces, one per step,
+/// so that a command (a camera move, a slider) waits for a piece rather than a whole batch
 /// (docs/benchmarks.md, "The previewer": a camera move while tracing).
 pub const SPLAT_PIECES: usize = 8;
+
+/// A piece takes about this long: a batch whose last splat took longer than
+/// [`SPLAT_PIECES`] of them is cut into more pieces, up to [`MAX_SPLAT_PIECES`]. A move waits
+/// for half a piece on average: 8 pieces of CORNELL BOX I at 500×500 took 75–125 ms each
+/// early in a render, more with the error estimate's second splat and in scenes of wide
+/// kernels (docs/deviations.md §62).
+pub const PIECE_SECONDS: f64 = 0.04;
+
+/// The most pieces a batch's splat is cut into.
+pub const MAX_SPLAT_PIECES: usize = 64;
+
+/// The pieces of a batch whose last splat took `last_splat` seconds: about [`PIECE_SECONDS`]
+/// each, between [`SPLAT_PIECES`] and [`MAX_SPLAT_PIECES`].
+fn pieces_for(last_splat: f64) -> usize {
+    let by_time = (last_splat / PIECE_SECONDS).ceil();
+    if by_time.is_nan() {
+        return SPLAT_PIECES;
+    }
+    (by_time.min(MAX_SPLAT_PIECES as f64) as usize).max(SPLAT_PIECES)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A batch's pieces follow the last splat's time, within [8, 64].
+    #[test]
+    fn a_batch_is_cut_into_pieces_of_about_forty_milliseconds() {
+        assert_eq!(pieces_for(0.0), SPLAT_PIECES);
+        assert_eq!(pieces_for(0.2), SPLAT_PIECES);
+        assert_eq!(pieces_for(0.8), 20);
+        assert_eq!(pieces_for(0.81), 21);
+        assert_eq!(pieces_for(100.0), MAX_SPLAT_PIECES);
+        assert_eq!(pieces_for(f64::NAN), SPLAT_PIECES);
+    }
+}
 
 /// A stored batch being splatted, new or re-splatted: whole in one piece, or in the window a
 /// piece at a time ([`SPLAT_PIECES`]).
@@ -27,6 +63,8 @@ pub(crate) struct PartialSplat {
     next: usize,
     /// Rays per piece.
     piece: usize,
+    /// Seconds its pieces took so far.
+    spent: f64,
     bw: [Bandwidth; 3],
     /// What its photons reached, for the emission guide (empty without one).
     reach: Vec<u32>,
@@ -66,11 +104,12 @@ impl PhotonCore {
         Step::Traced
     }
 
-    /// The pieces a batch's splat is cut into: [`SPLAT_PIECES`] in a paced render that is not
-    /// headless (the window), else one.
+    /// The pieces a batch's splat is cut into: in a paced render that is not headless (the
+    /// window) [`SPLAT_PIECES`], or more where the last batch's splat would make them longer
+    /// than [`PIECE_SECONDS`]; else one.
     pub(super) fn pieces(&self) -> usize {
         if self.paced && !self.whole_batches {
-            SPLAT_PIECES
+            pieces_for(self.last_splat)
         } else {
             1
         }
@@ -88,6 +127,7 @@ impl PhotonCore {
             new,
             next: 0,
             piece: rays.div_ceil(pieces.max(1)).max(1),
+            spent: 0.0,
             bw,
             reach: vec![0u32; cells],
         }
@@ -113,10 +153,17 @@ impl PhotonCore {
         p.next = end;
         self.generation += 1;
         let whole = end >= rays.len();
-        self.timings.t_splat += t.elapsed().as_secs_f64();
+        let spent = t.elapsed().as_secs_f64();
+        self.timings.t_splat += spent;
+        p.spent += spent;
         if !whole {
             self.splatting = Some(p);
             return Step::Partial;
+        }
+        // A batch cut into pieces at the view's full size sizes the next batches' pieces (a
+        // dragged view re-splats whole, at its own size).
+        if p.piece < rays.len() {
+            self.last_splat = p.spent;
         }
         self.splatted += 1;
         self.draw_lobes(p.batch);

@@ -18,7 +18,7 @@
 //! a film from the accumulators; `report` says what the core holds.
 
 mod batches;
-pub use batches::SPLAT_PIECES;
+pub use batches::{MAX_SPLAT_PIECES, SPLAT_PIECES};
 mod film;
 mod passes;
 mod report;
@@ -163,6 +163,9 @@ pub struct PhotonCore {
     splatting: Option<batches::PartialSplat>,
     /// A headless render splats each batch whole (its progress reads whole films).
     whole_batches: bool,
+    /// Seconds the last batch splatted in pieces took, its pieces added up: the next batch's
+    /// pieces are sized by it ([`batches::PIECE_SECONDS`]).
+    last_splat: f64,
     /// The window's view is interactive: re-splats go whole, a frame per step
     /// ([`PhotonCore::set_interactive`]).
     interactive: bool,
@@ -267,6 +270,7 @@ impl PhotonCore {
             pass_history: BandwidthHistory::default(),
             splatting: None,
             whole_batches: false,
+            last_splat: 0.0,
             interactive: false,
             held: None,
             paced: false,
