@@ -36,22 +36,6 @@ fn pieces_for(last_splat: f64) -> usize {
     (by_time.min(MAX_SPLAT_PIECES as f64) as usize).max(SPLAT_PIECES)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A batch's pieces follow the last splat's time, within [8, 64].
-    #[test]
-    fn a_batch_is_cut_into_pieces_of_about_forty_milliseconds() {
-        assert_eq!(pieces_for(0.0), SPLAT_PIECES);
-        assert_eq!(pieces_for(0.2), SPLAT_PIECES);
-        assert_eq!(pieces_for(0.8), 20);
-        assert_eq!(pieces_for(0.81), 21);
-        assert_eq!(pieces_for(100.0), MAX_SPLAT_PIECES);
-        assert_eq!(pieces_for(f64::NAN), SPLAT_PIECES);
-    }
-}
-
 /// A stored batch being splatted, new or re-splatted: whole in one piece, or in the window a
 /// piece at a time ([`SPLAT_PIECES`]).
 pub(crate) struct PartialSplat {
@@ -320,4 +304,20 @@ fn splat_rays(
         splat_at_fine_bandwidth(&side.tree, rays, bw, classes, direct_photons, scene, acc);
     }
     counters
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A batch's pieces follow the last splat's time, within [8, 64].
+    #[test]
+    fn a_batch_is_cut_into_pieces_of_about_forty_milliseconds() {
+        assert_eq!(pieces_for(0.0), SPLAT_PIECES);
+        assert_eq!(pieces_for(0.2), SPLAT_PIECES);
+        assert_eq!(pieces_for(0.8), 20);
+        assert_eq!(pieces_for(0.81), 21);
+        assert_eq!(pieces_for(100.0), MAX_SPLAT_PIECES);
+        assert_eq!(pieces_for(f64::NAN), SPLAT_PIECES);
+    }
 }
