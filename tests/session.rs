@@ -761,3 +761,54 @@ fn dragged_views_are_sized_to_their_budget() {
     }
     assert_eq!(raysplat::session::MAX_DRAG_DIVISOR, 4.0);
 }
+
+/// Automatic C holds through a camera move: the move re-splats every stored batch onto one
+/// eye pass, whose estimate pulled C down at every move (CORNELL BOX I in the window, four
+/// moves: 0.70 → 0.57 → 0.52 → 0.48 → 0.37, docs/deviations.md §51), so C stays until the
+/// passes drawn after it hold as many batches; and it moves again after that.
+#[test]
+fn auto_c_holds_through_a_camera_move() {
+    let _w = Watchdog::new(300);
+    // Auto, as the window's default, at the window's batches on a smaller view.
+    let mut config = SessionConfig::default();
+    config.settings.width = 160;
+    config.settings.height = 160;
+    let session = Session::spawn(Arc::new(Scene::default_scene()), None, config, None);
+    // Many stored batches, so that the re-splatted pass outweighs the trusted estimate's
+    // first four passes by far.
+    let f = wait(&session, 150, |f| {
+        f.settings.auto_c
+            && (f.settings.bandwidth.smoothness_c - 1.0).abs() > 1e-3
+            && f.stats.method.stored_batches >= 20
+    });
+    let mut camera = f.camera.clone();
+    camera.position += camera.right() * 0.1;
+    session.send(Command::SetCamera {
+        camera,
+        interactive: false,
+    });
+    let moved = wait(&session, 60, |g| {
+        g.generation > f.generation && !g.interactive
+    });
+    // New batches since the move, from the photons traced (the frames' batch count holds
+    // the re-splatted ones too).
+    let (c, traced, per_batch, stored) = (
+        moved.settings.bandwidth.smoothness_c,
+        moved.stats.method.photons_traced,
+        moved.settings.photons as u64,
+        moved.stats.method.stored_batches as u64,
+    );
+    assert!(stored >= 20);
+    let new = |g: &Frame| g.stats.method.photons_traced.saturating_sub(traced) / per_batch;
+    // Every frame until C moves again: C held while fewer new batches than were re-splatted.
+    let later = wait(&session, 200, |g| {
+        let c_now = g.settings.bandwidth.smoothness_c;
+        assert!(
+            c_now == c || new(g) + 1 >= stored,
+            "C {c} -> {c_now} after {} new batches, {stored} re-splatted",
+            new(g)
+        );
+        c_now != c
+    });
+    assert!(new(&later) + 1 >= stored);
+}

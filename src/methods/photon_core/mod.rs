@@ -158,6 +158,9 @@ pub struct PhotonCore {
     earlier: EarlierPasses,
     /// The bandwidths of the batches the current eye pass holds (`--c auto`).
     pass_history: BandwidthHistory,
+    /// Batches the last re-splat put onto one eye pass (a new view, a C, S or R change):
+    /// `--c auto` holds its C until the passes drawn since outweigh that one.
+    resplatted: usize,
     /// A new or re-splatted batch whose splat is cut into pieces (the window), until its last
     /// piece.
     splatting: Option<batches::PartialSplat>,
@@ -268,6 +271,7 @@ impl PhotonCore {
             eye_pass: 0,
             earlier: EarlierPasses::default(),
             pass_history: BandwidthHistory::default(),
+            resplatted: 0,
             splatting: None,
             whole_batches: false,
             last_splat: 0.0,
@@ -561,6 +565,13 @@ impl PhotonCore {
         if !e.trusted() {
             return;
         }
+        // After a re-splat one pass holds every stored batch, and its estimate at the old
+        // batches' bandwidths pulled C down at every camera move in the window (CORNELL BOX I,
+        // four moves: 0.70 → 0.57 → 0.52 → 0.48 → 0.37, each then climbing back slowly): C
+        // holds until the passes drawn since hold as many batches as it.
+        if self.earlier.batches < 2 * self.resplatted {
+            return;
+        }
         // Where the passes cannot tell the bias (or the splatted noise) from zero, the model
         // has nothing to weigh: C stays.
         let Some(best) = self
@@ -608,6 +619,7 @@ impl PhotonCore {
         self.generation += 1;
         // Newest first: it has the smallest bandwidth, so the first frame is the sharpest.
         self.resplat_queue = (0..self.store.batches().len()).collect();
+        self.resplatted = self.resplat_queue.len();
     }
 
     /// A new camera, resolution or sample count: new eye pass and splat tree, then a
