@@ -795,7 +795,7 @@ fn auto_c_holds_through_a_camera_move() {
     let (c, traced, per_batch, stored) = (
         moved.settings.bandwidth.smoothness_c,
         moved.stats.method.photons_traced,
-        moved.settings.photons as u64,
+        moved.settings.photons,
         moved.stats.method.stored_batches as u64,
     );
     assert!(stored >= 20);
