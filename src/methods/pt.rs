@@ -214,33 +214,40 @@ impl PathTracer {
     /// raised, it is given up between rows and the paths so far stay as they were (part of a
     /// pass in some rows would show as bands).
     pub fn add_samples(&mut self, n: u32) {
-        let Some(stop) = self.stop.clone() else {
-            let view = View {
-                scene: &self.scene,
-                camera: &self.camera,
-                settings: self.settings,
-                first: self.spp,
-            };
-            let invalid = trace_rows(view, &mut self.sum, &mut self.sum_sq, n, None);
-            self.invalid += invalid.unwrap_or(0);
-            self.spp += n;
-            return;
+        let stop = self.stop.clone();
+        // Taken out for the pass, so that the pass can read the rest of `self`.
+        let (mut sum, mut sum_sq) = match stop {
+            None => (
+                std::mem::take(&mut self.sum),
+                std::mem::take(&mut self.sum_sq),
+            ),
+            Some(_) => {
+                let (mut sum, mut sum_sq) = std::mem::take(&mut self.pass);
+                sum.clear();
+                sum.resize(self.sum.len(), Vec3::ZERO);
+                sum_sq.clear();
+                sum_sq.resize(self.sum.len(), 0.0);
+                (sum, sum_sq)
+            }
         };
-        let (mut sum, mut sum_sq) = std::mem::take(&mut self.pass);
-        sum.clear();
-        sum.resize(self.sum.len(), Vec3::ZERO);
-        sum_sq.clear();
-        sum_sq.resize(self.sum.len(), 0.0);
-        if let Some(invalid) = trace_rows(self.view(), &mut sum, &mut sum_sq, n, Some(&stop)) {
-            self.sum.iter_mut().zip(&sum).for_each(|(a, b)| *a += *b);
-            self.sum_sq
-                .iter_mut()
-                .zip(&sum_sq)
-                .for_each(|(a, b)| *a += *b);
+        let invalid = trace_rows(self.view(), &mut sum, &mut sum_sq, n, stop.as_deref());
+        match stop {
+            None => (self.sum, self.sum_sq) = (sum, sum_sq),
+            Some(_) => {
+                if invalid.is_some() {
+                    self.sum.iter_mut().zip(&sum).for_each(|(a, b)| *a += *b);
+                    self.sum_sq
+                        .iter_mut()
+                        .zip(&sum_sq)
+                        .for_each(|(a, b)| *a += *b);
+                }
+                self.pass = (sum, sum_sq);
+            }
+        }
+        if let Some(invalid) = invalid {
             self.invalid += invalid;
             self.spp += n;
         }
-        self.pass = (sum, sum_sq);
     }
 
     /// What a pass reads: the scene, camera, settings and the paths already traced.
