@@ -812,3 +812,4 @@ fn auto_c_holds_through_a_camera_move() {
     });
     assert!(new(&later) + 1 >= stored);
 }
+
