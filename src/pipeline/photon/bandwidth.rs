@@ -87,7 +87,8 @@ impl Bandwidth {
     }
 
     /// This bandwidth times `f`, bounds included: eq. 8 with C·`f`. The error estimate splats
-    /// each batch again at a quarter of the bandwidth (docs/deviations.md §51).
+    /// each batch again at 1/[`crate::film::estimate::FINE_SCALE`] of the bandwidth
+    /// (docs/deviations.md §51).
     pub fn scaled(&self, f: f32) -> Self {
         Self {
             scale: self.scale * f,
