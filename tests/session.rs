@@ -812,4 +812,3 @@ fn auto_c_holds_through_a_camera_move() {
     });
     assert!(new(&later) + 1 >= stored);
 }
-
