@@ -244,6 +244,76 @@ mod tests {
         assert!(d < 1e-4, "a batch cut short, re-splatted: {d}");
     }
 
+    /// In the window a re-splat puts every stored batch back into the image before any of
+    /// them is splatted again at the error estimate's fine bandwidth (docs/deviations.md §51,
+    /// "The fine splat deferred"): until the last fine splat the pass shows no estimate
+    /// values (L(h/k) would lack batches that L(h) holds), and once they are all paid its
+    /// values are those of a headless render, which splats both at once.
+    #[test]
+    fn the_window_defers_a_resplats_fine_splat_and_loses_nothing() {
+        let open = |paced: bool| {
+            let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
+            let settings = RenderSettings {
+                width: 24,
+                height: 24,
+                spp: 1,
+                photons: 2_000,
+                estimate_error: true,
+                progressive_eye: false,
+                ..RenderSettings::default()
+            };
+            let mut m: PhotonMethod<RsResolver> =
+                crate::methods::testing::open(scene, settings).unwrap();
+            if paced {
+                m.pace();
+            }
+            for _ in 0..3 {
+                traced(&mut m);
+            }
+            assert!(
+                !m.film().pass_error.is_empty(),
+                "new batches splat h/k at once"
+            );
+            let mut s = m.settings().clone();
+            s.bandwidth.sensitivity_s = 0.35;
+            m.update(&s).unwrap();
+            assert!(m.catching_up());
+            m
+        };
+        let mut window = open(true);
+        let mut headless = open(false);
+        while headless.catching_up() {
+            headless.step();
+        }
+        let expected = headless.film().pass_error;
+        assert!(!expected.is_empty());
+        // The window: three batches re-splatted (in pieces), then three fine splats.
+        let (mut resplatted, mut without_values) = (0, 0);
+        while window.catching_up() {
+            if window.step() == Step::Resplatted {
+                resplatted += 1;
+                if window.catching_up() {
+                    without_values += 1;
+                    assert!(
+                        window.film().pass_error.is_empty(),
+                        "an estimate half splat"
+                    );
+                }
+            }
+        }
+        assert_eq!(resplatted, 6, "three batches, then their three fine splats");
+        assert_eq!(without_values, 5);
+        let got = window.film().pass_error;
+        assert_eq!(got.len(), expected.len());
+        let scale = expected.iter().map(|e| e.bias.abs()).fold(0.0, f32::max);
+        assert!(scale > 0.0, "the kernels show a bias");
+        for (g, e) in got.iter().zip(&expected) {
+            for (a, b) in [(g.bias, e.bias), (g.difference, e.difference)] {
+                assert!((a - b).abs() <= 1e-4 * scale, "{a} against {b}");
+            }
+        }
+    }
+
     /// Paced by the clock, an eye pass that costs more than the batches splatted onto it
     /// stays (its NEE is redrawn with every batch instead, when a draw costs less than a
     /// batch); once the batches have taken as long as the pass, the next one is drawn. The

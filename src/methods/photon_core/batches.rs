@@ -122,6 +122,7 @@ impl PhotonCore {
     /// a stored batch; a new one also teaches the guide and folds the store, [`Step::Traced`]).
     pub(super) fn splat_piece(&mut self, mut p: PartialSplat) -> Step {
         let t = Instant::now();
+        let fine_now = self.fine_now(p.new);
         let rays = &self.store.batches()[p.batch].rays;
         let end = (p.next + p.piece).min(rays.len());
         self.counters += splat_rays(
@@ -133,6 +134,7 @@ impl PhotonCore {
             self.settings.direct == DirectMode::Photons,
             self.settings.radiance_map,
             Some(&mut p.reach[..]).filter(|r| !r.is_empty()),
+            fine_now,
         );
         p.next = end;
         self.generation += 1;
@@ -149,6 +151,13 @@ impl PhotonCore {
         if p.piece < rays.len() {
             self.last_splat = p.spent;
         }
+        if !fine_now && !self.side.acc_fine.is_empty() {
+            if self.interactive {
+                self.fine_skipped = true;
+            } else {
+                self.fine_owed.push((p.batch, p.bw));
+            }
+        }
         self.splatted += 1;
         self.draw_lobes(p.batch);
         if !p.new {
@@ -157,6 +166,37 @@ impl PhotonCore {
         self.store.learn(&p.reach);
         self.fold_store();
         Step::Traced
+    }
+
+    /// Whether a batch's pieces (`new`: just traced) are splatted at the error estimate's
+    /// fine bandwidth as they go. In the window a re-splatted batch's fine splat waits until
+    /// every stored batch is back in the image ([`PhotonCore::splat_fine`]), so that the
+    /// first frame after a change does not wait for it, and an interactive view (a dragged
+    /// camera, the coarse first image: both replaced by a view at rest) makes none
+    /// (docs/deviations.md §51, "The fine splat deferred"). Headless renders splat it at once.
+    fn fine_now(&self, new: bool) -> bool {
+        let window = self.paced && !self.whole_batches;
+        let defer = self.interactive || !new;
+        !window || !defer
+    }
+
+    /// The error estimate's splat at h/k of stored batch `b`, re-splatted earlier at `bw`
+    /// (a debt of [`PhotonCore::fine_now`]).
+    pub(super) fn splat_fine(&mut self, b: usize, bw: &[Bandwidth; 3]) {
+        let t = Instant::now();
+        if !self.side.acc_fine.is_empty() {
+            splat_at_fine_bandwidth(
+                &self.side.tree,
+                &self.store.batches()[b].rays,
+                bw,
+                self.config.splatted.mask(),
+                self.settings.direct == DirectMode::Photons,
+                &self.scene,
+                &mut self.side.acc_fine,
+            );
+        }
+        self.generation += 1;
+        self.timings.t_splat += t.elapsed().as_secs_f64();
     }
 
     /// Fold the oldest batches beyond the ray budget (after a batch is whole).
@@ -217,7 +257,7 @@ impl PhotonCore {
             let t = Instant::now();
             let photons = direct == DirectMode::Photons;
             let r = Some(&mut reach[..]).filter(|r| !r.is_empty());
-            *counters += splat_rays(scene, side, rays, &bw, classes, photons, mode, r);
+            *counters += splat_rays(scene, side, rays, &bw, classes, photons, mode, r, true);
             if let Some(l) = lobes.as_mut() {
                 l.gather(scene, rays, &bw);
             }
@@ -259,7 +299,8 @@ impl PhotonCore {
 
 /// Splat `rays` of the `classes` (direct, indirect, caustic) onto the eye side's targets
 /// (direct photons, when `direct_photons`, into their own accumulators); with `reach`, count
-/// per emission cell the rays that reached a target (the emission guide's feedback).
+/// per emission cell the rays that reached a target (the emission guide's feedback); with
+/// `fine`, at the error estimate's fine bandwidth too (when the side estimates).
 #[allow(clippy::too_many_arguments)]
 fn splat_rays(
     scene: &Scene,
@@ -270,6 +311,7 @@ fn splat_rays(
     direct_photons: bool,
     mode: DirectionalMode,
     mut reach: Option<&mut [u32]>,
+    fine: bool,
 ) -> SplatCounters {
     let mut counters = SplatCounters::default();
     if classes == [false; 3] {
@@ -299,7 +341,7 @@ fn splat_rays(
             reach,
         );
     }
-    if !side.acc_fine.is_empty() {
+    if fine && !side.acc_fine.is_empty() {
         let acc = &mut side.acc_fine;
         splat_at_fine_bandwidth(&side.tree, rays, bw, classes, direct_photons, scene, acc);
     }

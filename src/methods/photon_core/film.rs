@@ -158,10 +158,12 @@ impl PhotonCore {
     /// reflect), pooled over neighbouring pixels, the difference
     /// L(h) − L(h/k) itself per pixel (for the photons' share of the variance), and the light
     /// splatted by photons (`film` less the eye side's direct light); empty unless the error is
-    /// estimated.
+    /// estimated and every batch of the pass is splatted at h/k too.
     fn pass_error(&self, film: &Film, batches: u32) -> Vec<PassError> {
         let side = &self.side;
-        if side.acc_fine.is_empty() || side.emitted.is_empty() {
+        // Fine splats still owed (or skipped) leave L(h/k) short of L(h): no estimate yet.
+        let fine_whole = self.fine_owed.is_empty() && !self.fine_skipped;
+        if side.acc_fine.is_empty() || side.emitted.is_empty() || !fine_whole {
             return Vec::new();
         }
         let n = side.emitted.len();

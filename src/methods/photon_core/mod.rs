@@ -164,6 +164,14 @@ pub struct PhotonCore {
     /// A new or re-splatted batch whose splat is cut into pieces (the window), until its last
     /// piece.
     splatting: Option<batches::PartialSplat>,
+    /// Re-splatted batches (and the bandwidths they were splatted with) whose error-estimate
+    /// splat at h/k waits until every stored batch is back in the image: the window's first
+    /// frame after a change does not wait for it (docs/deviations.md §51, "The fine splat
+    /// deferred"). Until they are paid the pass has no estimate of its own.
+    fine_owed: Vec<(usize, [crate::pipeline::photon::Bandwidth; 3])>,
+    /// A batch of this eye side skipped its fine splat (an interactive view, which is
+    /// replaced before its estimate would mean anything): the side makes no estimate.
+    fine_skipped: bool,
     /// A headless render splats each batch whole (its progress reads whole films).
     whole_batches: bool,
     /// Seconds the last batch splatted in pieces took, its pieces added up: the next batch's
@@ -273,6 +281,8 @@ impl PhotonCore {
             pass_history: BandwidthHistory::default(),
             resplatted: 0,
             splatting: None,
+            fine_owed: Vec::new(),
+            fine_skipped: false,
             whole_batches: false,
             last_splat: 0.0,
             interactive: false,
@@ -357,9 +367,12 @@ impl PhotonCore {
         self.earlier.passes + 1
     }
 
-    /// True while stored batches wait to be re-splatted after a parameter or view change.
+    /// True while stored batches wait to be re-splatted after a parameter or view change
+    /// (their error-estimate splats included).
     pub fn resplat_pending(&self) -> bool {
-        !self.resplat_queue.is_empty() || self.splatting.as_ref().is_some_and(|p| !p.is_new())
+        !self.resplat_queue.is_empty()
+            || !self.fine_owed.is_empty()
+            || self.splatting.as_ref().is_some_and(|p| !p.is_new())
     }
 
     /// Direct light comes from splatted direct photons.
@@ -394,6 +407,9 @@ impl PhotonCore {
             let pieces = if self.interactive { 1 } else { self.pieces() };
             let p = self.begin_pieces(b, false, pieces);
             self.splat_piece(p)
+        } else if let Some((b, bw)) = self.fine_owed.pop() {
+            self.splat_fine(b, &bw);
+            Step::Resplatted
         } else {
             let t = Instant::now();
             if self.paced_passes() && self.pass_batches() > 0 && self.clock.nee_due() {
@@ -447,6 +463,7 @@ impl PhotonCore {
         self.config.eye_passes == EyePasses::Redrawn
             && self.eye_passes_allowed()
             && self.resplat_queue.is_empty()
+            && self.fine_owed.is_empty()
             && self.splatting.is_none()
             && self.pass_batches() as f64 * self.settings.photons as f64
                 >= EYE_PASS_PHOTONS_PER_SAMPLE * self.side.eye.len().max(1) as f64
@@ -513,6 +530,9 @@ impl PhotonCore {
         };
         self.side = side;
         self.owed = None;
+        // A new side's accumulators are empty, fine ones included.
+        self.fine_owed.clear();
+        self.fine_skipped = false;
         self.eye_pass = pass;
         self.clock = PassClock::started(&before, &self.timings);
         self.lobes = TracedLobes::new(&self.side.eye);
@@ -616,6 +636,9 @@ impl PhotonCore {
         // A batch cut short is stored: it is re-splatted with the others (a new one's reach
         // goes untaught and the store folds after the next new batch).
         self.splatting = None;
+        // The fine accumulators were cleared with the others: every batch is owed again.
+        self.fine_owed.clear();
+        self.fine_skipped = false;
         self.generation += 1;
         // Newest first: it has the smallest bandwidth, so the first frame is the sharpest.
         self.resplat_queue = (0..self.store.batches().len()).collect();
