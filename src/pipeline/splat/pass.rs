@@ -436,7 +436,14 @@ fn visible_domain(
         let (px, py, pz) = (d.x * t_foot - vx, d.y * t_foot - vy, d.z * t_foot - vz);
         let planar_crosses = px * nx + py * ny + pz * nz < -1e-4 * r;
         // A ray that stopped behind the target's plane before reaching it splats nothing.
+        // A ray that stopped on a face turned away from the target (the target lies behind
+        // the lit side's plane: the outside of a thin wall, the top of a ledge the target
+        // sits below) lit that face, not the target's side of it: it splats nothing, however
+        // coarse the cells around the corner are (docs/deviations.md §40, "Rays that lit a
+        // face turned away").
+        let lit_face_away = stops & (plane < -BEHIND_LANDING * r);
         keep[l] = !(stops & (behind < 0.0))
+            & !lit_face_away
             & (!crosses | crossing_kept)
             & (!(stops & planar_crosses) | crossing_kept);
         let (ux, uy, uz) = if crosses { (cx, cy, cz) } else { (fx, fy, fz) };
@@ -507,6 +514,11 @@ fn visible_domain(
     }
     outside
 }
+
+/// A target lies behind the lit face a ray stopped on ([`visible_domain`]) when it is
+/// farther behind that face's plane than this share of the splat radius: nearer, it may sit on
+/// a gently curved or bumpy surface whose tangent plane passes just in front of it.
+const BEHIND_LANDING: f32 = 0.05;
 
 /// A point of the footprint is in view when strictly nearer than the surface its cell's probe
 /// met, by this factor: a ray that ended on that surface lies on it ([`visible_domain`]).
