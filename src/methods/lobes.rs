@@ -102,9 +102,11 @@ impl TracedLobes {
         rays: &[PhotonRay],
         bw: &[Bandwidth; 3],
         classes: [bool; 3],
+        fine: bool,
         timings: &mut Timings,
     ) {
-        let Some(mut batch) = self.begin_batch(scene, camera, settings, side, classes, timings)
+        let Some(mut batch) =
+            self.begin_batch(scene, camera, settings, side, classes, fine, timings)
         else {
             return;
         };
@@ -116,7 +118,10 @@ impl TracedLobes {
 
     /// The first part of [`TracedLobes::add_batch`]: draw new directions, add the emission and
     /// direct light they see, and return where they land, ready to gather the batch's rays
-    /// ([`LobeBatch::gather`], any number of times), or None where no lobe is traced.
+    /// ([`LobeBatch::gather`], any number of times), or None where no lobe is traced. With
+    /// `fine` the batch is gathered at the error estimate's fine bandwidth too (when the side
+    /// estimates; an interactive view makes no estimate and skips it).
+    #[allow(clippy::too_many_arguments)]
     pub fn begin_batch(
         &mut self,
         scene: &Scene,
@@ -124,6 +129,7 @@ impl TracedLobes {
         settings: &RenderSettings,
         side: &EyeSide,
         classes: [bool; 3],
+        fine: bool,
         timings: &mut Timings,
     ) -> Option<LobeBatch> {
         self.batches += 1;
@@ -171,7 +177,7 @@ impl TracedLobes {
         let mode = settings.radiance_map;
         let acc = |on: bool| on.then(|| Accumulators::for_tree(&tree, &pass.targets.glossy, mode));
         let direct_photons = settings.direct == DirectMode::Photons;
-        let fine = (!side.acc_fine.is_empty() && (classes != [false; 3] || direct_photons))
+        let fine = (fine && !side.acc_fine.is_empty() && (classes != [false; 3] || direct_photons))
             .then(|| Accumulators::for_tree(&tree, &pass.targets.glossy, DirectionalMode::Diffuse));
         Some(LobeBatch {
             classes,

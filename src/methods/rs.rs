@@ -251,6 +251,7 @@ mod tests {
     /// values are those of a headless render, which splats both at once.
     #[test]
     fn the_window_defers_a_resplats_fine_splat_and_loses_nothing() {
+        use crate::methods::photon_core::SPLAT_PIECES;
         let open = |paced: bool| {
             let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
             let settings = RenderSettings {
@@ -287,9 +288,11 @@ mod tests {
         }
         let expected = headless.film().pass_error;
         assert!(!expected.is_empty());
-        // The window: three batches re-splatted (in pieces), then three fine splats.
-        let (mut resplatted, mut without_values) = (0, 0);
+        // The window: three batches re-splatted (in pieces), then three fine splats, of which
+        // only the last shows a frame (the image does not change).
+        let (mut resplatted, mut without_values, mut steps) = (0, 0, 0);
         while window.catching_up() {
+            steps += 1;
             if window.step() == Step::Resplatted {
                 resplatted += 1;
                 if window.catching_up() {
@@ -301,8 +304,12 @@ mod tests {
                 }
             }
         }
-        assert_eq!(resplatted, 6, "three batches, then their three fine splats");
-        assert_eq!(without_values, 5);
+        assert_eq!(
+            resplatted, 4,
+            "three batches, then the last of their fine splats"
+        );
+        assert_eq!(without_values, 3);
+        assert!(steps >= 3 * SPLAT_PIECES + 3, "{steps} steps");
         let got = window.film().pass_error;
         assert_eq!(got.len(), expected.len());
         let scale = expected.iter().map(|e| e.bias.abs()).fold(0.0, f32::max);
@@ -312,6 +319,39 @@ mod tests {
                 assert!((a - b).abs() <= 1e-4 * scale, "{a} against {b}");
             }
         }
+    }
+
+    /// A batch whose pieces went partly at h/k (the view came to rest, or turned interactive,
+    /// between two of them) cannot be completed without splatting some rays twice: the side makes no
+    /// estimate, rather than reading the missing pieces as kernel bias.
+    #[test]
+    fn a_batch_splatted_at_h_over_k_in_part_makes_no_estimate() {
+        let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
+        let settings = RenderSettings {
+            width: 24,
+            height: 24,
+            spp: 1,
+            photons: 2_000,
+            estimate_error: true,
+            progressive_eye: false,
+            ..RenderSettings::default()
+        };
+        let mut m: PhotonMethod<RsResolver> =
+            crate::methods::testing::open(scene, settings).unwrap();
+        m.pace();
+        traced(&mut m);
+        assert!(!m.film().pass_error.is_empty(), "a whole batch at h/k");
+        // The first piece in an interactive view, the rest at rest.
+        m.set_interactive(true);
+        assert_eq!(m.step(), Step::Partial);
+        m.set_interactive(false);
+        traced(&mut m);
+        assert!(m.film().pass_error.is_empty(), "a batch at h/k in part");
+        traced(&mut m);
+        assert!(
+            m.film().pass_error.is_empty(),
+            "the side's fine accumulators stay short of that batch"
+        );
     }
 
     /// Paced by the clock, an eye pass that costs more than the batches splatted onto it

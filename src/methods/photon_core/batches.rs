@@ -52,6 +52,11 @@ pub(crate) struct PartialSplat {
     bw: [Bandwidth; 3],
     /// What its photons reached, for the emission guide (empty without one).
     reach: Vec<u32>,
+    /// Pieces splatted at the error estimate's fine bandwidth as they went, and pieces
+    /// that were not ([`PhotonCore::fine_now`]; the view can turn interactive or come to
+    /// rest between two pieces).
+    fine_pieces: usize,
+    fine_missed: usize,
 }
 
 impl PartialSplat {
@@ -114,6 +119,8 @@ impl PhotonCore {
             spent: 0.0,
             bw,
             reach: vec![0u32; cells],
+            fine_pieces: 0,
+            fine_missed: 0,
         }
     }
 
@@ -137,6 +144,11 @@ impl PhotonCore {
             fine_now,
         );
         p.next = end;
+        if fine_now {
+            p.fine_pieces += 1;
+        } else {
+            p.fine_missed += 1;
+        }
         self.generation += 1;
         let whole = end >= rays.len();
         let spent = t.elapsed().as_secs_f64();
@@ -151,8 +163,11 @@ impl PhotonCore {
         if p.piece < rays.len() {
             self.last_splat = p.spent;
         }
-        if !fine_now && !self.side.acc_fine.is_empty() {
-            if self.interactive {
+        // A batch none of whose pieces went at h/k is owed at rest (skipped in an interactive
+        // view); one that went partly cannot be completed without splatting some rays twice,
+        // so the side makes no estimate.
+        if p.fine_missed > 0 && !self.side.acc_fine.is_empty() {
+            if p.fine_pieces > 0 || self.interactive {
                 self.fine_skipped = true;
             } else {
                 self.fine_owed.push((p.batch, p.bw));
@@ -241,6 +256,7 @@ impl PhotonCore {
                 &self.settings,
                 &self.side,
                 classes,
+                true,
                 &mut self.timings,
             )
         } else {
@@ -292,6 +308,7 @@ impl PhotonCore {
             &batch.rays,
             &bw,
             self.config.splatted.mask(),
+            !self.interactive,
             &mut self.timings,
         );
     }

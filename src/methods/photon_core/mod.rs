@@ -409,7 +409,12 @@ impl PhotonCore {
             self.splat_piece(p)
         } else if let Some((b, bw)) = self.fine_owed.pop() {
             self.splat_fine(b, &bw);
-            Step::Resplatted
+            // The image does not change until the last: no frame for the others.
+            if self.fine_owed.is_empty() {
+                Step::Resplatted
+            } else {
+                Step::Partial
+            }
         } else {
             let t = Instant::now();
             if self.paced_passes() && self.pass_batches() > 0 && self.clock.nee_due() {
@@ -482,11 +487,16 @@ impl PhotonCore {
     /// a new eye pass; the next batches are splatted onto it.
     pub(crate) fn next_eye_pass(&mut self, film: &crate::film::Film) {
         let pass = self.eye_pass + 1;
+        // A side that estimates but whose pass has no values (a fine splat skipped while the
+        // view was interactive, then a view refused) leaves the passes' spread short of a
+        // pass their mean holds: no estimate until the next re-splat starts them anew.
+        let without_values = !self.side.acc_fine.is_empty() && film.pass_error.is_empty();
         self.earlier.add(
             film,
             self.pass_batches(),
             self.store.invalid_photon_rays,
             &self.pass_history,
+            without_values,
         );
         self.pass_history = BandwidthHistory::default();
         if self.settings.auto_c {

@@ -22,6 +22,9 @@ pub(super) struct EarlierPasses {
     spread: PassSpread,
     /// The bandwidths their batches were splatted with (`--c auto`'s model).
     pub(super) history: BandwidthHistory,
+    /// A pass of an estimating side was added without its estimate values: the spread no
+    /// longer describes the mean, so there is no estimate.
+    incomplete: bool,
 }
 
 /// The bandwidths an image's batches were splatted with, for `--c auto`'s model
@@ -96,6 +99,7 @@ impl EarlierPasses {
         batches: usize,
         store_invalid: u64,
         history: &BandwidthHistory,
+        without_values: bool,
     ) {
         let n = film.rgb.len();
         if self.rgb.len() != n {
@@ -119,6 +123,7 @@ impl EarlierPasses {
         if !film.pass_error.is_empty() {
             self.spread.add(PassValues::of(film), batches);
         }
+        self.incomplete |= without_values;
         self.batches += batches;
         self.passes += 1;
         self.history.merge(history);
@@ -135,7 +140,7 @@ impl EarlierPasses {
     /// The estimated error of the finished passes' mean (docs/deviations.md §51): None
     /// before two passes, or when the error is not estimated.
     pub(super) fn estimate(&self) -> Option<ErrorEstimate> {
-        if self.batches == 0 {
+        if self.batches == 0 || self.incomplete {
             return None;
         }
         let inv = 1.0 / self.batches as f32;
@@ -151,7 +156,10 @@ impl EarlierPasses {
         let inv = 1.0 / (self.batches + batches) as f32;
         // The estimate first, while the film still holds the current pass's own values: each
         // pixel's blended value is (Σ + w·x)/W, made on the fly (no copy of the film).
-        if !film.pass_error.is_empty() {
+        if self.incomplete {
+            film.estimate = None;
+            film.estimated_error.clear();
+        } else if !film.pass_error.is_empty() {
             let mut map = std::mem::take(&mut film.estimated_error);
             let rgb = &film.rgb;
             let pass = PassValues::of(film);
