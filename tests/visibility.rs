@@ -186,6 +186,13 @@ fn probes_find_walls_and_open_space() {
     assert!(free.iter().all(|f| *f > 0.01 && *f < 3.0), "{free:?}");
 }
 
+/// The furnaces' material: emission 1, diffuse albedo 0.5.
+fn glowing(g: &mut GlbBuilder) -> u32 {
+    g.material(json!({"name": "glowing", "emissiveFactor": [1.0, 1.0, 1.0],
+        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0],
+        "metallicFactor": 0.0, "roughnessFactor": 1.0}}))
+}
+
 /// A closed 2 × 2 × 2 box whose six walls, facing inwards, emit L_e = 1 and reflect ρ = 0.5:
 /// a furnace, where every surface has radiance L_e / (1 − ρ) = 2 and irradiance 2π, up to
 /// its corners. The camera stands back from the vertical edge x = z = −1 and looks at it at
@@ -193,9 +200,7 @@ fn probes_find_walls_and_open_space() {
 /// wall's far field.
 fn furnace() -> Scene {
     let mut g = GlbBuilder::default();
-    let m = g.material(json!({"name": "glowing", "emissiveFactor": [1.0, 1.0, 1.0],
-        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0],
-        "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
+    let m = glowing(&mut g);
     let (mut bp, mut bn, mut bi) = (Vec::new(), Vec::new(), Vec::new());
     let v = Vec3::new;
     // Wound so that each normal faces the inside.
@@ -256,9 +261,7 @@ fn furnace() -> Scene {
 /// where rays land on faces turned away from their targets, must all read 2.
 fn furnace_with_a_block() -> Scene {
     let mut g = GlbBuilder::default();
-    let m = g.material(json!({"name": "glowing", "emissiveFactor": [1.0, 1.0, 1.0],
-        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0],
-        "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
+    let m = glowing(&mut g);
     let (mut bp, mut bn, mut bi) = (Vec::new(), Vec::new(), Vec::new());
     let v = Vec3::new;
     // The room's six faces facing in, then the block's five faces facing out.

@@ -131,6 +131,27 @@ mod tests {
         crate::methods::testing::open(scene, settings).unwrap()
     }
 
+    /// rs on the classic box at 24² pixels with the error estimate on and one eye pass
+    /// (batches of 2,000), `paced` as in the window.
+    fn estimating_rs(paced: bool) -> PhotonMethod<RsResolver> {
+        let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
+        let settings = RenderSettings {
+            width: 24,
+            height: 24,
+            spp: 1,
+            photons: 2_000,
+            estimate_error: true,
+            progressive_eye: false,
+            ..RenderSettings::default()
+        };
+        let mut m: PhotonMethod<RsResolver> =
+            crate::methods::testing::open(scene, settings).unwrap();
+        if paced {
+            m.pace();
+        }
+        m
+    }
+
     fn traced(m: &mut PhotonMethod<RsResolver>) {
         while m.step() != Step::Traced {}
     }
@@ -253,21 +274,7 @@ mod tests {
     fn the_window_defers_a_resplats_fine_splat_and_loses_nothing() {
         use crate::methods::photon_core::SPLAT_PIECES;
         let open = |paced: bool| {
-            let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
-            let settings = RenderSettings {
-                width: 24,
-                height: 24,
-                spp: 1,
-                photons: 2_000,
-                estimate_error: true,
-                progressive_eye: false,
-                ..RenderSettings::default()
-            };
-            let mut m: PhotonMethod<RsResolver> =
-                crate::methods::testing::open(scene, settings).unwrap();
-            if paced {
-                m.pace();
-            }
+            let mut m = estimating_rs(paced);
             for _ in 0..3 {
                 traced(&mut m);
             }
@@ -326,19 +333,7 @@ mod tests {
     /// estimate, rather than reading the missing pieces as kernel bias.
     #[test]
     fn a_batch_splatted_at_h_over_k_in_part_makes_no_estimate() {
-        let scene = Arc::new(Scene::builtin(BuiltinScene::CornellClassic));
-        let settings = RenderSettings {
-            width: 24,
-            height: 24,
-            spp: 1,
-            photons: 2_000,
-            estimate_error: true,
-            progressive_eye: false,
-            ..RenderSettings::default()
-        };
-        let mut m: PhotonMethod<RsResolver> =
-            crate::methods::testing::open(scene, settings).unwrap();
-        m.pace();
+        let mut m = estimating_rs(true);
         traced(&mut m);
         assert!(!m.film().pass_error.is_empty(), "a whole batch at h/k");
         // The first piece in an interactive view, the rest at rest.
