@@ -136,10 +136,13 @@ fn a_closed_shed_on_a_sunlit_ground_stays_dark() {
 }
 
 /// Issue 30's closed room: the shed on its lit ground (the uniform sky) with a lamp inside, at
-/// the default settings (NEE, indirect photons splatted with the visible domains), 16 batches:
-/// the light inside is the path tracer's (512 paths) within 3%. Measured 1.0013 (seeds 2, 3,
-/// 4: 1.0015, 0.9988, 1.0103; 4 batches spread 0.969–1.006, too noisy for 3%). Without the
-/// visible domains 0.982: what keeps the outside's light off the inside faces is
+/// the default settings (NEE, indirect photons splatted with the visible domains), 64 batches:
+/// the light inside is the path tracer's (512 paths) within 3%. Measured 2026-11-29: 1.0128
+/// (the path tracer's own noise: 2,048 paths of another seed read within 0.07% of it). At 16
+/// batches, as this test ran before, 1.0269 on its seed and 1.0173 on seed 5, at the edge of
+/// the bound: rs is 1–3% bright here and less so as batches go on (kernel bias in the small
+/// shed's corners), where it read 1.0013 when the test was written. Without the visible
+/// domains 1.018 at 16 batches: what keeps the outside's light off the inside faces is
 /// [`a_closed_shed_on_a_sunlit_ground_stays_dark`]'s to show.
 #[test]
 fn a_closed_room_on_lit_ground_is_lit_by_its_own_lamp_only() {
@@ -156,7 +159,7 @@ fn a_closed_room_on_lit_ground_is_lit_by_its_own_lamp_only() {
         let film = render_method(&scene, kind, &s, budget).unwrap().film;
         film.rgb.iter().map(|c| c.element_sum() / 3.0).sum::<f32>() / film.rgb.len() as f32
     };
-    let rs = mean(MethodKind::Rs, Budget::Passes(16));
+    let rs = mean(MethodKind::Rs, Budget::Passes(64));
     let pt = mean(MethodKind::Pt, Budget::Passes(512));
     eprintln!("inside: rs {rs}, pt {pt}, ratio {:.4}", rs / pt);
     assert!((rs / pt - 1.0).abs() < 0.03, "rs {rs} against pt {pt}");
