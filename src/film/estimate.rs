@@ -4,9 +4,17 @@
 //!
 //! Each finished eye pass i holds a film x_i, weighted by its batches w_i; the image is the
 //! weighted mean x̄ = Σ w_i x_i / W. The passes are independent (new eye samples, new photons),
-//! with variances σ_i² that differ (a pass of few batches is noisier), so the variance of x̄,
-//! Σ w_i² σ_i² / W², is estimated by Σ w_i² (x_i − x̄)² / W² · n/(n − 1) (the weighted form that
-//! needs no common σ²; with equal weights the textbook s²/n).
+//! and a pass's variance has two parts: its eye samples' (anti-aliasing, NEE), α, which its
+//! batches do not average, and its photons', β per batch, which they do: σ_i² = α + β/w_i.
+//! So Var(x̄) = α·Σw_i²/W² + β/W. β comes from the spread of L(h) − L(h/k), in which the eye
+//! samples' noise cancels ([`DIFFERENCE_VARIANCE`]); α from the weighted spread
+//! S = Σ w_i (x_i − x̄)², whose expectation is α·(W − Σw_i²/W) + β·(n − 1). With equal weights
+//! this is the textbook s²/n. With one pass far heavier than the rest (the window after a
+//! re-splat puts every stored batch onto one pass), the eye samples' noise of that pass stays
+//! in the image, and the lighter passes' spread shows it; the form Σ w_i² (x_i − x̄)²/W² used
+//! before read 7–10× too little there (docs/deviations.md §51, "Passes of unequal weight").
+//! Values of the photons alone (the bias estimate, the difference) have σ_i² = c/w_i, and
+//! Var = S/((n − 1)·W).
 //!
 //! For a second-order kernel (the Epanechnikov kernel, §6) the bias of a density estimate
 //! grows as h² (b(h) ≈ c·h²), so the estimates at h and at h/k differ by (1 − 1/k²) of b(h):
@@ -19,7 +27,7 @@
 //! and its own noise, Var(b̄), is taken off its square: bias² ≈ b̄² − Var(b̄) (summed over
 //! pixels before clamping at zero, so the noise does not add up as a positive bias).
 //!
-//! All of it is per pixel on luminance (fourteen sums a pixel, in f64 against cancellation); a
+//! All of it is per pixel on luminance (ten sums a pixel, in f64 against cancellation); a
 //! pixel's relative error is applied to each channel as `compare`'s relMSE weighs it,
 //! (x − r)² / (r² + 0.01), with the image less its estimated bias in place of the reference r
 //! (the bias counted only where the passes show it above their noise, [`BIAS_SIGNIFICANCE`]).
@@ -66,10 +74,10 @@ impl ErrorEstimate {
     }
 }
 
-/// Per pixel: Σw²y, Σw²y², Σw·s, Σw²s, Σw²s², Σw·b, Σw²b, Σw²b², Σw·d, Σw²d, Σw²d², Σw·a,
-/// Σw²a, Σw²a² (y: the film's luminance, s: the splatted light's, b: the pass's bias
-/// estimate, d: its L(h) − L(h/k) unpooled, a: its bias averaged over the wider box).
-const SUMS: usize = 14;
+/// Per pixel, Σw·x and Σw·x² of each of y, s, b, d, a (y: the film's luminance, s: the
+/// splatted light's, b: the pass's bias estimate, d: its L(h) − L(h/k) unpooled, a: its bias
+/// averaged over the wider box).
+const SUMS: usize = 10;
 
 /// Bytes a pixel of the estimate holds: the finished passes' sums, the current pass's
 /// [`PassError`] and the error map (for the memory estimate; the pass's values are made from
@@ -279,22 +287,20 @@ impl<'a> PassValues<'a> {
 
 /// Add pass values y, s, b, d, a with weight `w` to a pixel's sums.
 #[inline]
-fn add_to(s: &mut [f64; SUMS], w: f64, [y, values @ ..]: [f64; 5]) {
-    let w2 = w * w;
-    s[0] += w2 * y;
-    s[1] += w2 * y * y;
+fn add_to(s: &mut [f64; SUMS], w: f64, values: [f64; 5]) {
     for (k, x) in values.into_iter().enumerate() {
-        let t = &mut s[triple(k)];
-        t[0] += w * x;
-        t[1] += w2 * x;
-        t[2] += w2 * x * x;
+        s[2 * k] += w * x;
+        s[2 * k + 1] += w * x * x;
     }
 }
 
-/// Where value k of s, b, d, a (0–3) keeps its Σw·x, Σw²x, Σw²x² in a pixel's sums (the
-/// luminance's two come first).
-const fn triple(k: usize) -> std::ops::Range<usize> {
-    2 + 3 * k..5 + 3 * k
+/// Value k's (y, s, b, d, a: 0–4) weighted mean Σw·x/W and weighted spread
+/// S = Σ w (x − x̄)² from a pixel's sums, for passes of total weight `w`.
+#[inline]
+fn mean_and_spread(s: &[f64; SUMS], k: usize, w: f64) -> (f64, f64) {
+    let (sx, sxx) = (s[2 * k], s[2 * k + 1]);
+    let mean = sx / w;
+    (mean, (sxx - mean * sx).max(0.0))
 }
 
 impl PassSpread {
@@ -347,9 +353,9 @@ impl PassSpread {
         }
         let w = self.w + cw;
         let w2 = self.w2 + cw * cw;
-        // n/(n − 1), the small-sample correction of the spread.
-        let correction = passes as f64 / (passes - 1) as f64;
-        let inv_w2 = 1.0 / (w * w);
+        let n1 = (passes - 1) as f64;
+        // E[S] = α·(W − Σw²/W) + β·(n − 1) for a value of both parts (module docs).
+        let alpha_weight = w - w2 / w;
         if let Some(m) = map.as_deref_mut() {
             m.clear();
             m.reserve(self.sums.len());
@@ -365,22 +371,28 @@ impl PassSpread {
             let c = blended(p);
             let y = luminance(c) as f64;
             lit |= y > 0.0;
-            // Σ w²(x − x̄)² = Σw²x² − 2x̄Σw²x + x̄²Σw².
-            let spread = |sx: f64, sxx: f64, mean: f64| {
-                ((sxx - 2.0 * mean * sx + mean * mean * w2) * inv_w2 * correction).max(0.0)
+            let spread = |k: usize| mean_and_spread(&s, k, w);
+            // The photons' variance per batch, β, from the difference's spread: Var(d_i) =
+            // DIFFERENCE_VARIANCE·β/w_i.
+            let (_, s_d) = spread(3);
+            let beta = s_d / (n1 * DIFFERENCE_VARIANCE);
+            // The variance of the mean of a value of both parts (the image, the splatted
+            // light): α from its spread less the photons' share, then α·Σw²/W² + β/W. Not
+            // clamped per pixel (summed first, as the bias² is).
+            let both = |k: usize| {
+                let alpha = (spread(k).1 - beta * n1) / alpha_weight;
+                alpha * w2 / (w * w) + beta / w
             };
-            let v = spread(s[0], s[1], y);
-            // Value k's mean over the passes and the spread of that mean.
-            let mean_spread = |k: usize| {
-                let t = &s[triple(k)];
-                let mean = t[0] / w;
-                (mean, spread(t[1], t[2], mean))
+            // The variance of the mean of a value of the photons alone.
+            let photons_only = |k: usize| {
+                let (mean, s_x) = spread(k);
+                (mean, s_x / (n1 * w))
             };
-            let (_, vs) = mean_spread(0);
-            let (b_mean, vb) = mean_spread(1);
+            let v = both(0);
+            let vs = both(1);
+            let (b_mean, vb) = photons_only(2);
             let b2 = b_mean * b_mean - vb;
-            let (_, vd) = mean_spread(2);
-            let (a_mean, va) = mean_spread(3);
+            let (a_mean, va) = photons_only(4);
             let a2 = a_mean * a_mean - va;
             // The reference relMSE divides by: the image less its bias where the bias stands
             // out of its noise.
@@ -402,13 +414,13 @@ impl PassSpread {
             bias2_smooth += weigh_own(a2);
             variance += weigh(v);
             splatted += weigh(vs);
-            photons += weigh_own(vd / DIFFERENCE_VARIANCE);
+            photons += weigh_own(beta / w);
             if let Some(m) = map.as_deref_mut() {
                 // Relative to the estimated reference, as the error against a reference is
                 // (`film::error::relative_errors`: 1 where the reference is black).
                 let r = reference * y;
                 let rel = if r > 1e-6 {
-                    (b2.max(0.0) + v).sqrt() / r
+                    (b2.max(0.0) + v.max(0.0)).sqrt() / r
                 } else if y > 0.0 {
                     1.0
                 } else {
@@ -434,7 +446,8 @@ impl PassSpread {
         }
         let bias2 = (bias2 / n).max(0.0);
         let bias2_smooth = (bias2_smooth / n).max(0.0);
-        let variance = variance / n;
+        let variance = (variance / n).max(0.0);
+        let splatted = splatted.max(0.0);
         Some(ErrorEstimate {
             rel_mse: bias2 + variance,
             bias2,
@@ -563,6 +576,69 @@ mod tests {
         let mut map = vec![1.0];
         assert_eq!(spread.estimate(|_| Vec3::ZERO, None, Some(&mut map)), None);
         assert!(map.is_empty());
+    }
+
+    /// Passes of unequal weight, as the window has them after a re-splat (one pass holding
+    /// 100 batches, then eight of one): each pixel's pass values carry an eye part of variance
+    /// α, which the pass's batches do not average, and a photon part of β/w, which they do;
+    /// the difference L(h) − L(h/k) carries the photon part alone, times
+    /// √[`DIFFERENCE_VARIANCE`]. Over 20,000 pixels the estimated variance of the mean is
+    /// α·Σw²/W² + β/W within 5%. The w²-weighted spread used before has the expectation
+    /// 3.3·10⁻⁵ here against the true 2.2·10⁻³: the heavy pass pulls the mean to itself, and
+    /// its own eye noise went unseen.
+    #[test]
+    fn passes_of_unequal_weight_keep_the_heavy_passs_eye_noise() {
+        let n = 20_000;
+        let weights = [100u32, 1, 1, 1, 1, 1, 1, 1, 1];
+        // Small against the image (5% and 10% relative), so that weighing each pixel by its
+        // own noisy value, as the estimate must, adds little.
+        let (alpha, beta) = (0.0025f64, 0.01f64);
+        let mut rng = crate::sampling::Rng::new(7, 0);
+        let mut normal = move || {
+            let u1 = (rng.next_f32() as f64).max(1e-12);
+            let u2 = rng.next_f32() as f64;
+            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        };
+        let total: f64 = weights.iter().map(|&w| w as f64).sum();
+        let mut blended = vec![0.0f64; n];
+        let mut spread = PassSpread::default();
+        for &w in &weights {
+            let wf = w as f64;
+            let mut rgb = Vec::with_capacity(n);
+            let mut errors = Vec::with_capacity(n);
+            for b in blended.iter_mut() {
+                let photons = (beta / wf).sqrt() * normal();
+                let y = 1.0 + alpha.sqrt() * normal() + photons;
+                let d = (DIFFERENCE_VARIANCE * beta / wf).sqrt() * normal();
+                *b += wf * y / total;
+                rgb.push(Vec3::splat(y as f32));
+                errors.push(PassError {
+                    difference: d as f32,
+                    splatted: y as f32,
+                    ..PassError::default()
+                });
+            }
+            spread.add(
+                PassValues {
+                    rgb: &rgb,
+                    pass: &errors,
+                },
+                w as usize,
+            );
+        }
+        let e = spread
+            .estimate(|p| Vec3::splat(blended[p] as f32), None, None)
+            .unwrap();
+        let w2: f64 = weights.iter().map(|&w| (w as f64).powi(2)).sum();
+        let truth = alpha * w2 / (total * total) + beta / total;
+        // relMSE against the true image, 1 everywhere.
+        let expected = weigh(truth, Vec3::ONE, 1.0);
+        let ratio = e.variance / expected;
+        assert!(
+            (ratio - 1.0).abs() < 0.05,
+            "estimated {} against {expected}",
+            e.variance
+        );
     }
 
     /// Two passes of equal weight, grey 1 and grey 3, no bias: the mean is 2 and the variance
