@@ -316,18 +316,9 @@ fn furnace_with_a_block() -> Scene {
 #[test]
 fn a_block_in_a_furnace_keeps_its_light_at_its_ledge_and_foot() {
     let scene = Arc::new(furnace_with_a_block());
-    let (w, h) = (64usize, 48usize);
-    let s = RenderSettings {
-        width: w as u32,
-        height: h as u32,
-        spp: 4,
-        photons: 200_000,
-        camera: Some("block".into()),
-        ..RenderSettings::default()
-    };
-    let film = render_method(&scene, MethodKind::Rs, &s, Budget::Passes(4))
-        .unwrap()
-        .film;
+    let (w, h) = FURNACE_VIEW;
+    let s = RenderSettings::default();
+    let film = render_furnace(&scene, "block", s.direct, s.splat_visibility, 4);
     let value = |x: usize, y: usize| film.rgb[y * w + x].element_sum() as f64 / 3.0;
     let mean = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
@@ -357,6 +348,35 @@ fn a_block_in_a_furnace_keeps_its_light_at_its_ledge_and_foot() {
     );
 }
 
+/// The furnaces' image size.
+const FURNACE_VIEW: (usize, usize) = (64, 48);
+
+/// rs's film of a furnace seen from `camera` at [`FURNACE_VIEW`], 4 eye samples a pixel,
+/// `batches` of 200,000 photons, direct light from `direct`, with or without the visible
+/// domains.
+fn render_furnace(
+    scene: &Arc<Scene>,
+    camera: &str,
+    direct: DirectMode,
+    visibility: bool,
+    batches: u64,
+) -> raysplat::film::Film {
+    let (w, h) = FURNACE_VIEW;
+    let s = RenderSettings {
+        width: w as u32,
+        height: h as u32,
+        spp: 4,
+        photons: 200_000,
+        direct,
+        splat_visibility: visibility,
+        camera: Some(camera.into()),
+        ..RenderSettings::default()
+    };
+    render_method(scene, MethodKind::Rs, &s, Budget::Passes(batches))
+        .unwrap()
+        .film
+}
+
 /// Mean radiance of the corner line (the 4 middle columns) over that of the far field (8
 /// columns at each side), rows in the middle half.
 fn corner_over_far_field(scene: &Arc<Scene>, visibility: bool) -> f32 {
@@ -365,20 +385,8 @@ fn corner_over_far_field(scene: &Arc<Scene>, visibility: bool) -> f32 {
 
 /// [`corner_over_far_field`] with direct light from `direct`.
 fn corner_over_far_field_with(scene: &Arc<Scene>, visibility: bool, direct: DirectMode) -> f32 {
-    let (w, h) = (64usize, 48usize);
-    let s = RenderSettings {
-        width: w as u32,
-        height: h as u32,
-        spp: 4,
-        photons: 200_000,
-        direct,
-        splat_visibility: visibility,
-        camera: Some("corner".into()),
-        ..RenderSettings::default()
-    };
-    let film = render_method(scene, MethodKind::Rs, &s, Budget::Passes(1))
-        .unwrap()
-        .film;
+    let (w, h) = FURNACE_VIEW;
+    let film = render_furnace(scene, "corner", direct, visibility, 1);
     let mean = |cols: &[std::ops::Range<usize>]| {
         let (mut sum, mut n) = (0.0f64, 0usize);
         for y in h / 4..3 * h / 4 {

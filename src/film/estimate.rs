@@ -330,6 +330,11 @@ impl PassSpread {
         self.sums.len() * std::mem::size_of::<[f64; SUMS]>()
     }
 
+    /// Passes added with a weight above zero.
+    pub fn passes(&self) -> u32 {
+        self.passes
+    }
+
     /// The estimate for the image whose pixel `p` is `blended(p)` (the batch-weighted mean of
     /// every pass, given as a function so that no image-sized copy is made), with the current
     /// pass `current` of `batches` batches counted as one more pass (none: the finished passes

@@ -473,7 +473,6 @@ impl Worker {
                 .is_some_and(|r| !r.catching_up() && !r.mid_step() && r.passes() > 0)
     }
 
-    /// Add one path per pixel to the reference of the current view.
     /// Step the reference (built for the method's view when there is none); true when it
     /// traced a pass (a pass given up for a new view adds nothing).
     fn reference_step(&mut self) -> bool {

@@ -487,16 +487,11 @@ impl PhotonCore {
     /// a new eye pass; the next batches are splatted onto it.
     pub(crate) fn next_eye_pass(&mut self, film: &crate::film::Film) {
         let pass = self.eye_pass + 1;
-        // A side that estimates but whose pass has no values (a fine splat skipped while the
-        // view was interactive, then a view refused) leaves the passes' spread short of a
-        // pass their mean holds: no estimate until the next re-splat starts them anew.
-        let without_values = !self.side.acc_fine.is_empty() && film.pass_error.is_empty();
         self.earlier.add(
             film,
             self.pass_batches(),
             self.store.invalid_photon_rays,
             &self.pass_history,
-            without_values,
         );
         self.pass_history = BandwidthHistory::default();
         if self.settings.auto_c {

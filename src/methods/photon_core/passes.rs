@@ -22,9 +22,6 @@ pub(super) struct EarlierPasses {
     spread: PassSpread,
     /// The bandwidths their batches were splatted with (`--c auto`'s model).
     pub(super) history: BandwidthHistory,
-    /// A pass of an estimating side was added without its estimate values: the spread no
-    /// longer describes the mean, so there is no estimate.
-    incomplete: bool,
 }
 
 /// The bandwidths an image's batches were splatted with, for `--c auto`'s model
@@ -99,7 +96,6 @@ impl EarlierPasses {
         batches: usize,
         store_invalid: u64,
         history: &BandwidthHistory,
-        without_values: bool,
     ) {
         let n = film.rgb.len();
         if self.rgb.len() != n {
@@ -123,13 +119,20 @@ impl EarlierPasses {
         if !film.pass_error.is_empty() {
             self.spread.add(PassValues::of(film), batches);
         }
-        self.incomplete |= without_values;
         self.batches += batches;
         self.passes += 1;
         self.history.merge(history);
         // The store's dropped photon rays are a running total every film carries: counted
         // once, by the current pass's film.
         self.invalid += film.invalid_contributions - film.invalid_contributions.min(store_invalid);
+    }
+
+    /// Some passes carry estimate values and some do not (a fine splat skipped while the view
+    /// was interactive, then a view refused): the spread no longer describes the mean, so
+    /// there is no estimate until a re-splat starts the passes anew.
+    fn incomplete(&self) -> bool {
+        let with_values = self.spread.passes();
+        with_values > 0 && with_values < self.passes
     }
 
     /// Bytes of the per-pixel sums.
@@ -140,7 +143,7 @@ impl EarlierPasses {
     /// The estimated error of the finished passes' mean (docs/deviations.md §51): None
     /// before two passes, or when the error is not estimated.
     pub(super) fn estimate(&self) -> Option<ErrorEstimate> {
-        if self.batches == 0 || self.incomplete {
+        if self.batches == 0 || self.incomplete() {
             return None;
         }
         let inv = 1.0 / self.batches as f32;
@@ -156,7 +159,7 @@ impl EarlierPasses {
         let inv = 1.0 / (self.batches + batches) as f32;
         // The estimate first, while the film still holds the current pass's own values: each
         // pixel's blended value is (Σ + w·x)/W, made on the fly (no copy of the film).
-        if self.incomplete {
+        if self.incomplete() {
             film.estimate = None;
             film.estimated_error.clear();
         } else if !film.pass_error.is_empty() {
