@@ -127,7 +127,7 @@ fn a_streamed_light_pass_hands_on_the_rays_of_a_stored_one() {
         };
         let (stored, plan, streamed, waves) = pool.install(|| {
             let stored = light_pass(scene, &s);
-            let plan = plan_light_pass(scene, &s);
+            let plan = plan_light_pass(scene, &s, None);
             let (mut streamed, mut waves) = (Vec::new(), 0);
             plan.stream(scene, &s, |rays| {
                 streamed.extend_from_slice(rays);
@@ -155,7 +155,7 @@ fn a_streamed_light_pass_hands_on_the_rays_of_a_stored_one() {
         units: PathUnits { length: 0.7 },
         guide: None,
     };
-    let plan = pool.install(|| plan_light_pass(&plane, &s));
+    let plan = pool.install(|| plan_light_pass(&plane, &s, None));
     assert_eq!(plan.batch.stored[2], 0);
     assert_eq!(plan.batch.emitted[2], plan.batch.traced);
 }

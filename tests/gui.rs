@@ -119,7 +119,7 @@ fn until_a_frame_without_domain_tests(h: &mut Harness<'static, App>) {
 }
 
 fn pause(h: &mut Harness<'static, App>) {
-    h.get_by_label("Pause (Space)").click();
+    click(h, "Pause (Space)");
     run_until(h, 30, "a paused frame", |a| {
         a.frame()
             .is_some_and(|f| f.stats.paused && !f.stats.resplat_pending)
@@ -450,6 +450,13 @@ fn radiance_map_mode_switches_and_reports_memory() {
         ),
     ] {
         let generation = h.state().frame().unwrap().generation;
+        let combo = |h: &Harness<'static, App>| {
+            h.get_by_role_and_label(Role::ComboBox, "Glossy radiance map")
+                .rect()
+        };
+        h.get_by_role_and_label(Role::ComboBox, "Glossy radiance map")
+            .scroll_to_me();
+        settle(&mut h, combo);
         h.get_by_role_and_label(Role::ComboBox, "Glossy radiance map")
             .click();
         h.run_steps(3);
@@ -492,7 +499,7 @@ fn epsilon_slider_reruns_the_cache_live() {
     });
     pause(&mut h);
     let photons = h.state().frame().unwrap().stats.method.photons_traced;
-    h.get_by_label("Resolve through the radiance cache").click();
+    click(&mut h, "Resolve through the radiance cache");
     run_until(&mut h, 60, "a cached frame", |a| {
         a.frame()
             .is_some_and(|f| f.settings.cache_on && f.stats.method.cache_records.unwrap_or(0) > 0)
@@ -616,7 +623,7 @@ fn visibility_checkbox_restarts_without_domain_tests() {
     });
     assert!(h.state().frame().unwrap().stats.method.domain_tests > 0);
     h.get_by_label_contains("pairs tested");
-    h.get_by_label("Visibility in the splat footprint").click();
+    click(&mut h, "Visibility in the splat footprint");
     until_a_frame_without_domain_tests(&mut h);
     h.run_steps(2);
     assert!(h.query_by_label_contains("pairs tested").is_none());

@@ -171,6 +171,7 @@ fn thousands_of_random_commands_neither_panic_nor_deadlock() {
                 smoothness_c: 0.1 + 2.0 * u,
                 sensitivity_s: (rng.next_f32()).max(0.01),
                 max_bandwidth_r: 0.02 + 0.5 * rng.next_f32(),
+                ..Default::default()
             }),
             3 | 4 => {
                 let mut camera = base_camera.clone();
@@ -401,6 +402,7 @@ fn the_worker_clamps_commands_to_the_limits_table() {
         smoothness_c: 100.0,
         sensitivity_s: f32::NAN,
         max_bandwidth_r: 0.5,
+        ..Default::default()
     }));
     session.send(Command::SetPhotonsPerBatch(1));
     session.send(Command::SetNeeSamples(10_000));

@@ -72,6 +72,15 @@ impl BandwidthPanel {
                     "bandwidth range: h within [R·h̄, h̄/R]",
                     defaults.max_bandwidth_r,
                 );
+                param_slider(
+                    ui,
+                    &mut b.floor_neighbours,
+                    limits::FLOOR_NEIGHBOURS.range(),
+                    "K",
+                    "floor from the photons stored: no kernel narrower than C times the radius \
+                     holding K photon rays where it lands (0: off)",
+                    defaults.floor_neighbours,
+                );
             },
             |&b| Command::SetBandwidth(b),
         );

@@ -67,11 +67,15 @@ impl StatsPanel {
                 );
             ui.separator();
             ui.label(format!(
-                "at h_min {:.1}% / h_max {:.1}%",
+                "at h_min {:.1}% / h_max {:.1}% / floor {:.1}%",
                 100.0 * s.indirect_at_h_min,
-                100.0 * s.indirect_at_h_max
+                100.0 * s.indirect_at_h_max,
+                100.0 * s.indirect_at_floor
             ))
-            .on_hover_text("indirect photon rays whose bandwidth sits at eq. 8's bounds");
+            .on_hover_text(
+                "indirect photon rays whose bandwidth sits at eq. 8's bounds, and those widened \
+                 to the floor from the photons stored (K in the bandwidth panel)",
+            );
             ui.separator();
             ui.label(format!(
                 "eye samples {} ({} splat targets, {:.1} MB with tree and accumulators), \
@@ -93,7 +97,8 @@ impl StatsPanel {
                     .on_hover_text(format!(
                         "eye samples {:.1} MB, splat targets {:.1}, splat tree {:.1}, \
                          accumulators {:.1}, directional records {:.1}, stored photon rays \
-                         {:.1}, emission guide {:.1}, per-pixel sums {:.1}, film {:.1}, scene \
+                         {:.1}, emission guide {:.1}, photon landings {:.1}, per-pixel sums {:.1}, \
+                         film {:.1}, scene \
                          and BVH {:.1}, textures {:.1} (steady state; a batch in flight adds \
                          its own)",
                         mb(mem.eye_samples),
@@ -103,6 +108,7 @@ impl StatsPanel {
                         mb(mem.directional_records),
                         mb(mem.photon_rays),
                         mb(mem.emission_guide),
+                        mb(mem.photon_density),
                         mb(mem.pixel_sums),
                         mb(mem.film),
                         mb(mem.scene),

@@ -149,6 +149,11 @@ pub struct PhotonArgs {
     /// R in [0.01, 1]: bandwidth range; every h lies within [R·h̄, h̄/R] of the typical bandwidth.
     #[arg(long, default_value_t = BandwidthParams::default().max_bandwidth_r, allow_negative_numbers = true)]
     pub r: f32,
+    /// K of the floor from the photons stored: no ray's end bandwidth is narrower than C
+    /// times the radius holding K rays of its class where it lands (docs/deviations.md §63);
+    /// 0 turns it off.
+    #[arg(long, default_value_t = BandwidthParams::default().floor_neighbours, allow_negative_numbers = true)]
+    pub floor_k: f32,
 }
 
 /// How direct light reaches the eye samples.
@@ -427,6 +432,7 @@ impl PhotonArgs {
             smoothness_c: self.c.start(),
             sensitivity_s: self.s,
             max_bandwidth_r: self.r,
+            floor_neighbours: self.floor_k,
         })
     }
 

@@ -179,6 +179,7 @@ fn cornell1_rc_settings(direct: DirectMode) -> RenderSettings {
             smoothness_c: 0.6,
             sensitivity_s: 0.3,
             max_bandwidth_r: 0.2,
+            ..Default::default()
         },
         cache: CacheParams {
             error: 0.7,

@@ -150,6 +150,7 @@ fn with_ranges(mut cmd: clap::Command) -> clap::Command {
             let c = smoothness_ranged(c);
             let c = ranged(c, "s", SENSITIVITY_S);
             let c = ranged(c, "r", MAX_BANDWIDTH_R);
+            let c = ranged(c, "floor_k", FLOOR_NEIGHBOURS);
             let c = ranged(c, "nee_samples", NEE_SAMPLES);
             let c = ranged(c, "pm_k", PM_K);
             let c = ranged(c, "pm_caustic_k", PM_K);

@@ -248,6 +248,7 @@ fn stats_json(
                 "rays": clamps[c].rays,
                 "at_h_min": clamps[c].fraction_min(),
                 "at_h_max": clamps[c].fraction_max(),
+                "at_floor": clamps[c].fraction_floor(),
             })
         })
     };

@@ -41,7 +41,7 @@ pub enum TargetGeometry {
 }
 
 /// The error estimate's second splat (docs/deviations.md §51): `rays` of every class splatted
-/// at `bw` (`classes`, and the direct photons when `direct_photons` splats them on their
+/// at `bw` with the floors of their φ `phis` (`classes`, and the direct photons when `direct_photons` splats them on their
 /// own) splatted again onto `tree` at the fine bandwidth h/k ([`FINE_SCALE`]: C/k in eq. 8,
 /// its bounds with it), irradiance only, into `acc` (an [`EyeSide::acc_fine`], or a traced
 /// lobe batch's). Its pairs are about 1/k² of the first splat's; they are not counted as
@@ -50,6 +50,7 @@ pub enum TargetGeometry {
 pub fn splat_at_fine_bandwidth(
     tree: &SplatTree,
     rays: &[PhotonRay],
+    phis: &[f32],
     bw: &[Bandwidth; 3],
     classes: [bool; 3],
     direct_photons: bool,
@@ -63,6 +64,7 @@ pub fn splat_at_fine_bandwidth(
     prepare_and_splat(
         tree,
         rays,
+        phis,
         &fine,
         classes,
         mode,

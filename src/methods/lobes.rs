@@ -100,6 +100,7 @@ impl TracedLobes {
         settings: &RenderSettings,
         side: &EyeSide,
         rays: &[PhotonRay],
+        phis: &[f32],
         bw: &[Bandwidth; 3],
         classes: [bool; 3],
         fine: bool,
@@ -111,7 +112,7 @@ impl TracedLobes {
             return;
         };
         let t = Instant::now();
-        batch.gather(scene, rays, bw);
+        batch.gather(scene, rays, phis, bw);
         self.finish_batch(batch);
         timings.t_splat += t.elapsed().as_secs_f64();
     }
@@ -274,8 +275,8 @@ pub struct LobeBatch {
 
 impl LobeBatch {
     /// Splat `rays` (of the batch, or one wave of it) onto the lobes' targets with the
-    /// batch's bandwidths `bw`.
-    pub fn gather(&mut self, scene: &Scene, rays: &[PhotonRay], bw: &[Bandwidth; 3]) {
+    /// batch's bandwidths `bw` and the floors of the rays' φ `phis` (empty: none).
+    pub fn gather(&mut self, scene: &Scene, rays: &[PhotonRay], phis: &[f32], bw: &[Bandwidth; 3]) {
         let tree = &self.tree;
         for (acc, classes) in [
             (&mut self.indirect, self.classes),
@@ -283,12 +284,14 @@ impl LobeBatch {
         ] {
             if let Some(acc) = acc {
                 let mode = acc.mode;
-                prepare_and_splat(tree, rays, bw, classes, mode, scene, acc, Some(scene), None);
+                let vis = Some(scene);
+                prepare_and_splat(tree, rays, phis, bw, classes, mode, scene, acc, vis, None);
             }
         }
         if let Some(acc) = &mut self.fine {
             let direct_photons = self.direct.is_some();
-            splat_at_fine_bandwidth(tree, rays, bw, self.classes, direct_photons, scene, acc);
+            let classes = self.classes;
+            splat_at_fine_bandwidth(tree, rays, phis, bw, classes, direct_photons, scene, acc);
         }
     }
 }

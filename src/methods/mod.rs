@@ -158,6 +158,10 @@ pub struct MemoryBreakdown {
     /// The emission guide's cells and distributions (docs/deviations.md §44).
     #[serde(default)]
     pub emission_guide: usize,
+    /// The count of where the photon rays landed, for the floor from the photons stored
+    /// (docs/deviations.md §63).
+    #[serde(default)]
+    pub photon_density: usize,
     /// Per-pixel sums: emission and NEE light, traced lobes, finished eye passes.
     pub pixel_sums: usize,
     /// One film with its AOVs.
@@ -179,6 +183,7 @@ impl MemoryBreakdown {
             + self.directional_records
             + self.photon_rays
             + self.emission_guide
+            + self.photon_density
             + self.pixel_sums
             + self.film
             + self.scene

@@ -4,8 +4,9 @@
 //! data, so the store is what lets a new view or new C/S/R re-splat without re-tracing.
 
 use crate::pipeline::photon::{
-    Bandwidth, BandwidthParams, ClampCounts, ClassBudgets, EmissionGuide, LightPassPlan,
-    LightPassSettings, PhotonBatch, PhotonClass, PhotonRay, Pilot, light_pass, pilot,
+    Bandwidth, BandwidthParams, ClampCounts, ClassBudgets, EmissionGuide, HitDensity,
+    LightPassPlan, LightPassSettings, PhotonBatch, PhotonClass, PhotonRay, Pilot, light_pass,
+    pilot,
 };
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
@@ -14,6 +15,10 @@ use crate::settings::RenderSettings;
 pub struct StoredBatch {
     /// The photon rays.
     pub rays: Vec<PhotonRay>,
+    /// Each ray's φ, its floor from the photons stored up to its batch
+    /// ([`HitDensity::phi`]; docs/deviations.md §63): 4 bytes beside a ray's 64, since a
+    /// [`PhotonRay`] has no room left.
+    pub phis: Vec<f32>,
     /// Stored rays per class over every batch up to and including this one (eq. 8's M).
     pub m: [u64; 3],
     /// Its rays at the bandwidth bounds under the parameters they were last counted for.
@@ -55,6 +60,12 @@ pub struct PhotonStore {
     /// Photons where the camera looks (docs/deviations.md §44): the light passes emit as it
     /// says; `None`, in proportion to power.
     guide: Option<EmissionGuide>,
+    /// Where every batch's rays landed, for the floor from the photons stored
+    /// (docs/deviations.md §63); made with the first light pass.
+    density: Option<HitDensity>,
+    /// Count where the rays land and give each its φ (a method that splats them; photon
+    /// mapping gathers and needs neither).
+    floors: bool,
 }
 
 impl PhotonStore {
@@ -76,7 +87,30 @@ impl PhotonStore {
             keep_newest: true,
             released: 0,
             guide: None,
+            density: None,
+            floors: true,
         }
+    }
+
+    /// Count where the rays land and give each ray its φ (true, the default), or neither
+    /// (a method that never splats: its batches' `phis` stay empty). Set before the first
+    /// batch.
+    pub fn set_floors(&mut self, on: bool) {
+        self.floors = on;
+    }
+
+    /// The count of where the rays landed, made for a first light pass of `budgets` when
+    /// there is none (its cubes follow that batch's typical bandwidth); `None` when the store
+    /// keeps no floors ([`PhotonStore::set_floors`]).
+    pub fn density_for(&mut self, budgets: &ClassBudgets) -> Option<&mut HitDensity> {
+        if !self.floors {
+            return None;
+        }
+        let pilot = &self.pilot;
+        Some(
+            self.density
+                .get_or_insert_with(|| HitDensity::for_pilot(pilot, budgets.total())),
+        )
     }
 
     /// Emit the next light passes' photons where the camera looks, learning from each batch
@@ -146,6 +180,9 @@ impl PhotonStore {
             ..self.light_pass_settings(settings, with_direct)
         };
         let batch = light_pass(scene, &lps);
+        if let Some(d) = self.density_for(&lps.budgets) {
+            d.add_rays(&batch.rays);
+        }
         self.add(batch, settings.photons)
     }
 
@@ -175,7 +212,8 @@ impl PhotonStore {
     /// [`PhotonStore::light_pass_settings`] whose rays will be streamed, not stored
     /// ([`PhotonStore::frees_every_batch`]): its M joins the total and its rays count as
     /// released; it is stored as a batch without rays until the next [`PhotonStore::fold`].
-    /// Returns its index.
+    /// Its landings were counted by the plan ([`PhotonStore::density_for`]). Returns its
+    /// index.
     pub fn add_streamed(&mut self, plan: &LightPassPlan, photons: u64) -> usize {
         self.released += plan.batch.stored.iter().sum::<u64>() as usize;
         self.add(
@@ -200,8 +238,14 @@ impl PhotonStore {
                 self.photons_first[c] = photons;
             }
         }
+        let mut phis = Vec::new();
+        if let Some(d) = self.density_for(&ClassBudgets(batch.stored)) {
+            d.add_stored(batch.stored);
+            d.phis(&batch.rays, &mut phis);
+        }
         self.batches.push(StoredBatch {
             rays: batch.rays,
+            phis,
             m: self.m_total,
             clamps: None,
         });
@@ -244,9 +288,25 @@ impl PhotonStore {
         self.m_total
     }
 
-    /// Bytes of the stored rays.
+    /// Bytes of the stored rays with their φ.
     pub fn memory_bytes(&self) -> usize {
-        self.rays() * std::mem::size_of::<PhotonRay>()
+        let phis: usize = self.batches.iter().map(|b| b.phis.len()).sum();
+        self.rays() * std::mem::size_of::<PhotonRay>() + phis * std::mem::size_of::<f32>()
+    }
+
+    /// The floor's φ of each ray of `rays` (a streamed wave of the newest batch) into `out`,
+    /// from the landings counted so far ([`HitDensity::phi`]).
+    pub fn phis(&self, rays: &[PhotonRay], out: &mut Vec<f32>) {
+        match &self.density {
+            Some(d) => d.phis(rays, out),
+            None => out.clear(),
+        }
+    }
+
+    /// Bytes of the count of where the rays landed (kept for the view's life, also by a
+    /// headless render that frees its rays).
+    pub fn density_bytes(&self) -> usize {
+        self.density.as_ref().map_or(0, |d| d.bytes())
     }
 
     /// Bytes of the emission guide (docs/deviations.md §44): kept for the view's life, also
@@ -338,8 +398,8 @@ impl PhotonStore {
                 _ => {
                     let b = &self.batches[i];
                     let bw = self.bandwidths(params, b.m);
-                    let c =
-                        PhotonClass::ALL.map(|c| ClampCounts::count(&b.rays, &bw[c as usize], c));
+                    let c = PhotonClass::ALL
+                        .map(|c| ClampCounts::count(&b.rays, &b.phis, &bw[c as usize], c));
                     self.batches[i].clamps = Some((*params, c));
                     c
                 }

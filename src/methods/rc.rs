@@ -100,6 +100,7 @@ fn cache_by_splatting(core: &PhotonCore) -> (Cache, Interpolated, SplatCounters)
         .map(|b| {
             prepare(
                 &b.rays,
+                &b.phis,
                 &core.bandwidths(b.m),
                 [false, true, false],
                 ray_mode,

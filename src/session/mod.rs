@@ -181,6 +181,9 @@ pub struct SessionStats {
     /// Fraction of the indirect photon rays whose bandwidth sits at h_max (eq. 8's upper
     /// bound); of all rays when there are no indirect ones.
     pub indirect_at_h_max: f64,
+    /// Fraction of the indirect photon rays (of all when there are none) whose end bandwidth
+    /// is the floor from the photons stored, wider than eq. 8's (docs/deviations.md §63).
+    pub indirect_at_floor: f64,
 }
 
 /// A published image and everything needed to describe it.

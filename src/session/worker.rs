@@ -610,7 +610,7 @@ impl Worker {
         self.run_clock.tick(self.paused);
         let elapsed = self.run_clock.running.as_secs_f64();
         // The indirect class's rays at the bandwidth bounds (all classes when it is empty).
-        let (at_min, at_max) = m.bandwidth_clamps.map_or((0.0, 0.0), |clamps| {
+        let (at_min, at_max, at_floor) = m.bandwidth_clamps.map_or((0.0, 0.0, 0.0), |clamps| {
             let pick = if clamps[1].rays > 0 {
                 clamps[1]
             } else {
@@ -618,7 +618,11 @@ impl Worker {
                 all += clamps[2];
                 all
             };
-            (pick.fraction_min(), pick.fraction_max())
+            (
+                pick.fraction_min(),
+                pick.fraction_max(),
+                pick.fraction_floor(),
+            )
         });
         let stats = SessionStats {
             photons_per_second: m.photons_traced as f64 / elapsed.max(1e-9),
@@ -636,6 +640,7 @@ impl Worker {
             paused_below: self.paused_below,
             indirect_at_h_min: at_min,
             indirect_at_h_max: at_max,
+            indirect_at_floor: at_floor,
         };
         self.seq += 1;
         let frame = Frame {

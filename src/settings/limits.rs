@@ -44,6 +44,11 @@ pub const MAX_BANDWIDTH_R: Limit<f32> = Limit {
     min: 0.01,
     max: 1.0,
 };
+/// K of the floor from the photons stored (docs/deviations.md §63): 0 is off.
+pub const FLOOR_NEIGHBOURS: Limit<f32> = Limit {
+    min: 0.0,
+    max: 256.0,
+};
 /// Longest specular chain.
 pub const SPECULAR_DEPTH: Limit<u32> = Limit { min: 0, max: 64 };
 /// Light samples per eye sample (NEE).

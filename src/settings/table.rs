@@ -128,6 +128,13 @@ pub const SETTINGS: &[Setting] = &[
         F32(MAX_BANDWIDTH_R)
     ),
     setting!(
+        "bandwidth.floor_neighbours",
+        "K floor",
+        Resplat,
+        bandwidth.floor_neighbours,
+        F32(FLOOR_NEIGHBOURS)
+    ),
+    setting!(
         "progressive_bandwidth",
         "progressive bandwidth",
         Resplat,

@@ -225,6 +225,7 @@ fn the_effects_are_the_documented_ones() {
             "bandwidth.smoothness_c",
             "bandwidth.sensitivity_s",
             "bandwidth.max_bandwidth_r",
+            "bandwidth.floor_neighbours",
             "progressive_bandwidth",
             "radiance_map",
             "estimate_error"

@@ -7,7 +7,8 @@ use crate::pipeline::direct::direct_light;
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::eye::{EyePass, EyeSample, EyeSamples, EyeSettings, eye_pass};
 use crate::pipeline::photon::{
-    Bandwidth, ClassBudgets, LightPassSettings, PhotonBatch, PhotonClass, light_pass, pilot,
+    Bandwidth, ClassBudgets, HitDensity, LightPassSettings, PhotonBatch, PhotonClass, light_pass,
+    pilot,
 };
 use crate::pipeline::photon_map::{PhotonMap, build_maps, estimate_targets};
 use crate::pipeline::radiance_map::{Accumulators, RadianceMap};
@@ -102,6 +103,14 @@ impl Pass {
             },
         );
         timings.t_light += t.elapsed().as_secs_f64();
+        // The floor from the photons stored (docs/deviations.md §63), from this one batch.
+        let mut phis = Vec::new();
+        if splatting {
+            let mut density = HitDensity::for_pilot(&pilot, batch.stored.iter().sum());
+            density.add_rays(&batch.rays);
+            density.add_stored(batch.stored);
+            density.phis(&batch.rays, &mut phis);
+        }
         let mean_r = pilot.mean_r(s.bandwidth.sensitivity_s);
         let bw = PhotonClass::ALL
             .map(|c| Bandwidth::new(&s.bandwidth, &pilot, batch.stored[c as usize], mean_r));
@@ -122,6 +131,7 @@ impl Pass {
         let caustic_rays = splatting.then(|| {
             prepare(
                 &batch.rays,
+                &phis,
                 &bw,
                 [false, false, true],
                 DirectionalMode::Diffuse,
@@ -133,6 +143,7 @@ impl Pass {
         let all_rays = splatting.then(|| {
             prepare(
                 &batch.rays,
+                &phis,
                 &bw,
                 [true, true, true],
                 DirectionalMode::Diffuse,

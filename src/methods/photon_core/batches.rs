@@ -130,12 +130,14 @@ impl PhotonCore {
     pub(super) fn splat_piece(&mut self, mut p: PartialSplat) -> Step {
         let t = Instant::now();
         let fine_now = self.fine_now(p.new);
-        let rays = &self.store.batches()[p.batch].rays;
+        let batch = &self.store.batches()[p.batch];
+        let rays = &batch.rays;
         let end = (p.next + p.piece).min(rays.len());
         self.counters += splat_rays(
             &self.scene,
             &mut self.side,
             &rays[p.next..end],
+            batch.phis.get(p.next..end).unwrap_or(&[]),
             &p.bw,
             self.config.splatted.mask(),
             self.settings.direct == DirectMode::Photons,
@@ -200,9 +202,11 @@ impl PhotonCore {
     pub(super) fn splat_fine(&mut self, b: usize, bw: &[Bandwidth; 3]) {
         let t = Instant::now();
         if !self.side.acc_fine.is_empty() {
+            let batch = &self.store.batches()[b];
             splat_at_fine_bandwidth(
                 &self.side.tree,
-                &self.store.batches()[b].rays,
+                &batch.rays,
+                &batch.phis,
                 bw,
                 self.config.splatted.mask(),
                 self.settings.direct == DirectMode::Photons,
@@ -242,7 +246,8 @@ impl PhotonCore {
                 .store
                 .light_pass_settings(&self.settings, self.splat_direct())
         };
-        let plan = plan_light_pass(&self.scene, &lps);
+        let density = self.store.density_for(&lps.budgets);
+        let plan = plan_light_pass(&self.scene, &lps, density);
         let b = self.store.add_streamed(&plan, self.settings.photons);
         self.timings.t_light += t.elapsed().as_secs_f64();
         let m = self.store.batches()[b].m;
@@ -269,13 +274,18 @@ impl PhotonCore {
         let direct = self.settings.direct;
         let mode = self.settings.radiance_map;
         let mut reach = vec![0u32; guide.as_ref().map_or(0, |g| g.cells())];
+        let store = &self.store;
+        let mut phis = Vec::new();
         plan.stream(scene, &lps, |rays| {
             let t = Instant::now();
             let photons = direct == DirectMode::Photons;
             let r = Some(&mut reach[..]).filter(|r| !r.is_empty());
-            *counters += splat_rays(scene, side, rays, &bw, classes, photons, mode, r, true);
+            store.phis(rays, &mut phis);
+            *counters += splat_rays(
+                scene, side, rays, &phis, &bw, classes, photons, mode, r, true,
+            );
             if let Some(l) = lobes.as_mut() {
-                l.gather(scene, rays, &bw);
+                l.gather(scene, rays, &phis, &bw);
             }
             t_splat += t.elapsed().as_secs_f64();
         });
@@ -306,6 +316,7 @@ impl PhotonCore {
             &self.settings,
             &self.side,
             &batch.rays,
+            &batch.phis,
             &bw,
             self.config.splatted.mask(),
             !self.interactive,
@@ -314,7 +325,8 @@ impl PhotonCore {
     }
 }
 
-/// Splat `rays` of the `classes` (direct, indirect, caustic) onto the eye side's targets
+/// Splat `rays` of the `classes` (direct, indirect, caustic), with the floors of their φ
+/// `phis` (empty: none), onto the eye side's targets
 /// (direct photons, when `direct_photons`, into their own accumulators); with `reach`, count
 /// per emission cell the rays that reached a target (the emission guide's feedback); with
 /// `fine`, at the error estimate's fine bandwidth too (when the side estimates).
@@ -323,6 +335,7 @@ fn splat_rays(
     scene: &Scene,
     side: &mut EyeSide,
     rays: &[PhotonRay],
+    phis: &[f32],
     bw: &[Bandwidth; 3],
     classes: [bool; 3],
     direct_photons: bool,
@@ -337,6 +350,7 @@ fn splat_rays(
     counters += prepare_and_splat(
         &side.tree,
         rays,
+        phis,
         bw,
         classes,
         mode,
@@ -349,6 +363,7 @@ fn splat_rays(
         counters += prepare_and_splat(
             &side.tree,
             rays,
+            phis,
             bw,
             [true, false, false],
             mode,
@@ -360,7 +375,16 @@ fn splat_rays(
     }
     if fine && !side.acc_fine.is_empty() {
         let acc = &mut side.acc_fine;
-        splat_at_fine_bandwidth(&side.tree, rays, bw, classes, direct_photons, scene, acc);
+        splat_at_fine_bandwidth(
+            &side.tree,
+            rays,
+            phis,
+            bw,
+            classes,
+            direct_photons,
+            scene,
+            acc,
+        );
     }
     counters
 }

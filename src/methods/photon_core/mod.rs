@@ -256,6 +256,8 @@ impl PhotonCore {
         let t = Instant::now();
         let mut store = PhotonStore::new(&scene, settings.seed);
         store.set_progressive_bandwidth(settings.progressive_bandwidth);
+        // Photon mapping gathers: no floors to keep (docs/deviations.md §63).
+        store.set_floors(config.splatted != Classes::NONE);
         // Only a method that splats its indirect light onto the eye samples learns where
         // photons reach them (rs): rc splats only caustics there, pm gathers.
         store.set_guided(&scene, settings.guided_emission && config.splatted.indirect);

@@ -37,6 +37,7 @@ impl PhotonCore {
             directional_records: directional,
             photon_rays: self.store.memory_bytes(),
             emission_guide: self.store.guide_bytes(),
+            photon_density: self.store.density_bytes(),
             pixel_sums: (side.emitted.len() + side.nee.len()) * vec3
                 + self.lobes.memory_bytes()
                 + self.earlier.memory_bytes(),

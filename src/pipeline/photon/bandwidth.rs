@@ -15,6 +15,15 @@ pub struct BandwidthParams {
     /// R ∈ (0, 1], the bandwidth range: every h lies within [R·h̄, h̄/R] of the typical
     /// bandwidth h̄ = C·(M/10⁵)^(−1/6)·μC (§6's bounds "from μC and R"; docs/deviations.md §5).
     pub max_bandwidth_r: f32,
+    /// K of the floor from the photons actually stored (issue 30; docs/deviations.md §63):
+    /// no ray's end bandwidth is narrower than C times the radius holding K rays of its
+    /// class's M where it lands ([`super::HitDensity`]); 0 turns the floor off.
+    #[serde(default = "default_floor_neighbours")]
+    pub floor_neighbours: f32,
+}
+
+fn default_floor_neighbours() -> f32 {
+    super::FLOOR_NEIGHBOURS
 }
 
 impl Default for BandwidthParams {
@@ -23,6 +32,7 @@ impl Default for BandwidthParams {
             smoothness_c: 1.0,
             sensitivity_s: 0.4,
             max_bandwidth_r: 0.2,
+            floor_neighbours: super::FLOOR_NEIGHBOURS,
         }
     }
 }
@@ -34,6 +44,12 @@ impl Default for BandwidthParams {
 /// scenes (docs/deviations.md §43, where 0 and 1/12 are measured too).
 pub const PROGRESSIVE_SHRINK: f64 = 1.0 / 6.0;
 
+/// The typical bandwidth at C = 1 of a class of `m` rays, (M/10⁵)^(−1/6)·μC: eq. 8's
+/// geometric mean over the pilot (§6; docs/deviations.md §5).
+pub fn typical_at_c1(mu_c: f32, m: f32) -> f32 {
+    (m.max(1.0) / 1e5).powf(-1.0 / 6.0) * mu_c
+}
+
 /// Eq. 8 evaluated for one parameter set and class size; cheap per-vertex evaluation.
 #[derive(Clone, Copy, Debug)]
 pub struct Bandwidth {
@@ -44,6 +60,9 @@ pub struct Bandwidth {
     pub h_min: f32,
     /// Largest bandwidth, h̄/R (§6's upper bound; scene units).
     pub h_max: f32,
+    /// C·√K/√M: a ray's floor is this times its φ ([`super::HitDensity::phi`]; 0 without
+    /// a floor).
+    floor_scale: f32,
 }
 
 impl Bandwidth {
@@ -56,13 +75,17 @@ impl Bandwidth {
         let scale = params.smoothness_c * m.powf(-1.0 / 6.0) * w; // eq. 8: C/⁶√M · w
         // The typical bandwidth at this M, C·(M/10⁵)^(−1/6)·μC (the geometric mean of eq. 8
         // over the pilot); the bounds "from μC and R" (§6) keep h within a factor 1/R of it.
-        let typical = (params.smoothness_c * (m / 1e5).powf(-1.0 / 6.0) * mu_c).max(1e-30);
+        let typical = (params.smoothness_c * typical_at_c1(mu_c, m)).max(1e-30);
         let r = params.max_bandwidth_r.clamp(R_MIN, 1.0);
+        // The floor's radius holds K of the class's M rays: √(K/(π·M·ρ)) = √K·φ/√M
+        // (docs/deviations.md §63), times C as every bandwidth of eq. 8.
+        let k = params.floor_neighbours.max(0.0);
         Self {
             scale,
             half_s: 0.5 * params.sensitivity_s,
             h_min: typical * r,
             h_max: typical / r,
+            floor_scale: params.smoothness_c * (k / m).sqrt(),
         }
     }
 
@@ -70,7 +93,8 @@ impl Bandwidth {
     /// `m_first` rays of the class each (M₁; 0: eq. 8 alone), shrunk beyond one batch by
     /// (M/M₁)^(−[`PROGRESSIVE_SHRINK`]): so h and its bounds h_min, h_max fall as M^(−1/3)
     /// from batch to batch, not M^(−1/6) (docs/deviations.md §43). The first batch (and any
-    /// render of one batch) keeps eq. 8's bandwidth.
+    /// render of one batch) keeps eq. 8's bandwidth. The floor from the photons stored is
+    /// not shrunk: it falls as M^(−1/2) of itself.
     pub fn progressive(
         params: &BandwidthParams,
         pilot: &Pilot,
@@ -94,6 +118,7 @@ impl Bandwidth {
             scale: self.scale * f,
             h_min: self.h_min * f,
             h_max: self.h_max * f,
+            floor_scale: self.floor_scale * f,
             ..*self
         }
     }
@@ -114,7 +139,16 @@ impl Bandwidth {
         (self.scale * pdf.max(f32::MIN_POSITIVE).powf(-self.half_s)).clamp(self.h_min, self.h_max)
     }
 
-    /// (h0, dh) of a ray (§6): h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i))/|x_{i+1} − x_i|.
+    /// The floor on the end bandwidth of a ray whose φ is `phi` ([`super::HitDensity::phi`]):
+    /// C·√K·φ/√M, at most h_max (docs/deviations.md §63).
+    #[inline]
+    pub fn floor(&self, phi: f32) -> f32 {
+        (phi * self.floor_scale).min(self.h_max)
+    }
+
+    /// (h0, dh) of a ray (§6) whose φ is `phi` (0: no floor): h0 = min(h(x_i), h(x_{i+1})),
+    /// dh = max(0, h(x_{i+1}) − h(x_i))/|x_{i+1} − x_i|, with h(x_{i+1}) at least the floor
+    /// from the photons stored ([`Self::floor`]).
     /// A ray from afar (bounce 0 with `pdf_start` > 0) is a cylinder of radius h(x_1).
     /// A ray that escapes has no end vertex: it keeps its start bandwidth (a cylinder) up to
     /// where it leaves the scene, so the bounding box only clips it. One that leaves a light
@@ -123,7 +157,7 @@ impl Bandwidth {
     /// that it splats onto the samples it passes, such as those at a lit floor's open edge
     /// (docs/deviations.md §42; a cylinder of radius 0 splatted nothing there: −41%).
     #[inline]
-    pub fn cone(&self, ray: &PhotonRay) -> (f32, f32) {
+    pub fn cone(&self, ray: &PhotonRay, phi: f32) -> (f32, f32) {
         let hi = if !ray.from_afar() && ray.bounce() == 0 {
             0.0 // h(x_0) = 0 (eq. 8); a ray from afar has pdf_start > 0: a cylinder
         } else {
@@ -132,7 +166,7 @@ impl Bandwidth {
         if ray.escapes() && hi > 0.0 {
             return (hi, 0.0);
         }
-        let hj = self.h(ray.pdf_end);
+        let hj = self.h(ray.pdf_end).max(self.floor(phi));
         let dh = (hj - hi).max(0.0) / ray.length.max(1e-12);
         (hi.min(hj), dh)
     }
@@ -148,16 +182,24 @@ pub struct ClampCounts {
     pub at_min: u64,
     /// Rays whose cone ends at h_max.
     pub at_max: u64,
+    /// Rays whose end bandwidth is the floor from the photons stored, wider than eq. 8's
+    /// (docs/deviations.md §63).
+    #[serde(default)]
+    pub at_floor: u64,
 }
 
 impl ClampCounts {
-    /// Count the rays of `class` in `rays` under the bandwidth `bw`.
-    pub fn count(rays: &[PhotonRay], bw: &Bandwidth, class: PhotonClass) -> Self {
+    /// Count the rays of `class` in `rays`, whose φ are `phis` (empty: no floor), under the
+    /// bandwidth `bw`.
+    pub fn count(rays: &[PhotonRay], phis: &[f32], bw: &Bandwidth, class: PhotonClass) -> Self {
+        let phi = |i: usize| phis.get(i).copied().unwrap_or(0.0);
         rays.par_iter()
-            .filter(|r| r.class() == class)
-            .fold(Self::default, |mut c, r| {
-                let (h0, dh) = bw.cone(r);
+            .enumerate()
+            .filter(|(_, r)| r.class() == class)
+            .fold(Self::default, |mut c, (i, r)| {
+                let (h0, dh) = bw.cone(r, phi(i));
                 let h_end = h0 + dh * r.length;
+                c.at_floor += (bw.floor(phi(i)) > bw.h(r.pdf_end)) as u64;
                 c.rays += 1;
                 // h(x_0) = 0 is eq. 8's own start, not a clamp: a ray leaving the light is at
                 // h_min when its end is.
@@ -165,10 +207,9 @@ impl ClampCounts {
                 c.at_max += (h_end >= bw.h_max) as u64;
                 c
             })
-            .reduce(Self::default, |a, b| Self {
-                rays: a.rays + b.rays,
-                at_min: a.at_min + b.at_min,
-                at_max: a.at_max + b.at_max,
+            .reduce(Self::default, |mut a, b| {
+                a += b;
+                a
             })
     }
 
@@ -181,6 +222,11 @@ impl ClampCounts {
     pub fn fraction_max(&self) -> f64 {
         self.at_max as f64 / self.rays.max(1) as f64
     }
+
+    /// `at_floor / rays` (0 without rays).
+    pub fn fraction_floor(&self) -> f64 {
+        self.at_floor as f64 / self.rays.max(1) as f64
+    }
 }
 
 impl std::ops::AddAssign for ClampCounts {
@@ -188,6 +234,7 @@ impl std::ops::AddAssign for ClampCounts {
         self.rays += o.rays;
         self.at_min += o.at_min;
         self.at_max += o.at_max;
+        self.at_floor += o.at_floor;
     }
 }
 
@@ -218,6 +265,7 @@ mod tests {
             smoothness_c: 0.7,
             sensitivity_s: 0.6,
             max_bandwidth_r: R_MIN,
+            ..Default::default()
         };
         let m = 50_000u64;
         let mean_r = p.mean_r(params.sensitivity_s);
@@ -240,6 +288,7 @@ mod tests {
             smoothness_c: 1.0,
             sensitivity_s: 0.4,
             max_bandwidth_r: R_MIN,
+            ..Default::default()
         };
         let bw = Bandwidth::new(&params, &p, 100_000, p.mean_r(0.4));
         let mean = (pdfs.iter().map(|&x| (bw.h(x) as f64).ln()).sum::<f64>() / pdfs.len() as f64)
@@ -340,21 +389,78 @@ mod tests {
         };
         // §6: h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i)) / length.
         let (hi, hj) = (bw.h(4.0), bw.h(1.0));
-        let (h0, dh) = bw.cone(&ray);
+        let (h0, dh) = bw.cone(&ray, 0.0);
         assert_eq!(h0, hi.min(hj));
         assert!((dh - (hj - hi).max(0.0) / 2.0).abs() < 1e-7);
         // A shrinking bandwidth gives a cylinder of the smaller radius.
         ray.pdf_start = 1.0;
         ray.pdf_end = 4.0;
-        assert_eq!(bw.cone(&ray), (bw.h(4.0), 0.0));
+        assert_eq!(bw.cone(&ray, 0.0), (bw.h(4.0), 0.0));
         // h(x_0) = 0: the segment leaving the light starts as a point (eq. 8).
         ray.tag = crate::pipeline::photon::RayTag::new(0, ray.class(), ray.lands());
         ray.pdf_start = 0.0;
-        let (h0, dh) = bw.cone(&ray);
+        let (h0, dh) = bw.cone(&ray, 0.0);
         assert_eq!(h0, 0.0);
         assert!((dh - bw.h(4.0) / 2.0).abs() < 1e-7);
         // A ray from afar keeps its density: a cylinder of h(x_1), also when it escapes.
         ray.pdf_start = 4.0;
-        assert_eq!(bw.cone(&ray), (bw.h(4.0), 0.0));
+        assert_eq!(bw.cone(&ray, 0.0), (bw.h(4.0), 0.0));
+    }
+
+    /// The floor from the photons stored (docs/deviations.md §63): C·√K·φ/√M, at most h_max;
+    /// it raises the cone's end radius, never its start; K = 0 is eq. 8 alone; the error
+    /// estimate's fine bandwidth scales it as it scales eq. 8; the progressive schedule does
+    /// not shrink it.
+    #[test]
+    fn the_floor_raises_the_end_radius_to_c_root_k_phi_over_root_m() {
+        let p = pilot(vec![0.5, 2.0, 8.0]);
+        let params = BandwidthParams {
+            smoothness_c: 0.5,
+            floor_neighbours: 16.0,
+            ..Default::default()
+        };
+        let m = 40_000u64;
+        let mean_r = p.mean_r(params.sensitivity_s);
+        let bw = Bandwidth::new(&params, &p, m, mean_r);
+        let ray = PhotonRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::X,
+            length: 2.0,
+            power: Vec3::ONE,
+            origin_normal: crate::pack::OctOrZero::new(Vec3::X),
+            end_shading_ratio: 1.0,
+            pdf_start: 2.0,
+            pdf_end: 2.0,
+            tag: crate::pipeline::photon::RayTag::new(1, PhotonClass::Indirect, true),
+            end_normal: crate::pack::OctOrZero::new(-Vec3::X),
+        };
+        let h = bw.h(2.0);
+        // φ whose floor is twice eq. 8's radius: C·√K·φ/√M = 2h.
+        let phi = 2.0 * h * (m as f32).sqrt() / (0.5 * 4.0);
+        assert!((bw.floor(phi) / (2.0 * h) - 1.0).abs() < 1e-5);
+        let (h0, dh) = bw.cone(&ray, phi);
+        assert_eq!(h0, h);
+        assert!(((h0 + dh * 2.0) / (2.0 * h) - 1.0).abs() < 1e-5);
+        // Below eq. 8 it changes nothing; beyond h_max it stops there.
+        assert_eq!(bw.cone(&ray, 0.25 * phi), bw.cone(&ray, 0.0));
+        assert_eq!(bw.floor(1e9 * phi), bw.h_max);
+        // K = 0: off.
+        let off = Bandwidth::new(
+            &BandwidthParams {
+                floor_neighbours: 0.0,
+                ..params
+            },
+            &p,
+            m,
+            mean_r,
+        );
+        assert_eq!(off.cone(&ray, phi), (h, 0.0));
+        // The estimate's h/k: the floor scales with it.
+        let fine = bw.scaled(0.25);
+        assert!((fine.floor(phi) / (0.5 * h) - 1.0).abs() < 1e-5);
+        // The progressive schedule shrinks eq. 8 but not the floor, which falls as M^(−1/2)
+        // of itself.
+        let later = Bandwidth::progressive(&params, &p, 4 * m, m as f64, mean_r);
+        assert!((later.floor(phi) / (0.5 * bw.floor(phi)) - 1.0).abs() < 1e-5);
     }
 }

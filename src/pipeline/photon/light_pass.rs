@@ -1,5 +1,6 @@
 //! The light pass (§3, §6): photons traced until each class of Table 2 has its budget of rays.
 
+use super::density::HitDensity;
 use super::guide::EmissionGuide;
 use super::trace::{PathUnits, TaggedRay, trace_photon};
 use super::{MAX_PATH_SEGMENTS, PhotonClass, PhotonRay};
@@ -118,10 +119,16 @@ pub struct LightPassPlan {
 /// The first of a streamed light pass's two passes: trace the photons [`light_pass`] would
 /// and count, without keeping them, the rays each class stores and the photons it took to
 /// fill (a class's power normalisation and eq. 8's M are known only once it is full, so the
-/// rays cannot be splatted while they are first traced).
-pub fn plan_light_pass(scene: &Scene, s: &LightPassSettings) -> LightPassPlan {
+/// rays cannot be splatted while they are first traced). With `density`, counts where the
+/// rays land there, so that the streamed rays get their floors (docs/deviations.md §63).
+pub fn plan_light_pass(
+    scene: &Scene,
+    s: &LightPassSettings,
+    mut density: Option<&mut HitDensity>,
+) -> LightPassPlan {
     let mut waves = Vec::new();
     let (mut invalid, mut stored) = (0u64, [0u64; 3]);
+    let mut kept = Vec::new();
     let mut batch = drive(scene, s, |parts, fill| {
         // Only photons that store a ray are traced again: not those spent looking for a class
         // that never fills, such as caustics where few specular surfaces are (Šibenik: the
@@ -138,7 +145,14 @@ pub fn plan_light_pass(scene: &Scene, s: &LightPassSettings) -> LightPassPlan {
                 if valid && photons.last() != Some(&local) {
                     photons.push(local);
                 }
+                if valid && density.is_some() {
+                    kept.push(r.ray);
+                }
             }
+        }
+        if let Some(d) = density.as_deref_mut() {
+            d.add_rays(&kept);
+            kept.clear();
         }
         if !photons.is_empty() {
             waves.push((fill.want, photons));

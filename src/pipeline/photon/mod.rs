@@ -9,18 +9,21 @@
 //! | part | module |
 //! |---|---|
 //! | eq. 8's bandwidth, its parameters and clamp counts | `bandwidth` |
+//! | the floor from the photons stored: their landings counted | `density` |
 //! | the pilot phase: ⟨D⟩ and ⟨r⟩ | `pilot` |
 //! | tracing one photon path, eq. 7's p̃ | `trace` |
 //! | photons where the camera looks: the emission guide | `guide` |
 //! | class budgets and the light pass | `light_pass` |
 
 mod bandwidth;
+mod density;
 mod guide;
 mod light_pass;
 mod pilot;
 mod trace;
 
 pub use bandwidth::{Bandwidth, BandwidthParams, ClampCounts};
+pub use density::{FLOOR_NEIGHBOURS, HitDensity};
 pub use guide::{EmissionGuide, GUIDE_MIX};
 pub use light_pass::{
     ClassBudgets, LightPassPlan, LightPassSettings, PhotonBatch, light_pass, plan_light_pass,

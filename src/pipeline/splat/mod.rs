@@ -129,16 +129,17 @@ pub struct SplatBatch {
 }
 
 impl SplatRay {
-    /// The ray with its cone (h0, dh) from eq. 8's bandwidth `bw` (§6), in a scene whose
-    /// eye samples lie within `bounds` (min, max).
+    /// The ray with its cone (h0, dh) from eq. 8's bandwidth `bw` (§6) and the floor of its
+    /// φ `phi` ([`crate::pipeline::photon::HitDensity::phi`]; 0: none), in a scene whose eye
+    /// samples lie within `bounds` (min, max).
     ///
     /// A ray that escapes is stored up to where it leaves the bounds; its footprint still
     /// reaches samples within its radius of that point, beyond it along the ray (a lit
     /// floor's open edge, the classic box's ceiling at its open front). It is kept up to
     /// where it leaves the bounds grown by its radius, so that every sample its footprint
     /// reaches projects inside the segment (docs/deviations.md §42).
-    pub fn new(ray: &PhotonRay, bw: &Bandwidth, bounds: (Vec3, Vec3)) -> Self {
-        let (h0, dh) = bw.cone(ray);
+    pub fn new(ray: &PhotonRay, bw: &Bandwidth, phi: f32, bounds: (Vec3, Vec3)) -> Self {
+        let (h0, dh) = bw.cone(ray, phi);
         let reach = if ray.escapes() {
             let r = Vec3A::splat(h0 + dh * ray.length);
             let (min, max) = (Vec3A::from(bounds.0) - r, Vec3A::from(bounds.1) + r);
@@ -205,8 +206,9 @@ impl SplatRay {
 /// 4 MB.
 pub const SPLAT_CHUNK: usize = 1 << 14;
 
-/// Prepare and splat `rays` of the classes selected by `classes` (per-class bandwidths,
-/// directions in the basis of `mode`) onto `tree`'s accumulators `acc`, [`SPLAT_CHUNK`] rays
+/// Prepare and splat `rays` of the classes selected by `classes` (per-class bandwidths, the
+/// floors of the rays' φ `phis`: one per ray, or empty for none; directions in the basis of
+/// `mode`) onto `tree`'s accumulators `acc`, [`SPLAT_CHUNK`] rays
 /// at a time into one reused buffer. Each target receives the rays in the same order as from
 /// one [`prepare`] and [`splat`] of the whole slice. Counts the rays offered and those that
 /// splatted onto at least one target; with `reach`, adds each of those to its photon's
@@ -215,6 +217,7 @@ pub const SPLAT_CHUNK: usize = 1 << 14;
 pub fn prepare_and_splat(
     tree: &SplatTree,
     rays: &[PhotonRay],
+    phis: &[f32],
     bandwidths: &[Bandwidth; 3],
     classes: [bool; 3],
     mode: DirectionalMode,
@@ -226,8 +229,10 @@ pub fn prepare_and_splat(
     let mut counters = SplatCounters::default();
     let mut batch = SplatBatch::default();
     let mut reached: Vec<AtomicBool> = Vec::new();
-    for chunk in rays.chunks(SPLAT_CHUNK) {
-        prepare_into(chunk, bandwidths, classes, mode, scene, &mut batch);
+    for (i, chunk) in rays.chunks(SPLAT_CHUNK).enumerate() {
+        let phis = phis.get(i * SPLAT_CHUNK..).unwrap_or(&[]);
+        let phis = &phis[..phis.len().min(chunk.len())];
+        prepare_into(chunk, phis, bandwidths, classes, mode, scene, &mut batch);
         if batch.rays.is_empty() {
             continue;
         }
@@ -251,23 +256,26 @@ pub fn prepare_and_splat(
     counters
 }
 
-/// Prepare rays of the classes selected by `classes` with per-class bandwidths, their
-/// directions expressed in the basis of `mode`.
+/// Prepare rays of the classes selected by `classes` with per-class bandwidths and the
+/// floors of their φ `phis` (one per ray, or empty for none), their directions expressed in
+/// the basis of `mode`.
 pub fn prepare(
     rays: &[PhotonRay],
+    phis: &[f32],
     bandwidths: &[Bandwidth; 3],
     classes: [bool; 3],
     mode: DirectionalMode,
     scene: &Scene,
 ) -> SplatBatch {
     let mut batch = SplatBatch::default();
-    prepare_into(rays, bandwidths, classes, mode, scene, &mut batch);
+    prepare_into(rays, phis, bandwidths, classes, mode, scene, &mut batch);
     batch
 }
 
 /// [`prepare`] into `batch`, reusing its buffers.
 fn prepare_into(
     rays: &[PhotonRay],
+    phis: &[f32],
     bandwidths: &[Bandwidth; 3],
     classes: [bool; 3],
     mode: DirectionalMode,
@@ -277,9 +285,13 @@ fn prepare_into(
     let selected = || rays.par_iter().filter(|r| classes[r.class() as usize]);
     let bounds = (scene.bounds_min, scene.bounds_max);
     batch.rays.clear();
-    batch
-        .rays
-        .par_extend(selected().map(|r| SplatRay::new(r, &bandwidths[r.class() as usize], bounds)));
+    let phi = |i: usize| phis.get(i).copied().unwrap_or(0.0);
+    batch.rays.par_extend(
+        rays.par_iter()
+            .enumerate()
+            .filter(|(_, r)| classes[r.class() as usize])
+            .map(|(i, r)| SplatRay::new(r, &bandwidths[r.class() as usize], phi(i), bounds)),
+    );
     batch.directions.clear();
     if mode != DirectionalMode::Diffuse {
         batch
