@@ -24,6 +24,9 @@ const TRACED_LOBES_ESTIMATE_PER_PIXEL: u64 = 24;
 /// Per pixel for rs's finished eye passes (docs/deviations.md §41): rgb, direct and indirect
 /// sums; and the current pass's sum of NEE draws beside its emission (§50).
 const EARLIER_PASSES_PER_PIXEL: u64 = 3 * 12 + 12;
+/// Bytes per photon ray of a batch for the count of where the rays landed (an upper end of
+/// what was measured).
+const PHOTON_DENSITY_PER_RAY: u64 = 16;
 /// Gather hits a final-gathering band holds at once (`fg::FgSettings::max_band_samples`) and
 /// their bytes each.
 const FG_BAND_BYTES: u64 = (1 << 17) * (EYE_SAMPLE_BYTES as u64 + 32 + 16 + 28);
@@ -36,9 +39,13 @@ pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
     let eye = pixels
         .saturating_mul(settings.spp as u64)
         .saturating_mul(PER_EYE_SAMPLE);
-    let photons = settings
-        .photons
-        .saturating_mul(2 * std::mem::size_of::<PhotonRay>() as u64);
+    // Two batches' rays with their φ (docs/deviations.md §63), and the count of where they
+    // landed: measured 2.6 (CORNELL BOX I) to 12 (SIBENIK) bytes per ray over three batches
+    // of 200,000; it grows with the lit surface, not with time.
+    let photons = settings.photons.saturating_mul(
+        2 * (std::mem::size_of::<PhotonRay>() + std::mem::size_of::<f32>()) as u64
+            + PHOTON_DENSITY_PER_RAY,
+    );
     // The visible domains kept across eye passes, a pixel's first target each.
     let domains = if settings.splat_visibility {
         pixels.saturating_mul(DomainCache::BYTES_PER_PIXEL as u64)

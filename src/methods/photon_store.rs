@@ -243,6 +243,7 @@ impl PhotonStore {
             d.add_stored(batch.stored);
             d.phis(&batch.rays, &mut phis);
         }
+        debug_assert!(phis.is_empty() || phis.len() == batch.rays.len());
         self.batches.push(StoredBatch {
             rays: batch.rays,
             phis,
@@ -415,6 +416,33 @@ impl PhotonStore {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every stored ray carries its φ (docs/deviations.md §63), finite, positive where rays
+    /// land; a store that keeps no floors (photon mapping) neither counts nor stores any.
+    #[test]
+    fn a_stored_batch_carries_a_phi_per_ray() {
+        let scene = Scene::default_scene();
+        let s = RenderSettings {
+            photons: 4_000,
+            ..RenderSettings::default()
+        };
+        let mut store = PhotonStore::new(&scene, 1);
+        store.trace(&scene, &s, false);
+        store.trace(&scene, &s, false);
+        for b in store.batches() {
+            assert_eq!(b.phis.len(), b.rays.len());
+            assert!(b.phis.iter().all(|p| p.is_finite() && *p >= 0.0));
+            let mut landing = b.rays.iter().zip(&b.phis).filter(|(r, _)| r.lands());
+            assert!(landing.clone().count() > 0);
+            assert!(landing.all(|(_, &p)| p > 0.0));
+        }
+        assert!(store.density_bytes() > 0);
+        let mut pm = PhotonStore::new(&scene, 1);
+        pm.set_floors(false);
+        pm.trace(&scene, &s, false);
+        assert!(pm.batches()[0].phis.is_empty());
+        assert_eq!(pm.density_bytes(), 0);
+    }
 
     /// The schedule's M₁ counts batches of the size asked for now: a first batch of half the
     /// size (the previewer's coarse first image) gives the same M₁ as a full one, within the

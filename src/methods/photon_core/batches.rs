@@ -5,7 +5,9 @@ use super::PhotonCore;
 use crate::methods::Step;
 use crate::methods::eye_side::{EyeSide, LobeDraws, splat_at_fine_bandwidth};
 use crate::pipeline::directional::DirectionalMode;
-use crate::pipeline::photon::{Bandwidth, LightPassSettings, PhotonRay, plan_light_pass};
+use crate::pipeline::photon::{
+    Bandwidth, ClampCounts, LightPassSettings, PhotonClass, PhotonRay, plan_light_pass,
+};
 use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
 use crate::scene::Scene;
 use crate::settings::DirectMode;
@@ -276,11 +278,15 @@ impl PhotonCore {
         let mut reach = vec![0u32; guide.as_ref().map_or(0, |g| g.cells())];
         let store = &self.store;
         let mut phis = Vec::new();
+        let clamps = &mut self.streamed_clamps;
         plan.stream(scene, &lps, |rays| {
             let t = Instant::now();
             let photons = direct == DirectMode::Photons;
             let r = Some(&mut reach[..]).filter(|r| !r.is_empty());
             store.phis(rays, &mut phis);
+            for c in PhotonClass::ALL {
+                clamps[c as usize] += ClampCounts::count(rays, &phis, &bw[c as usize], c);
+            }
             *counters += splat_rays(
                 scene, side, rays, &phis, &bw, classes, photons, mode, r, true,
             );

@@ -30,7 +30,7 @@ use crate::methods::lobes::TracedLobes;
 use crate::methods::photon_store::PhotonStore;
 use crate::methods::{MemoryBreakdown, MethodError, Step, Timings};
 use crate::pipeline::eye::SplatTargets;
-use crate::pipeline::photon::{Bandwidth, BandwidthParams};
+use crate::pipeline::photon::{Bandwidth, BandwidthParams, ClampCounts};
 use crate::pipeline::radiance_map::Accumulators;
 use crate::pipeline::splat::SplatCounters;
 use crate::pipeline::splat_tree::DomainCache;
@@ -172,6 +172,9 @@ pub struct PhotonCore {
     /// A batch of this eye side skipped its fine splat (an interactive view, which is
     /// replaced before its estimate would mean anything): the side makes no estimate.
     fine_skipped: bool,
+    /// The streamed batches' rays at the bandwidth bounds and the floor, per class (a
+    /// headless render keeps no batch to count them from later).
+    streamed_clamps: [ClampCounts; 3],
     /// A headless render splats each batch whole (its progress reads whole films).
     whole_batches: bool,
     /// Seconds the last batch splatted in pieces took, its pieces added up: the next batch's
@@ -285,6 +288,7 @@ impl PhotonCore {
             splatting: None,
             fine_owed: Vec::new(),
             fine_skipped: false,
+            streamed_clamps: [ClampCounts::default(); 3],
             whole_batches: false,
             last_splat: 0.0,
             interactive: false,

@@ -51,7 +51,11 @@ impl PhotonCore {
     pub fn stats(&mut self) -> MethodStats {
         let (directional_bytes, glossy_targets) = self.side.directional_memory();
         let (glossy_map_samples, glossy_traced_samples) = self.side.eye.glossy_counts();
-        let clamps = self.store.clamps(&self.settings.bandwidth);
+        let mut clamps = self.store.clamps(&self.settings.bandwidth);
+        // A headless render's batches were streamed and are not in the store.
+        for (c, s) in clamps.iter_mut().zip(self.streamed_clamps) {
+            *c += s;
+        }
         MethodStats {
             photons_traced: self.store.photons_traced,
             photon_rays: self.store.rays() + self.store.released,

@@ -143,7 +143,11 @@ impl Bandwidth {
     /// C·√K·φ/√M, at most h_max (docs/deviations.md §63).
     #[inline]
     pub fn floor(&self, phi: f32) -> f32 {
-        (phi * self.floor_scale).min(self.h_max)
+        if self.floor_scale > 0.0 && phi.is_finite() {
+            (phi * self.floor_scale).min(self.h_max)
+        } else {
+            0.0
+        }
     }
 
     /// (h0, dh) of a ray (§6) whose φ is `phi` (0: no floor): h0 = min(h(x_i), h(x_{i+1})),
@@ -192,6 +196,7 @@ impl ClampCounts {
     /// Count the rays of `class` in `rays`, whose φ are `phis` (empty: no floor), under the
     /// bandwidth `bw`.
     pub fn count(rays: &[PhotonRay], phis: &[f32], bw: &Bandwidth, class: PhotonClass) -> Self {
+        debug_assert!(phis.is_empty() || phis.len() == rays.len());
         let phi = |i: usize| phis.get(i).copied().unwrap_or(0.0);
         rays.par_iter()
             .enumerate()

@@ -48,6 +48,10 @@ pub const LEVELS: u32 = 8;
 /// not a wider one.
 const RESOLVED: u32 = 41;
 
+/// Rays whose keys [`HitDensity::add_rays`] makes and sorts at once: 8 keys a landing, so
+/// 64 K rays hold 4 MB of keys.
+const ADD_CHUNK: usize = 1 << 16;
+
 /// A multiplicative hash of the packed cell key (the keys are dense small integers; std's
 /// SipHash costs more than the look-up).
 #[derive(Default)]
@@ -135,15 +139,28 @@ impl HitDensity {
         self.cell
     }
 
-    /// Count a batch: its `stored` rays per class, and where those of `rays` that land
-    /// (the batch's rays, or a wave of them; each ray once).
+    /// Count where those of `rays` that land landed (the batch's rays, or a wave of them;
+    /// each ray once; [`Self::add_stored`] counts the batch's rays per class). The keys are
+    /// made and sorted in parallel, [`ADD_CHUNK`] rays at a time, and each run of equal keys
+    /// is one insert: the light pass is parallel, and a serial insert per landing and level
+    /// was a fifth of its time on CORNELL BOX I.
     pub fn add_rays(&mut self, rays: &[PhotonRay]) {
-        for r in rays {
-            if let Some((p, class, f)) = landing(r) {
-                for level in 0..LEVELS {
-                    let c = (p / self.side(level)).floor().as_ivec3();
-                    *self.counts.entry(key(level, class, f, c)).or_insert(0) += 1;
-                }
+        let mut keys = Vec::new();
+        let cell = self.cell;
+        for chunk in rays.chunks(ADD_CHUNK) {
+            keys.clear();
+            keys.par_extend(
+                chunk
+                    .par_iter()
+                    .filter_map(landing)
+                    .flat_map_iter(|(p, class, f)| {
+                        (0..LEVELS).map(move |level| key(level, class, f, cube(cell, p, level)))
+                    }),
+            );
+            keys.par_sort_unstable();
+            self.counts.reserve(keys.len() / 4);
+            for run in keys.chunk_by(|a, b| a == b) {
+                *self.counts.entry(run[0]).or_insert(0) += run.len() as u32;
             }
         }
     }
@@ -156,7 +173,7 @@ impl HitDensity {
     }
 
     fn side(&self, level: u32) -> f32 {
-        self.cell * (1u32 << level) as f32
+        side(self.cell, level)
     }
 
     /// φ of a ray: its floor at K = 1, C = 1 and M = 1, so that h_floor = C·√K·φ/√M
@@ -176,7 +193,7 @@ impl HitDensity {
             let side = self.side(level);
             let q = p / side;
             let base = q.floor();
-            let c0 = base.as_ivec3();
+            let c0 = cube(self.cell, p, level);
             let f_in = q - base;
             // The 2 × 2 × 2 cubes nearest the point: its own and the neighbour on the side
             // of the cube it is nearer, per axis.
@@ -190,7 +207,7 @@ impl HitDensity {
                 let o = IVec3::new(corner & 1, corner >> 1 & 1, corner >> 2 & 1) * step;
                 n += self
                     .counts
-                    .get(&key(level, class, f, c0 + o))
+                    .get(&key(level, class, f, c0.wrapping_add(o)))
                     .copied()
                     .unwrap_or(0);
             }
@@ -208,10 +225,26 @@ impl HitDensity {
         out.par_extend(rays.par_iter().map(|r| self.phi(r)));
     }
 
-    /// Bytes held by the counts.
+    /// Bytes held by the counts: the table's buckets (a power of two at least 8/7 of its
+    /// capacity) of a key, a count and a control byte each. The cubes are fixed in size, so
+    /// the count is bounded by the lit surface over the finest cube's side squared (times
+    /// about 8/7 for the coarser sizes, per class and face), not by how long a render runs.
     pub fn bytes(&self) -> usize {
-        self.counts.capacity() * (std::mem::size_of::<(u64, u32)>() + 1)
+        let buckets = (self.counts.capacity() * 8 / 7).next_power_of_two();
+        buckets * (std::mem::size_of::<(u64, u32)>() + 1)
     }
+}
+
+/// The side of the cubes at `level` when the finest are `cell`.
+#[inline]
+fn side(cell: f32, level: u32) -> f32 {
+    cell * (1u32 << level) as f32
+}
+
+/// The cube holding `p` at `level` (far coordinates saturate; their keys wrap).
+#[inline]
+fn cube(cell: f32, p: Vec3, level: u32) -> IVec3 {
+    (p / side(cell, level)).floor().as_ivec3()
 }
 
 /// Where a ray lands, its class's index and its face; `None` when it does not land on a

@@ -285,6 +285,7 @@ fn prepare_into(
     let selected = || rays.par_iter().filter(|r| classes[r.class() as usize]);
     let bounds = (scene.bounds_min, scene.bounds_max);
     batch.rays.clear();
+    debug_assert!(phis.is_empty() || phis.len() == rays.len());
     let phi = |i: usize| phis.get(i).copied().unwrap_or(0.0);
     batch.rays.par_extend(
         rays.par_iter()
