@@ -97,7 +97,7 @@ fn bandwidth_harness(stats: Option<SessionStats>) -> Harness<'static, State<Band
 #[test]
 fn bandwidth_panel_emits_set_bandwidth() {
     let mut h = bandwidth_harness(None);
-    for (label, value) in [("C", 0.3), ("S", 0.55), ("R", 0.35)] {
+    for (label, value) in [("C", 0.3), ("S", 0.55), ("R", 0.35), ("K", 64.0)] {
         h.get_by_role_and_label(Role::Slider, label)
             .set_value_accesskit(value);
         h.run_steps(2);
@@ -110,6 +110,9 @@ fn bandwidth_panel_emits_set_bandwidth() {
     b.sensitivity_s = 0.55;
     commands.push(Command::SetBandwidth(*b));
     b.max_bandwidth_r = 0.35;
+    commands.push(Command::SetBandwidth(*b));
+    // The floor from the photons stored (docs/deviations.md §63).
+    b.floor_neighbours = 64.0;
     commands.push(Command::SetBandwidth(*b));
     assert_commands(&mut h.state_mut().out, &commands);
     assert_eq!(h.state().settings, expected);

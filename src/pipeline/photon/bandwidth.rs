@@ -258,6 +258,22 @@ mod tests {
         }
     }
 
+    /// An indirect ray of length 2 along x, landing, with p̃ `pdf_start` and `pdf_end`.
+    fn indirect_ray(pdf_start: f32, pdf_end: f32) -> PhotonRay {
+        PhotonRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::X,
+            length: 2.0,
+            power: Vec3::ONE,
+            origin_normal: crate::pack::OctOrZero::new(Vec3::X),
+            end_shading_ratio: 1.0,
+            pdf_start,
+            pdf_end,
+            tag: crate::pipeline::photon::RayTag::new(1, PhotonClass::Indirect, true),
+            end_normal: crate::pack::OctOrZero::new(-Vec3::X),
+        }
+    }
+
     #[test]
     fn m0_is_the_sixth_root_of_ten_to_the_fifth() {
         assert!((M0 - 1e5f32.powf(1.0 / 6.0)).abs() < 1e-4);
@@ -380,18 +396,7 @@ mod tests {
             100_000,
             1.0,
         );
-        let mut ray = PhotonRay {
-            origin: Vec3::ZERO,
-            dir: Vec3::X,
-            length: 2.0,
-            power: Vec3::ONE,
-            origin_normal: crate::pack::OctOrZero::new(Vec3::X),
-            end_shading_ratio: 1.0,
-            pdf_start: 4.0,
-            pdf_end: 1.0,
-            tag: crate::pipeline::photon::RayTag::new(1, PhotonClass::Indirect, true),
-            end_normal: crate::pack::OctOrZero::new(-Vec3::X),
-        };
+        let mut ray = indirect_ray(4.0, 1.0);
         // §6: h0 = min(h(x_i), h(x_{i+1})), dh = max(0, h(x_{i+1}) − h(x_i)) / length.
         let (hi, hj) = (bw.h(4.0), bw.h(1.0));
         let (h0, dh) = bw.cone(&ray, 0.0);
@@ -427,18 +432,7 @@ mod tests {
         let m = 40_000u64;
         let mean_r = p.mean_r(params.sensitivity_s);
         let bw = Bandwidth::new(&params, &p, m, mean_r);
-        let ray = PhotonRay {
-            origin: Vec3::ZERO,
-            dir: Vec3::X,
-            length: 2.0,
-            power: Vec3::ONE,
-            origin_normal: crate::pack::OctOrZero::new(Vec3::X),
-            end_shading_ratio: 1.0,
-            pdf_start: 2.0,
-            pdf_end: 2.0,
-            tag: crate::pipeline::photon::RayTag::new(1, PhotonClass::Indirect, true),
-            end_normal: crate::pack::OctOrZero::new(-Vec3::X),
-        };
+        let ray = indirect_ray(2.0, 2.0);
         let h = bw.h(2.0);
         // φ whose floor is twice eq. 8's radius: C·√K·φ/√M = 2h.
         let phi = 2.0 * h * (m as f32).sqrt() / (0.5 * 4.0);
