@@ -4,7 +4,8 @@
 # samples, C chosen by the render: deviations §44, §50, §51) against the built-in path tracer at equal wall time: 2, 10 and
 # 30 s. References: the path tracer at 32,768 paths per pixel for the room (4,096 before
 # 2026-11-29, whose own noise, relMSE 0.0023, was a third of the path tracer's error at 30 s;
-# about 9 minutes each here) and 2,048 for the apartment (the room is Lambertian, so it
+# about 9 minutes each here) and 16,384 for the apartment (2,048 before; about 8 minutes)
+# (the room is Lambertian, so it
 # agrees with Cycles: docs/results.md), rendered once into each folder with a seed of their
 # own (with the compared runs' seed the path tracer would replay the reference's first paths). Run from the
 # repository root after `cargo build --release`; called by run.sh; about 10 minutes here.
@@ -32,6 +33,6 @@ room room_window 32768 builtin:room --camera towards_the_window --environment un
 room room_back_wall 32768 builtin:room --camera towards_the_back_wall --environment uniform \
     --env-strength 1 --width 160 --height 120
 if [ -f $S/living_room.glb ]; then
-    room living_room_sky 2048 $S/living_room.glb --environment sky --env-strength 3 \
+    room living_room_sky 16384 $S/living_room.glb --environment sky --env-strength 3 \
         --width 120 --height 90
 fi
