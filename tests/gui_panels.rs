@@ -639,6 +639,9 @@ fn stats_panel_shows_the_frame() {
                 ..MethodStats::default()
             },
             paused: true,
+            indirect_at_h_min: 0.011,
+            indirect_at_h_max: 0.002,
+            indirect_at_floor: 0.123,
             ..SessionStats::default()
         },
         reference: None,
@@ -647,6 +650,8 @@ fn stats_panel_shows_the_frame() {
     h.get_by_label("photons traced 1234");
     h.get_by_label("32×16");
     h.get_by_label("paused");
+    // The rays at eq. 8's bounds and at the floor from the photons stored (deviations §63).
+    h.get_by_label("at h_min 1.1% / h_max 0.2% / floor 12.3%");
     assert!(h.query_by_label("waiting for the first image…").is_none());
 }
 
