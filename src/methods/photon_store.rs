@@ -180,9 +180,9 @@ impl PhotonStore {
             ..self.light_pass_settings(settings, with_direct)
         };
         let batch = light_pass(scene, &lps);
-        if let Some(d) = self.density_for(&lps.budgets) {
-            d.add_rays(&batch.rays);
-        }
+        // The count's cubes follow the first light pass's budgets (or a streamed pass makes
+        // it for its plan); `add` counts the batch.
+        self.density_for(&lps.budgets);
         self.add(batch, settings.photons)
     }
 
@@ -239,11 +239,9 @@ impl PhotonStore {
             }
         }
         let mut phis = Vec::new();
-        if let Some(d) = self.density_for(&ClassBudgets(batch.stored)) {
-            d.add_stored(batch.stored);
-            d.phis(&batch.rays, &mut phis);
+        if let Some(d) = self.density.as_mut() {
+            d.add_batch(&batch.rays, batch.stored, &mut phis);
         }
-        debug_assert!(phis.is_empty() || phis.len() == batch.rays.len());
         self.batches.push(StoredBatch {
             rays: batch.rays,
             phis,
@@ -399,8 +397,7 @@ impl PhotonStore {
                 _ => {
                     let b = &self.batches[i];
                     let bw = self.bandwidths(params, b.m);
-                    let c = PhotonClass::ALL
-                        .map(|c| ClampCounts::count(&b.rays, &b.phis, &bw[c as usize], c));
+                    let c = ClampCounts::count(&b.rays, &b.phis, &bw);
                     self.batches[i].clamps = Some((*params, c));
                     c
                 }

@@ -106,10 +106,11 @@ impl Pass {
         // The floor from the photons stored (docs/deviations.md §63), from this one batch.
         let mut phis = Vec::new();
         if splatting {
-            let mut density = HitDensity::for_pilot(&pilot, batch.stored.iter().sum());
-            density.add_rays(&batch.rays);
-            density.add_stored(batch.stored);
-            density.phis(&batch.rays, &mut phis);
+            HitDensity::for_pilot(&pilot, batch.stored.iter().sum()).add_batch(
+                &batch.rays,
+                batch.stored,
+                &mut phis,
+            );
         }
         let mean_r = pilot.mean_r(s.bandwidth.sensitivity_s);
         let bw = PhotonClass::ALL

@@ -6,7 +6,7 @@ use crate::methods::Step;
 use crate::methods::eye_side::{EyeSide, LobeDraws, splat_at_fine_bandwidth};
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::photon::{
-    Bandwidth, ClampCounts, LightPassSettings, PhotonClass, PhotonRay, plan_light_pass,
+    Bandwidth, ClampCounts, LightPassSettings, PhotonRay, plan_light_pass,
 };
 use crate::pipeline::splat::{SplatCounters, prepare_and_splat};
 use crate::scene::Scene;
@@ -284,8 +284,8 @@ impl PhotonCore {
             let photons = direct == DirectMode::Photons;
             let r = Some(&mut reach[..]).filter(|r| !r.is_empty());
             store.phis(rays, &mut phis);
-            for c in PhotonClass::ALL {
-                clamps[c as usize] += ClampCounts::count(rays, &phis, &bw[c as usize], c);
+            for (c, wave) in clamps.iter_mut().zip(ClampCounts::count(rays, &phis, &bw)) {
+                *c += wave;
             }
             *counters += splat_rays(
                 scene, side, rays, &phis, &bw, classes, photons, mode, r, true,

@@ -168,7 +168,7 @@ pub struct PhotonCore {
     /// splat at h/k waits until every stored batch is back in the image: the window's first
     /// frame after a change does not wait for it (docs/deviations.md §51, "The fine splat
     /// deferred"). Until they are paid the pass has no estimate of its own.
-    fine_owed: Vec<(usize, [crate::pipeline::photon::Bandwidth; 3])>,
+    fine_owed: Vec<(usize, [Bandwidth; 3])>,
     /// A batch of this eye side skipped its fine splat (an interactive view, which is
     /// replaced before its estimate would mean anything): the side makes no estimate.
     fine_skipped: bool,

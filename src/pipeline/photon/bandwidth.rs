@@ -1,7 +1,7 @@
 //! Eq. 8: the bandwidth of a photon-ray vertex from the user's C, S, R, the class size M and
 //! the pilot's statistics; and how many rays sit at its clamps.
 
-use super::{M0, PhotonClass, PhotonRay, Pilot, R_MIN};
+use super::{M0, PhotonRay, Pilot, R_MIN};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -193,29 +193,37 @@ pub struct ClampCounts {
 }
 
 impl ClampCounts {
-    /// Count the rays of `class` in `rays`, whose φ are `phis` (empty: no floor), under the
-    /// bandwidth `bw`.
-    pub fn count(rays: &[PhotonRay], phis: &[f32], bw: &Bandwidth, class: PhotonClass) -> Self {
+    /// Count the rays of every class in `rays`, whose φ are `phis` (empty: no floor), each
+    /// under its class's bandwidth of `bw`, in one pass.
+    pub fn count(rays: &[PhotonRay], phis: &[f32], bw: &[Bandwidth; 3]) -> [Self; 3] {
         debug_assert!(phis.is_empty() || phis.len() == rays.len());
-        let phi = |i: usize| phis.get(i).copied().unwrap_or(0.0);
         rays.par_iter()
             .enumerate()
-            .filter(|(_, r)| r.class() == class)
-            .fold(Self::default, |mut c, (i, r)| {
-                let (h0, dh) = bw.cone(r, phi(i));
-                let h_end = h0 + dh * r.length;
-                c.at_floor += (bw.floor(phi(i)) > bw.h(r.pdf_end)) as u64;
-                c.rays += 1;
-                // h(x_0) = 0 is eq. 8's own start, not a clamp: a ray leaving the light is at
-                // h_min when its end is.
-                c.at_min += (if r.bounce() == 0 { h_end } else { h0 } <= bw.h_min) as u64;
-                c.at_max += (h_end >= bw.h_max) as u64;
-                c
-            })
-            .reduce(Self::default, |mut a, b| {
-                a += b;
-                a
-            })
+            .fold(
+                || [Self::default(); 3],
+                |mut counts, (i, r)| {
+                    let (bw, c) = (&bw[r.class() as usize], &mut counts[r.class() as usize]);
+                    let phi = super::phi_at(phis, i);
+                    let (h0, dh) = bw.cone(r, phi);
+                    let h_end = h0 + dh * r.length;
+                    c.at_floor += (bw.floor(phi) > bw.h(r.pdf_end)) as u64;
+                    c.rays += 1;
+                    // h(x_0) = 0 is eq. 8's own start, not a clamp: a ray leaving the light is
+                    // at h_min when its end is.
+                    c.at_min += (if r.bounce() == 0 { h_end } else { h0 } <= bw.h_min) as u64;
+                    c.at_max += (h_end >= bw.h_max) as u64;
+                    counts
+                },
+            )
+            .reduce(
+                || [Self::default(); 3],
+                |mut a, b| {
+                    for (a, b) in a.iter_mut().zip(b) {
+                        *a += b;
+                    }
+                    a
+                },
+            )
     }
 
     /// `at_min / rays` (0 without rays).
@@ -246,6 +254,7 @@ impl std::ops::AddAssign for ClampCounts {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pipeline::photon::PhotonClass;
     use glam::Vec3;
 
     /// A pilot whose vertices had these p̃ (equal weights).

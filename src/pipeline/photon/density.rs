@@ -3,9 +3,10 @@
 //! each stored ray gets a floor on its end bandwidth.
 //!
 //! Eq. 8's p̃ (eq. 7) assumes every photon origin is visible (V = 1 in eq. 1). Inside a room
-//! lit through a window the photons there are far fewer than p̃ says, the kernels far too
-//! narrow, and an eye sample is lit by a handful of them: isolated bright dots. The floor
-//! is the radius that holds K rays of the class's M, measured, not modelled:
+//! lit through a window the photons there are far fewer than p̃ says and the kernels
+//! narrower than they support (in `builtin:room` the fifth of the inside rays with the
+//! fewest neighbours held 12 or fewer landings within their radius). The floor is the
+//! radius that holds K rays of the class's M, measured, not modelled:
 //!
 //! h_floor² = K / (π · M · ρ(x)),  ρ(x) = n(x) / (A · H),
 //!
@@ -26,7 +27,7 @@
 //! are dense and up to 8 per level where they are few.
 
 use super::bandwidth::typical_at_c1;
-use super::{PhotonClass, PhotonRay, Pilot};
+use super::{PhotonRay, Pilot};
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -42,11 +43,11 @@ pub const FLOOR_NEIGHBOURS: f32 = 32.0;
 /// coarsest 2⁷ times that (32 typical bandwidths).
 pub const LEVELS: u32 = 8;
 
-/// A block resolves the density when it holds this many landings, (4/π)·K for K = 32: in a
-/// block of side 2s (A = 4s²) the floor of K rays at M = H is then r² = K·A/(π·n) ≤ s², at
-/// most the block's half side, so the density is measured over about the floor's own area,
-/// not a wider one.
-const RESOLVED: u32 = 41;
+/// A block resolves the density when it holds this many landings, (4/π)·K for the default K
+/// (41): in a block of side 2s (A = 4s²) the floor of K rays at M = H is then
+/// r² = K·A/(π·n) ≤ s², at most the block's half side, so the density is measured over about
+/// the floor's own area, not a wider one.
+const RESOLVED: u32 = (4.0 / std::f32::consts::PI * FLOOR_NEIGHBOURS) as u32 + 1;
 
 /// Rays whose keys [`HitDensity::add_rays`] makes and sorts at once: 8 keys a landing, so
 /// 64 K rays hold 4 MB of keys.
@@ -134,11 +135,6 @@ impl HitDensity {
         Self::new(0.25 * typical_at_c1(pilot.mu_c(), m as f32))
     }
 
-    /// The finest cubes' side.
-    pub fn cell(&self) -> f32 {
-        self.cell
-    }
-
     /// Count where those of `rays` that land landed (the batch's rays, or a wave of them;
     /// each ray once; [`Self::add_stored`] counts the batch's rays per class). The keys are
     /// made and sorted in parallel, [`ADD_CHUNK`] rays at a time, and each run of equal keys
@@ -172,8 +168,13 @@ impl HitDensity {
         }
     }
 
-    fn side(&self, level: u32) -> f32 {
-        side(self.cell, level)
+    /// Count a batch of `stored` rays per class of which `rays` are held (none for a
+    /// streamed batch, whose landings its light pass's first trace counted), and give each
+    /// of `rays` its φ in `phis` (cleared first).
+    pub fn add_batch(&mut self, rays: &[PhotonRay], stored: [u64; 3], phis: &mut Vec<f32>) {
+        self.add_rays(rays);
+        self.add_stored(stored);
+        self.phis(rays, phis);
     }
 
     /// φ of a ray: its floor at K = 1, C = 1 and M = 1, so that h_floor = C·√K·φ/√M
@@ -190,10 +191,11 @@ impl HitDensity {
         let mut n = 0;
         let mut area = 0.0;
         for level in 0..LEVELS {
-            let side = self.side(level);
+            let side = side(self.cell, level);
             let q = p / side;
             let base = q.floor();
-            let c0 = cube(self.cell, p, level);
+            // As `cube`: far coordinates saturate.
+            let c0 = base.as_ivec3();
             let f_in = q - base;
             // The 2 × 2 × 2 cubes nearest the point: its own and the neighbour on the side
             // of the cube it is nearer, per axis.
@@ -259,13 +261,11 @@ fn landing(r: &PhotonRay) -> Option<(Vec3, usize, u64)> {
         .then(|| (p, r.class() as usize, face(r.end_normal.get())))
 }
 
-const _: () = assert!(PhotonClass::ALL.len() == 3);
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::pack::OctOrZero;
-    use crate::pipeline::photon::RayTag;
+    use crate::pipeline::photon::{PhotonClass, RayTag};
     use crate::sampling::Rng;
 
     /// A ray of `class` landing at `p` on a face with normal `n`, from above it.

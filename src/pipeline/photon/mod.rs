@@ -134,6 +134,13 @@ impl RayTag {
     }
 }
 
+/// The φ of ray `i` in `phis`, the floors of a slice of rays
+/// ([`HitDensity::phi`]): one per ray, or empty for none (0: no floor).
+#[inline]
+pub fn phi_at(phis: &[f32], i: usize) -> f32 {
+    phis.get(i).copied().unwrap_or(0.0)
+}
+
 impl PhotonRay {
     /// i: 0 for the segment leaving the light.
     #[inline]

@@ -18,7 +18,7 @@ pub use pass::splat;
 
 use crate::pipeline::directional::DirectionalMode;
 use crate::pipeline::directional::{FILTER_TAPS, SH_COEFFS, filter_taps, sh_basis};
-use crate::pipeline::photon::{Bandwidth, PhotonRay};
+use crate::pipeline::photon::{Bandwidth, PhotonRay, phi_at};
 use crate::pipeline::radiance_map::Accumulators;
 use crate::pipeline::splat_tree::{Cone, SplatTree, clip};
 use crate::scene::Scene;
@@ -286,12 +286,13 @@ fn prepare_into(
     let bounds = (scene.bounds_min, scene.bounds_max);
     batch.rays.clear();
     debug_assert!(phis.is_empty() || phis.len() == rays.len());
-    let phi = |i: usize| phis.get(i).copied().unwrap_or(0.0);
     batch.rays.par_extend(
         rays.par_iter()
             .enumerate()
             .filter(|(_, r)| classes[r.class() as usize])
-            .map(|(i, r)| SplatRay::new(r, &bandwidths[r.class() as usize], phi(i), bounds)),
+            .map(|(i, r)| {
+                SplatRay::new(r, &bandwidths[r.class() as usize], phi_at(phis, i), bounds)
+            }),
     );
     batch.directions.clear();
     if mode != DirectionalMode::Diffuse {
